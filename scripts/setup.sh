@@ -1,0 +1,68 @@
+#!/usr/bin/env bash
+# Set up everything ybgc needs on a fresh Debian 12 machine: a virtual
+# environment with ybgc, real YARP 3.5 (C++ libraries, yarpserver, Python
+# bindings), ROS 2 rclpy wheels with Fast DDS, and Debian's ROS 1 core for the
+# legacy to_ros path. Idempotent: a second run takes seconds.
+#
+#   scripts/setup.sh            everything
+#   YBG_SETUP_MINIMAL=1 scripts/setup.sh   only the compiler (no middleware)
+set -euo pipefail
+
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+venv=${YBG_VENV:-$root/.venv}
+py=${PYTHON:-python3}
+
+log() { printf '\033[1m[setup]\033[0m %s\n' "$*" >&2; }
+
+need_apt=()
+want_apt() { for p in "$@"; do dpkg -s "$p" >/dev/null 2>&1 || need_apt+=("$p"); done; }
+
+if [ -z "${YBG_SETUP_MINIMAL:-}" ]; then
+  want_apt swig libace-dev cmake g++ make
+  # ROS 1 (Noetic-era, Debian) for YARP's own ROS 1 bridge (to_ros = true).
+  want_apt ros-core python3-rospy python3-sensor-msgs python3-geometry-msgs \
+           python3-std-msgs ros-sensor-msgs ros-std-msgs ros-geometry-msgs
+fi
+if [ ${#need_apt[@]} -gt 0 ]; then
+  log "apt-get install ${need_apt[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  sudo_cmd=""; [ "$(id -u)" -ne 0 ] && sudo_cmd=sudo
+  $sudo_cmd apt-get update -qq
+  $sudo_cmd apt-get install -y -qq --no-install-recommends "${need_apt[@]}" >/dev/null
+fi
+
+if [ ! -x "$venv/bin/python" ]; then
+  log "creating $venv"
+  "$py" -m venv "$venv"
+fi
+vpy="$venv/bin/python"
+pip_install() { "$vpy" -m pip install --disable-pip-version-check -q "$@"; }
+
+if ! "$vpy" -c 'import ybg, lark, jinja2, rich, hypothesis, pytest, rosbags' 2>/dev/null \
+   || [ "$root/pyproject.toml" -nt "$venv/.ybg-installed" ]; then
+  log "installing ybgc (editable) with its test dependencies"
+  pip_install -e "$root[test]"
+  touch "$venv/.ybg-installed"
+fi
+
+[ -n "${YBG_SETUP_MINIMAL:-}" ] && { log "minimal setup done"; exit 0; }
+
+if ! "$vpy" -c 'import yarp' 2>/dev/null; then
+  log "building YARP 3.5 from PyPI (yarp-middleware): 5-6 min the first time, then cached by pip"
+  # Three settings verified necessary on Debian 12 / GCC 12 / CMake 4:
+  export CMAKE_POLICY_VERSION_MINIMUM=3.5
+  inc=""
+  for h in utility cstdint limits iterator algorithm memory functional string stdexcept array; do
+    inc="$inc -include $h"
+  done
+  export CXXFLAGS="${CXXFLAGS:-}$inc -Dyarpcar_INIT_FUNCTION=add_yarpcar_plugins"
+  pip_install "yarp-middleware==3.5.0"
+fi
+if ! "$vpy" -c 'import ycm_cmake_modules' 2>/dev/null; then
+  pip_install ycm_cmake_modules
+fi
+if ! "$vpy" -c 'import rclpy, sensor_msgs.msg, geometry_msgs.msg' 2>/dev/null; then
+  log "installing ROS 2 rclpy wheels with Fast DDS"
+  pip_install ros-rclpy ros-sensor-msgs ros-std-msgs ros-geometry-msgs ros-rmw-fastrtps-cpp
+fi
+log "setup done: $venv"

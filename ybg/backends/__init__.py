@@ -1,0 +1,59 @@
+"""Backends: lower a checked :class:`~ybg.compiler.ir.Program` to files.
+
+Each backend is one package (``cpp/``, ``py/``, ``ros2/``) with its own
+``templates/``. A backend only reads the IR and returns ``{relative path:
+text}``; writing files (atomically, only when changed) is the CLI's job.
+Lowering decisions are made in Python; templates only print.
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from ybg.compiler.ir import Program
+
+
+@dataclass(frozen=True)
+class RenderOptions:
+    """Options every backend accepts. ``package``: also emit the packaging
+    around the module (ament_python package for ``ros2``)."""
+
+    package: bool = False
+    extra: dict = field(default_factory=dict)
+
+
+class Backend:
+    """Base class of a backend. Subclasses set ``name``/``description`` and
+    implement :meth:`render`."""
+
+    name: str = ""
+    description: str = ""
+    #: the IR ``output.kind`` values and input kinds this backend can build
+    output_kinds: frozenset[str] = frozenset()
+    input_kinds: frozenset[str] = frozenset()
+
+    def render(self, program: "Program", options: RenderOptions = RenderOptions()) -> dict[str, str]:
+        raise NotImplementedError
+
+
+#: name -> "module:Class", imported on first use so ``ybgc check`` stays quick
+REGISTRY: dict[str, str] = {
+    "cpp": "ybg.backends.cpp:CppBackend",
+    "py": "ybg.backends.py:PyBackend",
+    "ros2": "ybg.backends.ros2:Ros2Backend",
+}
+
+
+def get_backend(name: str) -> Backend:
+    """The backend registered as ``name`` (KeyError if there is none)."""
+    target = REGISTRY[name]
+    module_name, cls_name = target.split(":")
+    module = importlib.import_module(module_name)
+    return getattr(module, cls_name)()
+
+
+def backend_names() -> list[str]:
+    return sorted(REGISTRY)

@@ -1,0 +1,453 @@
+"""The checked program: ybgc's intermediate representation.
+
+Frozen dataclasses, independent of the surface syntax (legacy or named form)
+and of every backend. The semantic pass builds a :class:`Program`; backends
+read nothing else. Every value here is already validated: names are legal
+YARP port / ROS topic names, literals carry their element type, widths and
+slices are resolved. ``to_json``/``from_json`` give the form printed by
+``ybgc ir``.
+
+The pipeline of one bridge::
+
+    inputs (YARP ports or ROS topics) --> Mux (concatenate, in port order)
+        --> converters (per element range) --> message tree --> Output
+
+Terms used throughout:
+
+element type
+    A ROS primitive name (``float64``, ``int32``, ``string``, ``bool`` ...):
+    the type of one element of a mux.
+width
+    Number of elements; ``None`` where it is only known at run time (legacy
+    ports carry no declaration).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass
+from typing import Any, Union
+
+IR_VERSION = 1
+
+NUMERIC_TYPES = frozenset(
+    {"int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64",
+     "float32", "float64", "byte", "char"}
+)
+INTEGER_TYPES = NUMERIC_TYPES - {"float32", "float64"}
+FLOAT_TYPES = frozenset({"float32", "float64"})
+ELEMENT_TYPES = NUMERIC_TYPES | {"bool", "string"}
+
+
+# --------------------------------------------------------------------------
+# Inputs and muxes
+
+
+@dataclass(frozen=True)
+class ElementGroup:
+    """``count`` consecutive elements of one ``type`` in an input Bottle."""
+
+    type: str
+    count: int
+
+
+@dataclass(frozen=True)
+class Input:
+    """One input of a mux.
+
+    ``kind``: ``"yarp"`` a YARP port; ``"ros1"`` a ROS 1 topic read through
+    YARP (``topic@/node``); ``"ros2"`` a ROS 2 topic (``ros_type`` required).
+    ``layout`` is the declared element groups, or ``None`` when undeclared:
+    then every element is taken as ``float64`` and the width is dynamic.
+    ``fields`` (ROS inputs with a known type) names the numeric leaves of the
+    message, in order, that make up the elements (``"x"``, ``"pose.position.x"``).
+    """
+
+    name: str
+    kind: str = "yarp"
+    layout: tuple[ElementGroup, ...] | None = None
+    ros_type: str | None = None
+    fields: tuple[str, ...] | None = None
+    timeout: float = 1.0
+
+    @property
+    def width(self) -> int | None:
+        if self.layout is None:
+            return None
+        return sum(g.count for g in self.layout)
+
+    @property
+    def element_types(self) -> tuple[str, ...] | None:
+        if self.layout is None:
+            return None
+        return tuple(g.type for g in self.layout for _ in range(g.count))
+
+
+@dataclass(frozen=True)
+class Converter:
+    """A converter applied to the elements ``[start, stop)`` of a mux output.
+
+    Every converter is ``y = x * scale + offset`` (``cast`` only: ``float64(x)``).
+    ``name`` keeps what the user wrote (``deg_to_rad``, ``scale``, ...) for
+    comments and verbose output. ``stop`` ``None`` means to the end.
+    ``to_float``: the result is ``float64`` whatever the input type.
+    """
+
+    name: str
+    scale: float = 1.0
+    offset: float = 0.0
+    to_float: bool = True
+    start: int = 0
+    stop: int | None = None
+
+    @property
+    def is_identity(self) -> bool:
+        return self.scale == 1.0 and self.offset == 0.0 and not self.to_float
+
+
+@dataclass(frozen=True)
+class Mux:
+    """Concatenation of its inputs' elements, in input order, then converted.
+
+    ``element_types`` are the types *after* conversion (``None``: dynamic width,
+    all ``float64``). ``verbose`` prints every value after conversion.
+    """
+
+    name: str
+    inputs: tuple[Input, ...]
+    converters: tuple[Converter, ...] = ()
+    verbose: bool = False
+
+    @property
+    def width(self) -> int | None:
+        widths = [i.width for i in self.inputs]
+        if any(w is None for w in widths):
+            return None
+        return sum(widths)  # type: ignore[arg-type]
+
+    @property
+    def element_types(self) -> tuple[str, ...] | None:
+        """Element types after the converters (None when the width is dynamic)."""
+        raw: list[str] = []
+        for i in self.inputs:
+            et = i.element_types
+            if et is None:
+                return None
+            raw.extend(et)
+        for c in self.converters:
+            if c.to_float:
+                stop = len(raw) if c.stop is None else c.stop
+                for k in range(c.start, min(stop, len(raw))):
+                    raw[k] = "float64"
+        return tuple(raw)
+
+
+# --------------------------------------------------------------------------
+# The message tree
+
+
+@dataclass(frozen=True)
+class TypeRef:
+    """The ROS type of a field: ``base`` is a primitive (``float64``, ``string``,
+    ``time``, ``duration``) or a message (``std_msgs/Header``).
+
+    ``array``: ``None`` scalar, ``"fixed"`` ``T[size]``, ``"sequence"`` ``T[]`` or
+    ``T[<=size]`` (``size`` the bound, ``None`` unbounded).
+    """
+
+    base: str
+    array: str | None = None
+    size: int | None = None
+
+    @property
+    def is_message(self) -> bool:
+        return "/" in self.base
+
+    def element(self) -> "TypeRef":
+        return TypeRef(self.base)
+
+    def __str__(self) -> str:
+        if self.array is None:
+            return self.base
+        if self.array == "fixed":
+            return f"{self.base}[{self.size}]"
+        return f"{self.base}[<={self.size}]" if self.size is not None else f"{self.base}[]"
+
+
+@dataclass(frozen=True)
+class Literal:
+    """A constant. ``values`` has one item for a scalar; ``is_list`` makes it a
+    list (possibly empty). ``element_type`` is the ROS primitive each value is
+    sent as (``string``, ``float64``, ``int32``, ``bool`` ...)."""
+
+    values: tuple[Union[str, int, float, bool], ...]
+    element_type: str
+    is_list: bool = False
+
+
+@dataclass(frozen=True)
+class MuxRef:
+    """Elements ``[start, stop)`` of a mux after conversion.
+
+    ``splice``: the elements are appended one by one into the enclosing list
+    (legacy untyped YARP output); otherwise they form one nested list, or fill
+    the fields of a nested message when ``into_fields`` names them (a mux of
+    width 3 into ``geometry_msgs/Point``: ``("x", "y", "z")``).
+    ``index``: a single element (``arm[3]``), sent as a scalar.
+    """
+
+    mux: str
+    start: int = 0
+    stop: int | None = None
+    index: int | None = None
+    splice: bool = False
+    element_type: str = "float64"
+    into_fields: tuple[str, ...] | None = None
+    into_types: tuple[str, ...] | None = None
+
+
+@dataclass(frozen=True)
+class Counter:
+    """Loop iterations published so far (0, 1, 2, ...), as ``element_type``."""
+
+    element_type: str = "uint32"
+
+
+@dataclass(frozen=True)
+class Timestamp:
+    """A ROS time: ``clock`` ``"wall"`` (node clock for ROS 2, sim time respected)
+    or ``"envelope"`` (the newest YARP envelope stamp of ``mux``'s inputs,
+    falling back to the wall clock when an input has none).
+    ``style``: ``"ros1"`` ``(sec nsec)``, ``"ros2"`` ``builtin_interfaces/Time``
+    ``(sec nanosec)``; on the wire both are two integers."""
+
+    clock: str = "wall"
+    mux: str | None = None
+    style: str = "ros1"
+
+
+@dataclass(frozen=True)
+class Seconds:
+    """Wall-clock time in seconds as one float64 (legacy untyped timestamp)."""
+
+
+@dataclass(frozen=True)
+class Default:
+    """Not set by the config: the type's default (0, "", empty, nested defaults)."""
+
+
+Source = Union[Literal, MuxRef, Counter, Timestamp, Seconds, Default, "Struct"]
+
+
+@dataclass(frozen=True)
+class Field:
+    """One field of a message, or one item of an untyped YARP Bottle.
+
+    ``type`` is ``None`` for untyped Bottles. ``name`` is the ROS field name,
+    or the user's label in an untyped Bottle."""
+
+    name: str
+    source: Source
+    type: TypeRef | None = None
+
+
+@dataclass(frozen=True)
+class Struct:
+    """A (nested) message: on the wire a nested list of its fields in order.
+
+    ``msg_type`` is ``pkg/Name`` or ``None`` for an untyped Bottle."""
+
+    fields: tuple[Field, ...]
+    msg_type: str | None = None
+
+
+# --------------------------------------------------------------------------
+# Output, timing, policies
+
+
+@dataclass(frozen=True)
+class QoS:
+    reliability: str = "reliable"  # reliable | best_effort
+    durability: str = "volatile"  # volatile | transient_local
+    depth: int = 10
+
+
+@dataclass(frozen=True)
+class Output:
+    """Where the message goes.
+
+    ``kind``: ``"yarp"`` a YARP port named ``name``; ``"ros1"`` a ROS 1 topic
+    through YARP's bridge, port ``{name}@{node}``; ``"ros2"`` a ROS 2 topic.
+    ``msg_type`` is ``pkg/Name`` (ROS 1 spelling also for ROS 2; backends add
+    ``/msg/``); ``None`` for an untyped Bottle. ``connect_to`` (YARP only): a
+    port of another module that the output connects to, and reconnects to when
+    it reappears (legacy ``from_ros_topics``: ``output_name`` is that port)."""
+
+    kind: str
+    name: str
+    msg_type: str | None = None
+    node: str | None = None
+    qos: QoS | None = None
+    connect_to: str | None = None
+
+
+@dataclass(frozen=True)
+class Timing:
+    """``rate`` in Hz for a fixed period, or ``None`` for event-driven:
+    publish when every input the message needs has delivered new data since
+    the last publish (``trigger = "all"``) or any of them (``"any"``)."""
+
+    rate: float | None = None
+    trigger: str = "all"
+
+
+@dataclass(frozen=True)
+class Policy:
+    """Run-time policies.
+
+    ``on_stale``: ``"skip"`` publish nothing while an input is stale and say so
+    once; ``"hold"`` publish with the last values. ``on_nan``: ``"pass"`` NaN
+    goes out as is; ``"drop"`` an input Bottle holding NaN is dropped and counted.
+    """
+
+    on_stale: str = "skip"
+    on_nan: str = "pass"
+
+
+@dataclass(frozen=True)
+class Program:
+    """A checked bridge, ready for any backend."""
+
+    module: str
+    source: str
+    muxes: tuple[Mux, ...]
+    message: Struct
+    output: Output
+    timing: Timing = Timing()
+    policy: Policy = Policy()
+    ros: str | None = None  # "ros1" | "ros2" | None (untyped)
+    distro: str | None = None  # "noetic", "jazzy", ...
+
+    def mux(self, name: str) -> Mux:
+        for m in self.muxes:
+            if m.name == name:
+                return m
+        raise KeyError(name)
+
+
+# --------------------------------------------------------------------------
+# JSON
+
+
+_SOURCE_KINDS = {
+    "literal": Literal,
+    "mux": MuxRef,
+    "counter": Counter,
+    "timestamp": Timestamp,
+    "seconds": Seconds,
+    "default": Default,
+    "struct": Struct,
+}
+_KIND_OF = {cls: kind for kind, cls in _SOURCE_KINDS.items()}
+
+
+def _encode(obj: Any) -> Any:
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        out: dict[str, Any] = {}
+        kind = _KIND_OF.get(type(obj))
+        if kind is not None:
+            out["kind"] = kind
+        for f in dataclasses.fields(obj):
+            out[f.name] = _encode(getattr(obj, f.name))
+        return out
+    if isinstance(obj, tuple):
+        return [_encode(x) for x in obj]
+    if isinstance(obj, float) and (obj != obj or obj in (float("inf"), float("-inf"))):
+        return repr(obj)
+    return obj
+
+
+def to_dict(program: Program) -> dict[str, Any]:
+    d = _encode(program)
+    return {"ir_version": IR_VERSION, **d}
+
+
+def to_json(program: Program) -> str:
+    return json.dumps(to_dict(program), indent=2, ensure_ascii=False) + "\n"
+
+
+def _tuple(xs, f):
+    return tuple(f(x) for x in xs)
+
+
+def _source(d: dict[str, Any]) -> Any:
+    kind = d["kind"]
+    if kind == "struct":
+        return _struct(d)
+    if kind == "literal":
+        return Literal(tuple(d["values"]), d["element_type"], d["is_list"])
+    if kind == "mux":
+        args = dict(d)
+        args.pop("kind")
+        for k in ("into_fields", "into_types"):
+            if args[k] is not None:
+                args[k] = tuple(args[k])
+        return MuxRef(**args)
+    cls = _SOURCE_KINDS[kind]
+    return cls(**{k: v for k, v in d.items() if k != "kind"})
+
+
+def _typeref(d):
+    return None if d is None else TypeRef(**d)
+
+
+def _struct(d: dict[str, Any]) -> Struct:
+    return Struct(
+        _tuple(d["fields"], lambda f: Field(f["name"], _source(f["source"]), _typeref(f["type"]))),
+        d["msg_type"],
+    )
+
+
+def from_dict(d: dict[str, Any]) -> Program:
+    """Inverse of :func:`to_dict`."""
+    if d.get("ir_version") != IR_VERSION:
+        raise ValueError(f"unsupported ir_version {d.get('ir_version')!r}")
+
+    def inp(x):
+        layout = None if x["layout"] is None else _tuple(x["layout"], lambda g: ElementGroup(**g))
+        fields_ = None if x["fields"] is None else tuple(x["fields"])
+        return Input(x["name"], x["kind"], layout, x["ros_type"], fields_, x["timeout"])
+
+    muxes = _tuple(
+        d["muxes"],
+        lambda m: Mux(m["name"], _tuple(m["inputs"], inp),
+                      _tuple(m["converters"], lambda c: Converter(**c)), m["verbose"]),
+    )
+    o = d["output"]
+    output = Output(o["kind"], o["name"], o["msg_type"], o["node"],
+                    None if o["qos"] is None else QoS(**o["qos"]), o["connect_to"])
+    return Program(
+        module=d["module"],
+        source=d["source"],
+        muxes=muxes,
+        message=_struct(d["message"]),
+        output=output,
+        timing=Timing(**d["timing"]),
+        policy=Policy(**d["policy"]),
+        ros=d["ros"],
+        distro=d["distro"],
+    )
+
+
+def from_json(text: str) -> Program:
+    return from_dict(json.loads(text))
+
+
+__all__ = [
+    "ElementGroup", "Input", "Converter", "Mux", "TypeRef", "Literal", "MuxRef",
+    "Counter", "Timestamp", "Seconds", "Default", "Field", "Struct", "QoS",
+    "Output", "Timing", "Policy", "Program", "to_dict", "to_json", "from_dict",
+    "from_json", "IR_VERSION", "NUMERIC_TYPES", "INTEGER_TYPES", "FLOAT_TYPES",
+    "ELEMENT_TYPES",
+]
