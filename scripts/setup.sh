@@ -65,4 +65,14 @@ if ! "$vpy" -c 'import rclpy, sensor_msgs.msg, geometry_msgs.msg' 2>/dev/null; t
   log "installing ROS 2 rclpy wheels with Fast DDS"
   pip_install ros-rclpy ros-sensor-msgs ros-std-msgs ros-geometry-msgs ros-rmw-fastrtps-cpp
 fi
+# The ROS 2 wheels pull `lark-parser` 0.12 (for rosidl's code generators, not
+# needed at run time), which installs into the same `lark` folder as lark 1.x
+# and overwrites it. ybgc needs lark 1.x: remove both, put lark 1.x back.
+if "$vpy" -m pip show -q lark-parser >/dev/null 2>&1; then
+  log "replacing lark-parser 0.12 (pulled by the ROS 2 wheels) with lark 1.x"
+  "$vpy" -m pip uninstall -y -q lark-parser lark >/dev/null
+  pip_install "lark>=1.1.9"
+fi
+"$vpy" -c 'import lark, sys; sys.exit(int(lark.__version__.split(".")[0]) < 1)' \
+  || { echo "lark 1.x is not importable in $venv" >&2; exit 1; }
 log "setup done: $venv"
