@@ -1,0 +1,65 @@
+"""YARP Bottle reader peer (venv python with the yarp bindings).
+
+Config: {"port": "/name", "source": "/port" or null, "carrier": "tcp" or "",
+         "poll": 0.2}
+Opens a BufferedPortBottle (strict: keeps every Bottle). With a source, the
+reader keeps the connection source -> port alive: every `poll` seconds it
+connects it again if it is missing (so a source that starts late, or is killed
+and restarted, is picked up).
+Events: ready; connected / disconnected (source); bottle with t (receive time,
+time.time()), data, types, stamp ([seq, time] or null), text.
+"""
+import time
+
+import peer_io
+import bottle_codec
+import yarp
+
+
+def main():
+    cfg = peer_io.config()
+    peer_io.exit_on_signals()
+    yarp.Network.init()
+    port = yarp.BufferedPortBottle()
+    port.setStrict(True)
+    port.setReadOnly()  # required for a ROS topic name such as /topic@/node
+    name = cfg["port"]
+    if not port.open(name):
+        peer_io.emit("error", message="cannot open " + name)
+        return 1
+    src = cfg.get("source")
+    carrier = cfg.get("carrier") or ""
+    poll = float(cfg.get("poll") or 0.2)
+    peer_io.emit("ready")
+    connected = False
+    next_check = 0.0
+    while True:
+        now = time.monotonic()
+        if src and now >= next_check:
+            next_check = now + poll
+            ok = yarp.Network.isConnected(src, name, True)
+            if not ok and yarp.Network.exists(src, True):
+                ok = yarp.Network.connect(src, name, carrier, True)
+            if ok != connected:
+                connected = ok
+                peer_io.emit("connected" if ok else "disconnected", source=src)
+        got = False
+        while True:
+            b = port.read(False)
+            if b is None:
+                break
+            got = True
+            t = time.time()
+            data, types = bottle_codec.to_py(b)
+            st = None
+            stamp = yarp.Stamp()
+            if port.getEnvelope(stamp) and stamp.isValid():
+                st = [stamp.getCount(), stamp.getTime()]
+            peer_io.emit("bottle", t=t, data=data, types=types, stamp=st,
+                         text=b.toString())
+        if not got:
+            time.sleep(0.0005)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
