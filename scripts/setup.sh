@@ -15,7 +15,14 @@ py=${PYTHON:-python3}
 log() { printf '\033[1m[setup]\033[0m %s\n' "$*" >&2; }
 
 need_apt=()
-want_apt() { for p in "$@"; do dpkg -s "$p" >/dev/null 2>&1 || need_apt+=("$p"); done; }
+# installed = status "install ok installed" (dpkg -s also succeeds for packages
+# that were removed but left their configuration files behind)
+want_apt() {
+  for p in "$@"; do
+    [ "$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null)" = "install ok installed" ] \
+      || need_apt+=("$p")
+  done
+}
 
 if [ -z "${YBG_SETUP_MINIMAL:-}" ]; then
   want_apt swig libace-dev cmake g++ make
@@ -47,7 +54,22 @@ fi
 
 [ -n "${YBG_SETUP_MINIMAL:-}" ] && { log "minimal setup done"; exit 0; }
 
-if ! "$vpy" -c 'import yarp' 2>/dev/null; then
+# YARP is usable when `import yarp` works and the static carriers are
+# registered (`yarp connect --list-carriers` lists tcpros; without the
+# yarpcar_INIT_FUNCTION define they are built but never registered).
+yarp_ok() {
+  "$vpy" -c 'import yarp' 2>/dev/null || return 1
+  local sp bin tmp out
+  sp=$("$vpy" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
+  bin="$sp/yarp/bin"
+  [ -x "$bin/yarpserver" ] && [ -x "$bin/yarp" ] && [ -x "$bin/yarpidl_rosmsg" ] || return 1
+  tmp=$(mktemp -d)
+  out=$(YARP_CONFIG_HOME="$tmp" YARP_DATA_HOME="$tmp" YARP_CACHE_HOME="$tmp" YARP_IP=127.0.0.1 \
+        "$bin/yarp" connect --list-carriers 2>/dev/null || true)
+  rm -rf "$tmp"
+  grep -qw tcpros <<<"$out"
+}
+if ! yarp_ok; then
   log "building YARP 3.5 from PyPI (yarp-middleware): 5-6 min the first time, then cached by pip"
   # Three settings verified necessary on Debian 12 / GCC 12 / CMake 4:
   export CMAKE_POLICY_VERSION_MINIMUM=3.5
@@ -56,12 +78,20 @@ if ! "$vpy" -c 'import yarp' 2>/dev/null; then
     inc="$inc -include $h"
   done
   export CXXFLAGS="${CXXFLAGS:-}$inc -Dyarpcar_INIT_FUNCTION=add_yarpcar_plugins"
-  pip_install "yarp-middleware==3.5.0"
+  if "$vpy" -c 'import yarp' 2>/dev/null; then
+    # installed but without its carriers (built without the settings above):
+    # rebuild, not from pip's cache of that broken wheel
+    pip_install --force-reinstall --no-deps --no-cache-dir "yarp-middleware==3.5.0"
+  else
+    pip_install "yarp-middleware==3.5.0"
+  fi
+  unset CXXFLAGS CMAKE_POLICY_VERSION_MINIMUM
+  yarp_ok || { echo "YARP installed but \`yarp connect --list-carriers\` does not list tcpros" >&2; exit 1; }
 fi
 if ! "$vpy" -c 'import ycm_cmake_modules' 2>/dev/null; then
   pip_install ycm_cmake_modules
 fi
-if ! "$vpy" -c 'import rclpy, sensor_msgs.msg, geometry_msgs.msg' 2>/dev/null; then
+if ! "$vpy" -c 'import rclpy, sensor_msgs.msg, std_msgs.msg, geometry_msgs.msg' 2>/dev/null; then
   log "installing ROS 2 rclpy wheels with Fast DDS"
   pip_install ros-rclpy ros-sensor-msgs ros-std-msgs ros-geometry-msgs ros-rmw-fastrtps-cpp
 fi
