@@ -1,0 +1,161 @@
+"""Diagnostics are data: every stage appends :class:`Diagnostic` objects to a
+list and goes on; reporters (``ybg/report.py``) print them.
+
+Codes are stable and documented in ``docs/diagnostics.md`` (a test checks the
+two agree): ``E1xx`` syntax, ``E2xx`` structure of the config, ``E3xx`` types
+against the ROS message definitions, ``E4xx`` names, ``W5xx`` warnings,
+``N6xx`` notes.
+"""
+
+from __future__ import annotations
+
+import difflib
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Iterable
+
+
+@dataclass(frozen=True, order=True)
+class Span:
+    """A range in a source file: 1-based lines and columns, end exclusive."""
+
+    line: int
+    column: int
+    end_line: int = 0
+    end_column: int = 0
+
+    @staticmethod
+    def point(line: int, column: int) -> "Span":
+        return Span(line, column, line, column + 1)
+
+
+NOWHERE = Span(1, 1, 1, 1)
+
+
+class Severity(str, Enum):
+    ERROR = "error"
+    WARNING = "warning"
+    NOTE = "note"
+
+
+@dataclass(frozen=True)
+class Diagnostic:
+    severity: Severity
+    code: str
+    message: str
+    span: Span
+    hint: str | None = None
+    file: str = ""
+
+    def sort_key(self):
+        return (self.file, self.span.line, self.span.column, self.code)
+
+
+#: code -> one-line title. docs/diagnostics.md lists every code of this table.
+CODES: dict[str, str] = {
+    # I/O
+    "E001": "file cannot be read",
+    "E002": "file is not UTF-8 text",
+    # syntax
+    "E101": "unexpected character",
+    "E102": "unterminated string",
+    "E103": "line is not `key = value` or a `[section]`",
+    "E104": "malformed section header",
+    "E105": "unexpected item in value",
+    "E106": "invalid escape sequence in a string",
+    "E107": "entry before any section",
+    "E108": "unbalanced bracket or parenthesis",
+    # structure
+    "E201": "unknown section",
+    "E202": "unknown key",
+    "E203": "missing section",
+    "E204": "missing key",
+    "E205": "duplicate section",
+    "E206": "duplicate key",
+    "E207": "legacy and named forms mixed in one file",
+    "E208": "invalid value",
+    "E209": "count does not match what is there",
+    "E210": "malformed legacy field",
+    "E211": "nested message section missing",
+    "E212": "unknown mux",
+    "E213": "invalid port declaration",
+    "E214": "invalid module or mux name",
+    "E215": "field given more than once",
+    # types
+    "E301": "unknown message type",
+    "E302": "unknown field",
+    "E303": "field count or order does not match the message",
+    "E304": "value does not fit the field type",
+    "E305": "mux element type does not fit the field",
+    "E306": "counter into a non-integer field",
+    "E307": "timestamp into a field that is not a time",
+    "E308": "nested message expected",
+    "E309": "mux does not fit the nested message",
+    "E310": "fixed-size array length mismatch",
+    "E311": "field exists only in the other ROS version",
+    "E312": "array lengths disagree",
+    "E313": "unknown converter",
+    "E314": "converter applied to non-numeric data",
+    "E315": "element range out of bounds",
+    "E316": "index out of range",
+    "E317": "integer out of range for the field type",
+    "E318": "backend cannot build this config",
+    "E319": "ROS topic input needs a message type",
+    # names
+    "E401": "invalid YARP port name",
+    "E402": "invalid ROS topic name",
+    # warnings
+    "W501": "unused mux",
+    "W502": "message type given without its package",
+    "W503": "message type not found: fields are not checked",
+    "W504": "no rate: the module is event-driven",
+    "W505": "message type missing: inferred",
+    "W506": "key has no effect",
+    "W507": "converter has no effect",
+    # notes
+    "N601": "legacy form",
+}
+
+
+@dataclass
+class Sink:
+    """Collects diagnostics for one file."""
+
+    file: str = ""
+    items: list[Diagnostic] = field(default_factory=list)
+
+    def add(self, severity: Severity, code: str, message: str, span: Span | None,
+            hint: str | None = None) -> None:
+        assert code in CODES, code
+        self.items.append(Diagnostic(severity, code, message, span or NOWHERE, hint, self.file))
+
+    def error(self, code: str, message: str, span: Span | None, hint: str | None = None) -> None:
+        self.add(Severity.ERROR, code, message, span, hint)
+
+    def warning(self, code: str, message: str, span: Span | None, hint: str | None = None) -> None:
+        self.add(Severity.WARNING, code, message, span, hint)
+
+    def note(self, code: str, message: str, span: Span | None, hint: str | None = None) -> None:
+        self.add(Severity.NOTE, code, message, span, hint)
+
+    @property
+    def has_errors(self) -> bool:
+        return any(d.severity is Severity.ERROR for d in self.items)
+
+    def sorted(self) -> list[Diagnostic]:
+        return sorted(self.items, key=Diagnostic.sort_key)
+
+
+def did_you_mean(word: str, candidates: Iterable[str], n: int = 1) -> str | None:
+    """``"did you mean `x`?"`` for the closest candidate, or None."""
+    cands = list(dict.fromkeys(candidates))
+    low = {c.lower(): c for c in cands}
+    close = difflib.get_close_matches(word.lower(), list(low), n=n, cutoff=0.6)
+    if not close:
+        # a bare type name against `pkg/Name` candidates
+        tails = {c.rsplit("/", 1)[-1].lower(): c for c in cands}
+        close2 = difflib.get_close_matches(word.rsplit("/", 1)[-1].lower(), list(tails), n=n, cutoff=0.75)
+        if not close2:
+            return None
+        return f"did you mean `{tails[close2[0]]}`?"
+    return f"did you mean `{low[close[0]]}`?"

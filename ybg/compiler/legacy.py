@@ -1,0 +1,430 @@
+"""Stage 2 (legacy form): the original tool's ``[general]``/``[muxN]``/
+``num_fields`` document -> the equivalent named-form document.
+
+What each legacy key meant is in ``docs/legacy.md``. The checks that only
+make sense in the legacy form (``num_mux``, ``num_ports``, ``num_fields``,
+``N_type`` keys, nested sections) are made here; everything else (types,
+names, widths) is left to the one semantic pass of the named form, which sees
+the spans of the legacy lines. The same conversion prints ``ybgc fmt --to
+named``.
+"""
+
+from __future__ import annotations
+
+import re
+
+from ybg.compiler import ast
+from ybg.compiler.diagnostics import Sink, Span, did_you_mean
+from ybg.compiler.msgtypes import MsgDef, TypeStore
+
+GENERAL_KEYS = ("output_name", "to_ros", "num_mux", "rate", "ros_msg_name", "from_ros_topics")
+MUX_KEYS = ("num_ports", "ports", "function", "verbose")
+FIELD_TYPES = ("single_value", "list", "mux", "counter", "timestamp", "msg")
+_FIELD_KEY = re.compile(r"([0-9]+)_(type|msg|mux)\Z")
+_MUX_SECTION = re.compile(r"mux([0-9]+)\Z")
+
+
+def is_legacy(doc: ast.Document) -> bool:
+    """A legacy document has `[general]` or `[muxN]` sections or `num_fields`."""
+    for s in doc.sections:
+        if s.label is None and (s.name == "general" or _MUX_SECTION.match(s.name)):
+            return True
+        if s.name == "message" and s.get("num_fields") is not None:
+            return True
+    return False
+
+
+def is_named(doc: ast.Document) -> bool:
+    return any(s.name in ("output", "module") or (s.name == "mux" and s.label) for s in doc.sections)
+
+
+def _keys(section: ast.Section, allowed, sink: Sink, extra=None) -> dict[str, ast.Entry]:
+    out: dict[str, ast.Entry] = {}
+    for e in section.entries:
+        if e.key not in allowed and not (extra and extra(e.key)):
+            sink.error("E202", f"unknown key `{e.key}` in [{section.title}]", e.key_span,
+                       did_you_mean(e.key, allowed) or f"keys of [{section.name}]: {', '.join(allowed)}")
+            continue
+        if e.key in out:
+            sink.error("E206", f"`{e.key}` is given twice in [{section.title}]", e.key_span,
+                       f"first given on line {out[e.key].span.line}")
+            continue
+        out[e.key] = e
+    return out
+
+
+def _int(e: ast.Entry | None, sink: Sink) -> int | None:
+    if e is None:
+        return None
+    if len(e.items) == 1 and isinstance(e.items[0], ast.Word):
+        n = e.items[0].number()
+        if isinstance(n, int) and n >= 0:
+            return n
+    sink.error("E208", f"`{e.key}` takes a whole number", e.span)
+    return None
+
+
+def _bool(e: ast.Entry | None, sink: Sink, default: bool = False) -> bool:
+    if e is None:
+        return default
+    if len(e.items) == 1 and isinstance(e.items[0], ast.Word):
+        b = e.items[0].boolean()
+        if b is not None:
+            return b
+    sink.error("E208", f"`{e.key}` takes true or false", e.span)
+    return default
+
+
+def _name(e: ast.Entry, sink: Sink) -> str | None:
+    if len(e.items) == 1 and isinstance(e.items[0], (ast.Word, ast.Str)):
+        it = e.items[0]
+        return it.text if isinstance(it, ast.Word) else it.value
+    sink.error("E208", f"`{e.key}` takes one name", e.span)
+    return None
+
+
+def _entry(key: str, items, span: Span, key_span: Span | None = None) -> ast.Entry:
+    return ast.Entry(key, tuple(items), span, key_span or span)
+
+
+def _word(text: str, span: Span) -> ast.Word:
+    return ast.Word(text, span)
+
+
+class LegacyConverter:
+    """Converts one legacy document. ``store`` is the ROS 1 type store (the
+    original tool targeted YARP's ROS 1 bridge). ``target`` ``"ros2"``
+    rewrites the output for ROS 2 (dropping ``header.seq``)."""
+
+    def __init__(self, doc: ast.Document, sink: Sink, store: TypeStore, module: str,
+                 target_store: TypeStore | None = None):
+        self.doc = doc
+        self.sink = sink
+        self.store = store
+        self.module = module
+        self.target_store = target_store
+        self.dropped: list[str] = []
+
+    def convert(self) -> ast.Document:
+        s = self.sink
+        doc = self.doc
+        for e in doc.loose:
+            s.error("E107", f"`{e.key}` is not inside a section", e.key_span, "put it under `[general]`")
+        by_name: dict[str, ast.Section] = {}
+        for sec in doc.sections:
+            if sec.label is not None:
+                s.error("E207", f"[{sec.title}] is a named-form header in a legacy file", sec.span,
+                        "convert the whole file with `ybgc fmt --to named`, then edit it")
+                continue
+            if sec.name in by_name:
+                s.error("E205", f"[{sec.name}] is given twice", sec.span,
+                        f"first given on line {by_name[sec.name].span.line}")
+                continue
+            by_name[sec.name] = sec
+        for name in ("output", "module"):
+            if name in by_name:
+                s.error("E207", f"[{name}] is a named-form section in a legacy file", by_name[name].span,
+                        "convert the whole file with `ybgc fmt --to named`, then edit it")
+        gen = by_name.get("general")
+        if gen is None:
+            s.error("E203", "missing section [general]", None,
+                    "a legacy file starts with [general]: output_name, to_ros, num_mux, rate")
+            return ast.Document(())
+        s.note("N601", "legacy form", gen.span,
+               "`ybgc fmt --to named FILE` converts it to the named form")
+        g = _keys(gen, GENERAL_KEYS, s)
+        for req in ("output_name", "num_mux"):
+            if req not in g:
+                s.error("E204", f"[general] needs `{req}`", gen.span)
+        to_ros = _bool(g.get("to_ros"), s)
+        from_ros = _bool(g.get("from_ros_topics"), s)
+        num_mux = _int(g.get("num_mux"), s)
+
+        # muxes
+        mux_secs = {int(m.group(1)): sec for sec in by_name.values() if (m := _MUX_SECTION.match(sec.name))}
+        if num_mux is not None:
+            present = sorted(mux_secs)
+            if present != list(range(1, num_mux + 1)):
+                extra = [k for k in present if k > num_mux or k < 1]
+                missing = [k for k in range(1, num_mux + 1) if k not in mux_secs]
+                if missing:
+                    s.error("E209", f"num_mux = {num_mux}, but [{', '.join(f'mux{k}' for k in missing)}] "
+                            f"{'is' if len(missing) == 1 else 'are'} missing", g["num_mux"].span,
+                            f"sections present: {', '.join(f'mux{k}' for k in present) or 'none'}")
+                if extra:
+                    s.error("E209", f"num_mux = {num_mux}, but there is also "
+                            f"[{', '.join(f'mux{k}' for k in extra)}]", g["num_mux"].span,
+                            f"set `num_mux = {max(present)}`" if present else None)
+        out_sections: list[ast.Section] = []
+        module_entries = [_entry("name", [_word(self.module, gen.span)], gen.span)]
+        out_sections.append(ast.Section("module", None, tuple(module_entries), gen.span))
+
+        # output
+        out: list[ast.Entry] = []
+        oname = g.get("output_name")
+        msgdef: MsgDef | None = None
+        type_name: str | None = None
+        if oname is not None:
+            name = _name(oname, s)
+            if to_ros:
+                out.append(_entry("topic", [_word(name or "", oname.items[0].span if oname.items else oname.span)], oname.span, oname.key_span))
+                out.append(_entry("via", [_word("ros1", g["to_ros"].span)], g["to_ros"].span, g["to_ros"].key_span))
+            elif from_ros:
+                port = f"/{self.module}/out:o"
+                out.append(_entry("port", [_word(port, oname.span)], oname.span, oname.key_span))
+                out.append(_entry("connect", [_word(name or "", oname.items[0].span if oname.items else oname.span)], oname.span, oname.key_span))
+            else:
+                out.append(_entry("port", [_word(name or "", oname.items[0].span if oname.items else oname.span)], oname.span, oname.key_span))
+            if to_ros:
+                type_name, msgdef = self.message_type(g, name or "", by_name.get("message"))
+                if type_name is not None:
+                    te = g.get("ros_msg_name")
+                    span = te.span if te else gen.span
+                    out.append(_entry("type", [_word(type_name, te.items[0].span if te and te.items else span)], span,
+                                      te.key_span if te else span))
+            elif "ros_msg_name" in g:
+                s.warning("W506", "`ros_msg_name` has no effect with `to_ros = false`", g["ros_msg_name"].key_span,
+                          "remove it, or set `to_ros = true`")
+        if "rate" in g:
+            out.append(_entry("rate", g["rate"].items, g["rate"].span, g["rate"].key_span))
+        else:
+            s.warning("W504", "no `rate` in [general]: the module publishes whenever new data arrives", gen.span,
+                      "add `rate = 30` (Hz) for a fixed rate")
+        out_sections.append(ast.Section("output", None, tuple(out), gen.span))
+
+        used_sections = {"general", "message"} | {f"mux{k}" for k in mux_secs}
+        for k in sorted(mux_secs):
+            sec = mux_secs[k]
+            conv = self.mux(sec, from_ros)
+            if conv is not None:
+                out_sections.append(conv)
+
+        # message
+        msg = by_name.get("message")
+        if msg is None:
+            s.error("E203", "missing section [message]", None, "it lists the fields: `num_fields = N`, `1_type = ...`")
+        else:
+            entries = self.fields(msg, msgdef, (), by_name, used_sections, set(), typed=to_ros)
+            if self.target_store is not None:
+                entries = self.retarget(entries, type_name)
+            out_sections.append(ast.Section("message", None, tuple(entries), msg.span))
+        for sec in doc.sections:
+            if sec.label is None and sec.name not in used_sections and sec.name not in ("output", "module"):
+                if _MUX_SECTION.match(sec.name):
+                    continue  # reported with num_mux
+                s.error("E201", f"section [{sec.name}] is not used", sec.span,
+                        "a legacy file has [general], [mux1]..[muxN], [message] and the sections "
+                        "named by `N_msg` of `msg` fields")
+        return ast.Document(tuple(out_sections))
+
+    def message_type(self, g, topic: str, msg_sec: ast.Section | None):
+        s = self.sink
+        te = g.get("ros_msg_name")
+        if te is None:
+            # the thesis' own figure 5 has none: infer from the topic name when the layout agrees
+            guess = "".join(p.capitalize() for p in topic.rstrip("/").rsplit("/", 1)[-1].split("_"))
+            cands = []
+            for cand in (guess, guess[:-1] if guess.endswith("s") else None):
+                if cand:
+                    cands += self.store.candidates(cand)
+            n = None
+            if msg_sec is not None and msg_sec.get("num_fields") is not None:
+                n = _int(msg_sec.get("num_fields"), Sink())
+            fitting = [c for c in cands if (d := self.store.resolve(c)) is not None and len(d.fields) == n]
+            if len(fitting) == 1:
+                s.warning("W505", f"no `ros_msg_name`: taken as `{fitting[0]}` from the topic name "
+                          f"and the {n} fields", g["output_name"].span,
+                          f"add `ros_msg_name = {fitting[0]}` to [general]")
+                return fitting[0], self.store.resolve(fitting[0])
+            s.warning("W503", "no `ros_msg_name`: the message fields are not checked", g["output_name"].span,
+                      "add `ros_msg_name = pkg/Name` to [general], e.g. `sensor_msgs/JointState`")
+            return None, None
+        text = _name(te, s)
+        if text is None:
+            return None, None
+        if "/" not in text:
+            cands = self.store.candidates(text)
+            if len(cands) == 1:
+                # reported (W502) by the named pass, on this span
+                return text, self.store.resolve(cands[0])
+            return text, None
+        d = self.store.resolve(text)
+        return text, d
+
+    def mux(self, sec: ast.Section, from_ros: bool) -> ast.Section | None:
+        s = self.sink
+        keys = _keys(sec, MUX_KEYS, s)
+        name = sec.name
+        if "ports" not in keys:
+            s.error("E204", f"[{name}] needs `ports`", sec.span)
+            return None
+        ports = keys["ports"]
+        n = _int(keys.get("num_ports"), s)
+        if "num_ports" not in keys:
+            s.error("E204", f"[{name}] needs `num_ports`", sec.span)
+        elif n is not None and n != len(ports.items):
+            s.error("E209", f"num_ports = {n}, but `ports` lists {len(ports.items)}", keys["num_ports"].span,
+                    f"set `num_ports = {len(ports.items)}`")
+        entries = [_entry("topics" if from_ros else "ports", ports.items, ports.span, ports.key_span)]
+        if from_ros:
+            entries.append(_entry("via", [_word("ros1", ports.span)], ports.span))
+        if "function" in keys:
+            f = keys["function"]
+            entries.append(_entry("convert", f.items, f.span, f.key_span))
+        if "verbose" in keys:
+            v = keys["verbose"]
+            entries.append(_entry("verbose", v.items, v.span, v.key_span))
+        return ast.Section("mux", name, tuple(entries), sec.span)
+
+    def fields(self, sec: ast.Section, msgdef: MsgDef | None, prefix: tuple[str, ...],
+               by_name, used: set[str], stack: set[str], typed: bool) -> list[ast.Entry]:
+        s = self.sink
+        keys = _keys(sec, ("num_fields",), s, extra=lambda k: bool(_FIELD_KEY.match(k)))
+        if "num_fields" not in keys:
+            s.error("E204", f"[{sec.name}] needs `num_fields`", sec.span)
+            return []
+        n = _int(keys["num_fields"], s)
+        if n is None:
+            return []
+        numbers = {int(m.group(1)) for k in keys if (m := _FIELD_KEY.match(k))}
+        for k in sorted(numbers):
+            if k < 1 or k > n:
+                key = next(e for kk, e in keys.items() if (m := _FIELD_KEY.match(kk)) and int(m.group(1)) == k)
+                s.error("E209", f"field {k} is beyond num_fields = {n}", key.key_span,
+                        f"set `num_fields = {max(numbers)}`, or remove the field")
+        if msgdef is not None and len(msgdef.fields) != n:
+            names = ", ".join(f.name for f in msgdef.fields)
+            s.error("E303", f"`{msgdef.name}` has {len(msgdef.fields)} fields ({names}), "
+                    f"[{sec.name}] declares {n}", keys["num_fields"].span,
+                    "fields are matched to the message by position: one `N_type` per field, in order")
+            msgdef = None
+        out: list[ast.Entry] = []
+        for i in range(1, n + 1):
+            te = keys.get(f"{i}_type")
+            if te is None:
+                s.error("E210", f"field {i} has no `{i}_type`", keys["num_fields"].span,
+                        f"add `{i}_type = single_value|list|mux|counter|timestamp|msg`")
+                continue
+            kind = _name(te, s)
+            if kind not in FIELD_TYPES:
+                s.error("E210", f"unknown field type `{kind}`", te.items[0].span if te.items else te.span,
+                        did_you_mean(kind or "", FIELD_TYPES) or f"types: {', '.join(FIELD_TYPES)}")
+                continue
+            fdef = msgdef.fields[i - 1] if msgdef is not None else None
+            label = fdef.name if fdef is not None else f"field{i}"
+            key = ".".join(prefix + (label,))
+            extra_key = f"{i}_mux" if kind == "mux" else f"{i}_msg"
+            xe = keys.get(extra_key)
+            for other in ("msg", "mux"):
+                oe = keys.get(f"{i}_{other}")
+                if oe is not None and (kind in ("counter", "timestamp") or f"{i}_{other}" != extra_key):
+                    s.warning("W506", f"`{i}_{other}` has no effect on a `{kind}` field", oe.key_span)
+            span = te.span if xe is None else Span(te.span.line, te.span.column, xe.span.end_line, xe.span.end_column)
+            kspan = te.key_span
+            if kind in ("single_value", "list", "mux", "msg") and xe is None:
+                s.error("E210", f"field {i} is `{kind}` but has no `{extra_key}`", te.span,
+                        f"add `{extra_key} = ...`")
+                continue
+            if kind == "counter":
+                out.append(_entry(key, [_word("counter", te.items[0].span)], span, kspan))
+            elif kind == "timestamp":
+                if typed:
+                    out.append(_entry(key, [_word("timestamp", te.items[0].span)], span, kspan))
+                else:  # the original wrote (counter time) into YARP Bottles
+                    sp = te.items[0].span
+                    out.append(_entry(key, [ast.Bracket((_word("counter", sp), _word("time", sp)), sp)], span, kspan))
+            elif kind == "single_value":
+                if len(xe.items) != 1:
+                    s.error("E210", f"`{extra_key}` of a single_value holds one value, not {len(xe.items) or 'none'}",
+                            xe.span, f"use `{i}_type = list` for a list")
+                    continue
+                out.append(_entry(key, xe.items, span, kspan))
+            elif kind == "list":
+                items = xe.items
+                if typed:
+                    value = (ast.Bracket(items, xe.span),) if len(items) <= 1 else items
+                else:
+                    value = (ast.Bracket(items, xe.span),)
+                out.append(_entry(key, value, span, kspan))
+            elif kind == "mux":
+                mname = _name(xe, s)
+                if mname is None:
+                    continue
+                out.append(_entry(key, [_word(mname, xe.items[0].span)], span, kspan))
+            elif kind == "msg":
+                target = _name(xe, s)
+                if target is None:
+                    continue
+                sub = by_name.get(target)
+                if sub is None:
+                    s.error("E211", f"field {i} is a nested message from section [{target}], which is missing",
+                            xe.items[0].span, did_you_mean(target, by_name) or f"add `[{target}]` with `num_fields`")
+                    continue
+                if target in stack or target in ("general", "message"):
+                    s.error("E211", f"section [{target}] cannot nest itself", xe.items[0].span)
+                    continue
+                used.add(target)
+                sub_def = None
+                if fdef is not None:
+                    if not fdef.type.is_message or fdef.type.array is not None:
+                        s.error("E308", f"field {i} is a nested message, but `{msgdef.name}.{fdef.name}` "
+                                f"is {fdef.type}", te.items[0].span)
+                        continue
+                    sub_def = self.store.resolve(fdef.type.base)
+                sublabel = label if fdef is not None else target
+                out.extend(self.fields(sub, sub_def, prefix + (sublabel,), by_name, used, stack | {target}, typed))
+        return out
+
+    def retarget(self, entries: list[ast.Entry], type_name: str | None) -> list[ast.Entry]:
+        """Drop the fields that ROS 2 does not have (the header's seq)."""
+        out = []
+        store = self.target_store
+        assert store is not None
+        name = type_name
+        if name and "/" not in name:
+            c = store.candidates(name)
+            name = c[0] if len(c) == 1 else name
+        d = store.resolve(name) if name else None
+        for e in entries:
+            if d is not None and not _path_exists(store, d, e.key.split(".")):
+                self.dropped.append(e.key)
+                continue
+            out.append(e)
+        return out
+
+
+def _path_exists(store: TypeStore, d: MsgDef, path: list[str]) -> bool:
+    cur: MsgDef | None = d
+    for p in path:
+        if cur is None:
+            return True  # cannot tell: keep it
+        f = cur.field(p)
+        if f is None:
+            return False
+        cur = store.resolve(f.type.base) if f.type.is_message else None
+    return True
+
+
+def to_named(doc: ast.Document, sink: Sink, store: TypeStore, module: str,
+             target_store: TypeStore | None = None) -> tuple[ast.Document, list[str]]:
+    """The named-form equivalent of a legacy document, and the keys dropped
+    when retargeting to ROS 2 (``target_store``)."""
+    conv = LegacyConverter(doc, sink, store, module, target_store)
+    named = conv.convert()
+    if target_store is not None:
+        named = _retarget_output(named)
+    return named, conv.dropped
+
+
+def _retarget_output(doc: ast.Document) -> ast.Document:
+    secs = []
+    for sec in doc.sections:
+        if sec.name == "output":
+            entries = []
+            for e in sec.entries:
+                if e.key == "via" and e.items and isinstance(e.items[0], ast.Word) and e.items[0].text == "ros1":
+                    e = ast.Entry("via", (ast.Word("ros2", e.items[0].span),), e.span, e.key_span)
+                entries.append(e)
+            sec = ast.Section(sec.name, sec.label, tuple(entries), sec.span)
+        secs.append(sec)
+    return ast.Document(tuple(secs))

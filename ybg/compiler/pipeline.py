@@ -1,0 +1,149 @@
+"""The pipeline of one config file, stage by stage::
+
+    text --parser--> Document --legacy (legacy form only)--> named Document
+         --check--> Program (IR) --backend--> files
+
+:func:`compile_path` runs it and returns a :class:`Result` holding whatever
+was reached and every diagnostic; it never raises on bad input.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ybg.compiler import ast, ir
+from ybg.compiler.check import Options, check_named
+from ybg.compiler.diagnostics import Diagnostic, Severity, Sink
+from ybg.compiler.legacy import is_legacy, is_named, to_named
+from ybg.compiler.msgtypes import DISTROS, load_store
+from ybg.compiler.names import sanitize_identifier
+from ybg.compiler.parser import parse_text
+
+
+@dataclass
+class Result:
+    """What the pipeline reached for one file."""
+
+    path: str
+    text: str | None = None
+    document: ast.Document | None = None  # as written
+    named: ast.Document | None = None  # named form (converted if legacy)
+    form: str | None = None  # "legacy" | "named"
+    program: ir.Program | None = None
+    diagnostics: list[Diagnostic] = field(default_factory=list)
+
+    @property
+    def errors(self) -> list[Diagnostic]:
+        return [d for d in self.diagnostics if d.severity is Severity.ERROR]
+
+    @property
+    def warnings(self) -> list[Diagnostic]:
+        return [d for d in self.diagnostics if d.severity is Severity.WARNING]
+
+    @property
+    def ok(self) -> bool:
+        return self.program is not None and not self.errors
+
+
+def module_name_for(path: str) -> str:
+    return sanitize_identifier(Path(path).stem) if path and not path.startswith("<") else "bridge"
+
+
+def read_source(path: str, sink: Sink) -> str | None:
+    try:
+        data = Path(path).read_bytes()
+    except OSError as e:
+        sink.error("E001", f"cannot read {path}: {e.strerror or e}", None)
+        return None
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = data[: e.start].count(b"\n") + 1
+        col = e.start - (data.rfind(b"\n", 0, e.start) + 1) + 1
+        from ybg.compiler.diagnostics import Span
+        sink.error("E002", f"byte 0x{data[e.start]:02x} is not UTF-8", Span(line, col, line, col + 1),
+                   "save the file as UTF-8")
+        return None
+
+
+def to_named_document(doc: ast.Document, path: str, sink: Sink, options: Options,
+                      ros2: bool = False) -> tuple[ast.Document, list[str]]:
+    """A legacy document in the named form (``ros2``: retargeted to ROS 2)."""
+    ros1_distro = options.distro if options.distro and DISTROS.get(options.distro) == "ros1" else None
+    env = options.environ if options.environ is not None else os.environ
+    store = load_store("ros1", ros1_distro, options.msg_path, env)
+    target = None
+    if ros2:
+        ros2_distro = options.distro if options.distro and DISTROS.get(options.distro) == "ros2" else None
+        target = load_store("ros2", ros2_distro, options.msg_path, env)
+    return to_named(doc, sink, store, module_name_for(path), target)
+
+
+def compile_text(text: str, path: str = "<config>", options: Options | None = None,
+                 backend: str | None = None) -> Result:
+    """Run the front end over ``text`` (``path`` names it in diagnostics)."""
+    options = options or Options()
+    sink = Sink(path)
+    result = Result(path, text)
+    doc = parse_text(text, sink)
+    result.document = doc
+    legacy = is_legacy(doc)
+    if legacy and is_named(doc):
+        first = next(s for s in doc.sections if s.name in ("output", "module") or s.label)
+        sink.error("E207", "this file mixes the legacy form ([general], [muxN], num_fields) and the "
+                   "named form ([output], [mux name])", first.span,
+                   "keep one form; `ybgc fmt --to named` converts a legacy file")
+    if legacy:
+        result.form = "legacy"
+        named, _ = to_named_document(doc, path, sink, options)
+    else:
+        result.form = "named"
+        named = doc
+    result.named = named
+    if not (legacy and sink.has_errors and not named.sections):
+        result.program = check_named(named, Path(path).name, sink, options, module_name_for(path))
+    if result.program is not None and backend is not None:
+        check_backend(result.program, backend, sink, legacy)
+        if sink.has_errors:
+            result.program = None
+    result.diagnostics = sink.sorted()
+    return result
+
+
+def check_backend(program: ir.Program, backend: str, sink: Sink, legacy: bool) -> None:
+    """Can ``backend`` build ``program``? (E318 when it cannot.)"""
+    from ybg.backends import get_backend
+
+    b = get_backend(backend)
+    if program.output.kind not in b.output_kinds:
+        if program.output.kind == "ros1" and backend == "ros2":
+            hint = ("convert it for ROS 2 in one command: `ybgc fmt --to named --ros2 FILE > new.ini`"
+                    if legacy else "set `via = ros2` in [output] (and drop `header.seq`, which ROS 2 has not)")
+            sink.error("E318", "this config publishes to ROS 1 through YARP (`to_ros = true` / `via = ros1`); "
+                       "the ros2 backend publishes to ROS 2", None, hint)
+        else:
+            kinds = {"ros2": "a ROS 2 topic", "ros1": "a ROS 1 topic", "yarp": "a YARP port"}
+            ok = [k for k, bs in (("cpp", None), ("py", None), ("ros2", None))]
+            sink.error("E318", f"the {backend} backend cannot write {kinds[program.output.kind]}", None,
+                       "use `--backend ros2` for ROS 2 outputs, `--backend cpp` or `--backend py` for YARP and ROS 1"
+                       if ok else None)
+        return
+    for m in program.muxes:
+        for i in m.inputs:
+            if i.kind not in b.input_kinds:
+                sink.error("E318", f"the {backend} backend cannot read {i.kind} input `{i.name}` (mux `{m.name}`)",
+                           None, "ROS 2 topics are read by `--backend ros2`; ROS 1 topics by cpp and py")
+                return
+
+
+def compile_path(path: str | os.PathLike, backend: str | None = None,
+                 options: Options | None = None) -> Result:
+    """Read and compile one config file."""
+    path = os.fspath(path)
+    sink = Sink(path)
+    text = read_source(path, sink)
+    if text is None:
+        return Result(path, diagnostics=sink.sorted())
+    return compile_text(text, path, options, backend)
