@@ -1,0 +1,75 @@
+"""The ``py`` backend: one self-contained Python module (``yarp`` and the
+standard library only) that reads YARP ports or ROS 1 topics and writes a
+Bottle on a YARP port or a ROS 1 topic.
+
+The generated module is made of three templates: ``_runtime.py.j2`` (inputs,
+freshness, converters, timing, message tree, shutdown; shared with other
+Python backends), ``_yarp_output.py.j2`` (the message tree as a Bottle) and
+``module.py.j2`` (this bridge's data, the message builder, the places for
+custom code). :mod:`.lower` makes every decision; the templates only print.
+"""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+
+import jinja2
+
+from ybg.backends import Backend, RenderOptions
+from ybg.backends.py.lower import Line, LoweringError, lower, py_literal
+
+TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
+#: the shared runtime, for other Python backends to include
+RUNTIME_TEMPLATE = "_runtime.py.j2"
+
+
+def _code(text) -> str:
+    """A fragment of Python already built from escaped parts by lower.py."""
+    if not isinstance(text, str):
+        raise TypeError(f"expected lowered code, got {type(text).__name__}")
+    if "\n" in text or "\r" in text:
+        raise ValueError("lowered code must be one line")
+    return text
+
+
+def _int_literal(value) -> str:
+    if not isinstance(value, int) or isinstance(value, bool):
+        raise TypeError(f"expected an int, got {type(value).__name__}")
+    return py_literal(value)
+
+
+def _indent_line(line: Line) -> str:
+    return "    " * line.indent + _code(line.text)
+
+
+@functools.lru_cache(maxsize=None)
+def environment() -> jinja2.Environment:
+    env = jinja2.Environment(
+        loader=jinja2.FileSystemLoader(str(TEMPLATE_DIR)),
+        autoescape=False,
+        undefined=jinja2.StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        keep_trailing_newline=True,
+    )
+    env.filters["code"] = _code
+    env.filters["int_literal"] = _int_literal
+    env.filters["indent_line"] = _indent_line
+    env.filters["pyliteral"] = py_literal
+    return env
+
+
+class PyBackend(Backend):
+    name = "py"
+    description = "a self-contained Python module on YARP's Python bindings"
+    output_kinds = frozenset({"yarp", "ros1"})
+    input_kinds = frozenset({"yarp", "ros1"})
+
+    def render(self, program, options: RenderOptions = RenderOptions()) -> dict[str, str]:
+        view = lower(program)
+        text = environment().get_template("module.py.j2").render(m=view)
+        return {view.filename: text}
+
+
+__all__ = ["PyBackend", "LoweringError", "TEMPLATE_DIR", "RUNTIME_TEMPLATE", "environment"]

@@ -1,0 +1,392 @@
+"""Lowering of a checked :class:`~ybg.compiler.ir.Program` to the view-model
+that the Python templates print.
+
+Every decision is taken here: which wire type each ROS primitive gets, how
+each node of the message tree is built, which inputs the message needs.
+Every value taken from the config reaches the generated source through
+:func:`py_literal` (``repr`` based), the one escaping function of this
+backend; the templates only print what this module hands them.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+
+from ybg.compiler import ir
+
+#: YARP Bottle wire type of each element type, untyped or YARP output
+#: (docs/runtime.md, "Value types on the wire").
+WIRE_YARP: dict[str, str] = {
+    "float32": "float64", "float64": "float64",
+    "int64": "int64", "uint32": "int64", "uint64": "int64",
+    "int8": "int32", "uint8": "int32", "int16": "int32", "uint16": "int32",
+    "int32": "int32", "byte": "int32", "char": "int32", "bool": "int32",
+    "string": "string",
+}
+
+#: Wire type of each element type for a ROS 1 output through YARP's tcpros
+#: carrier. YARP translates a Bottle into the ROS message by a fixed layout
+#: (WireTwiddler): a field's Bottle tag must be exactly the one of its ROS
+#: type (uint32 -> int32, bool -> int8, float32 -> float32 ...), or the
+#: message is refused with "Structure of message is unexpected".
+WIRE_ROS1: dict[str, str] = {
+    "float32": "float32", "float64": "float64",
+    "int64": "int64", "uint64": "int64",
+    "int32": "int32", "uint32": "int32",
+    "int16": "int16", "uint16": "int16",
+    "int8": "int8", "uint8": "int8", "byte": "int8", "char": "int8", "bool": "int8",
+    "string": "string",
+}
+
+_TIME_TYPES = ("time", "duration", "builtin_interfaces/Time", "builtin_interfaces/Duration")
+
+
+class LoweringError(ValueError):
+    """The program uses something this backend cannot generate."""
+
+
+# --------------------------------------------------------------------------
+# the escaping function
+
+
+def py_literal(value) -> str:
+    """Python source text for ``value``: a str, int, float, bool, None, or a
+    tuple of them. ``repr`` based, so any string (quotes, backslashes,
+    newlines, non-ASCII text) becomes one valid literal that evaluates back
+    to exactly the same value, on one line."""
+    if value is None or isinstance(value, bool):
+        return repr(value)
+    if isinstance(value, int):
+        return repr(int(value))
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "float('nan')"
+        if math.isinf(value):
+            return "float('inf')" if value > 0 else "float('-inf')"
+        return repr(value)
+    if isinstance(value, str):
+        text = repr(value)
+        # repr() escapes every non-printable character (newlines, U+2028 ...),
+        # so the literal stays on one line; check it, never trust it.
+        if "\n" in text or "\r" in text:
+            raise AssertionError("multi-line literal")
+        return text
+    if isinstance(value, tuple):
+        items = [py_literal(v) for v in value]
+        if len(items) == 1:
+            return "(" + items[0] + ",)"
+        return "(" + ", ".join(items) + ")"
+    raise TypeError(f"no Python literal for {type(value).__name__}")
+
+
+# --------------------------------------------------------------------------
+# view-model
+
+
+@dataclass(frozen=True)
+class Line:
+    """One line of generated code, already made of escaped parts."""
+
+    indent: int
+    text: str
+
+
+@dataclass(frozen=True)
+class InputView:
+    mux: str
+    index: int
+    source: str
+    kind: str
+    types: str
+    timeout: str
+    description: str
+
+
+@dataclass(frozen=True)
+class ConverterView:
+    name: str
+    scale: str
+    offset: str
+    to_float: str
+    start: str
+    stop: str
+
+
+@dataclass(frozen=True)
+class MuxView:
+    name: str
+    inputs: tuple[InputView, ...]
+    converters: tuple[ConverterView, ...]
+    verbose: str
+    types: str
+
+
+@dataclass(frozen=True)
+class OutputView:
+    kind: str
+    port: str
+    connect_to: str
+    msg_type: str
+    description: str
+
+
+@dataclass(frozen=True)
+class ModuleView:
+    filename: str
+    config: str
+    module: str
+    default_prefix: str
+    summary: tuple[str, ...]
+    muxes: tuple[MuxView, ...]
+    needed: str
+    rate: str
+    trigger: str
+    on_stale: str
+    on_nan: str
+    output: OutputView
+    wire: tuple[tuple[str, str], ...]
+    builder: tuple[Line, ...]
+
+
+# --------------------------------------------------------------------------
+# lowering
+
+
+def _default_scalar(base: str):
+    if base in ir.FLOAT_TYPES:
+        return 0.0
+    if base == "bool":
+        return False
+    if base == "string":
+        return ""
+    if base in ir.NUMERIC_TYPES:
+        return 0
+    raise LoweringError(f"no default for type {base!r}")
+
+
+def _coerce(value, element_type: str):
+    if element_type in ir.FLOAT_TYPES:
+        return float(value)
+    if element_type == "bool":
+        return bool(value)
+    if element_type == "string":
+        return str(value)
+    if element_type in ir.NUMERIC_TYPES:
+        return int(value)
+    raise LoweringError(f"unknown element type {element_type!r}")
+
+
+def _time_style(base: str, ros: str | None) -> str:
+    if base.startswith("builtin_interfaces/") or ros == "ros2":
+        return "ros2"
+    return "ros1"
+
+
+class _Builder:
+    """Writes the body of ``build_message`` from the message tree."""
+
+    def __init__(self, program: ir.Program):
+        self.program = program
+        self.lines: list[Line] = []
+        self.muxes: list[str] = []
+
+    def emit(self, indent: int, text: str) -> None:
+        self.lines.append(Line(indent, text))
+
+    def mux_values(self, name: str) -> str:
+        self.program.mux(name)  # KeyError for an unknown mux: the IR is broken
+        if name not in self.muxes:
+            self.muxes.append(name)
+        return f"v[{py_literal(name)}]"
+
+    def struct(self, struct: ir.Struct, msg_type: str | None, indent: int, head: str, tail: str) -> None:
+        self.emit(indent, f"{head}Msg({py_literal(msg_type)}, (")
+        for f in struct.fields:
+            self.field(f, indent + 1)
+        self.emit(indent, f")){tail}")
+
+    def field(self, f: ir.Field, indent: int) -> None:
+        head = f"({py_literal(f.name)}, "
+        src = f.source
+        if isinstance(src, ir.Struct):
+            msg_type = src.msg_type or (f.type.base if f.type is not None and f.type.is_message else None)
+            self.struct(src, msg_type, indent, head, "),")
+            return
+        self.emit(indent, head + self.expr(src, f.type) + "),")
+
+    def expr(self, src, typ: ir.TypeRef | None) -> str:
+        if isinstance(src, ir.Literal):
+            values = tuple(_coerce(v, src.element_type) for v in src.values)
+            if src.is_list:
+                return f"Array({py_literal(src.element_type)}, {py_literal(values)})"
+            if len(values) != 1:
+                raise LoweringError("a scalar literal holds exactly one value")
+            return f"Scalar({py_literal(src.element_type)}, {py_literal(values[0])})"
+        if isinstance(src, ir.MuxRef):
+            return self.mux_ref(src, typ)
+        if isinstance(src, ir.Counter):
+            return f"Scalar({py_literal(src.element_type)}, ctx.counter)"
+        if isinstance(src, ir.Timestamp):
+            if src.clock == "envelope":
+                if src.mux is None:
+                    raise LoweringError("an envelope timestamp names its mux")
+                self.mux_values(src.mux)
+                return f"ctx.envelope_time({py_literal(src.mux)}, {py_literal(src.style)})"
+            return f"ctx.wall_time({py_literal(src.style)})"
+        if isinstance(src, ir.Seconds):
+            return "Scalar('float64', ctx.seconds)"
+        if isinstance(src, ir.Default):
+            return self.default(typ)
+        raise LoweringError(f"unknown source {type(src).__name__}")
+
+    def mux_ref(self, ref: ir.MuxRef, typ: ir.TypeRef | None) -> str:
+        values = self.mux_values(ref.mux)
+        etype = py_literal(ref.element_type)
+        if ref.index is not None:
+            return f"Scalar({etype}, {values}[{ref.index:d}])"
+        if ref.start == 0 and ref.stop is None:
+            part = values
+        else:
+            stop = "" if ref.stop is None else f"{ref.stop:d}"
+            part = f"{values}[{ref.start:d}:{stop}]"
+        if ref.into_fields is not None:
+            types = ref.into_types or (ref.element_type,) * len(ref.into_fields)
+            msg_type = typ.base if typ is not None and typ.is_message else None
+            items = ", ".join(
+                f"({py_literal(name)}, Scalar({py_literal(t)}, {values}[{ref.start + k:d}]))"
+                for k, (name, t) in enumerate(zip(ref.into_fields, types))
+            )
+            return f"Msg({py_literal(msg_type)}, ({items},))"
+        # per-element types when the mux mixes them (a spliced legacy mux of ints and floats)
+        mux = self.program.mux(ref.mux)
+        et = mux.element_types
+        if et is not None:
+            stop_i = len(et) if ref.stop is None else ref.stop
+            sliced = tuple(et[ref.start:stop_i])
+            if sliced and len(set(sliced)) > 1:
+                etype = py_literal(sliced)
+        kind = "Splice" if ref.splice else "Array"
+        return f"{kind}({etype}, {part})"
+
+    def default(self, typ: ir.TypeRef | None) -> str:
+        if typ is None:
+            raise LoweringError("a default value needs a typed field")
+        base = typ.base
+        if typ.array == "sequence":
+            return f"Array({py_literal(base)}, ())"
+        if base in _TIME_TYPES:
+            if typ.array is not None:
+                raise LoweringError(f"no default for an array of {base}")
+            return f"time_msg(0, {py_literal(_time_style(base, self.program.ros))})"
+        if typ.is_message:
+            raise LoweringError(
+                f"a default {typ} needs its fields; the checker expands nested messages")
+        value = _default_scalar(base)
+        if typ.array == "fixed":
+            return f"Array({py_literal(base)}, {py_literal((value,) * (typ.size or 0))})"
+        return f"Scalar({py_literal(base)}, {py_literal(value)})"
+
+
+def _lower_output(program: ir.Program) -> OutputView:
+    out = program.output
+    if out.kind == "ros1":
+        node = out.node or f"/yarp/{program.module}"
+        port = f"{out.name}@{node}"
+        desc = f"ROS 1 topic {out.name} (node {node})"
+    elif out.kind == "yarp":
+        port = out.name
+        desc = f"YARP port {out.name}"
+    else:
+        raise LoweringError(f"the py backend cannot publish to a {out.kind!r} output")
+    if out.connect_to:
+        desc += f", connected to {out.connect_to}"
+    if out.msg_type:
+        desc = f"{out.msg_type} on the " + desc
+    else:
+        desc = "untyped Bottles on the " + desc
+    return OutputView(
+        kind=py_literal(out.kind),
+        port=py_literal(port),
+        connect_to=py_literal(out.connect_to),
+        msg_type=py_literal(out.msg_type),
+        description=py_literal(desc),
+    )
+
+
+def lower(program: ir.Program) -> ModuleView:
+    """The view-model of the module generated for ``program``."""
+    output = _lower_output(program)
+    muxes = []
+    for m in program.muxes:
+        inputs = []
+        for k, i in enumerate(m.inputs):
+            if i.kind not in ("yarp", "ros1"):
+                raise LoweringError(f"the py backend cannot read a {i.kind!r} input ({i.name})")
+            types = i.element_types
+            width = "any number of numbers" if types is None else f"{len(types)} elements"
+            inputs.append(InputView(
+                mux=py_literal(m.name),
+                index=k,
+                source=py_literal(i.name),
+                kind=py_literal(i.kind),
+                types=py_literal(types),
+                timeout=py_literal(float(i.timeout)),
+                description=py_literal(f"{i.kind} {i.name}: {width}"),
+            ))
+        convs = tuple(
+            ConverterView(
+                name=py_literal(c.name),
+                scale=py_literal(float(c.scale)),
+                offset=py_literal(float(c.offset)),
+                to_float=py_literal(bool(c.to_float)),
+                start=py_literal(int(c.start)),
+                stop=py_literal(None if c.stop is None else int(c.stop)),
+            )
+            for c in m.converters
+        )
+        muxes.append(MuxView(
+            name=py_literal(m.name),
+            inputs=tuple(inputs),
+            converters=convs,
+            verbose=py_literal(bool(m.verbose)),
+            types=py_literal(m.element_types),
+        ))
+
+    b = _Builder(program)
+    top_type = program.message.msg_type or program.output.msg_type
+    b.struct(program.message, top_type, 1, "return ", "")
+    needed = tuple(b.muxes)
+
+    wire_map = WIRE_ROS1 if program.output.kind == "ros1" else WIRE_YARP
+    wire = tuple((py_literal(k), py_literal(v)) for k, v in sorted(wire_map.items()))
+
+    n_in = sum(len(m.inputs) for m in program.muxes)
+    timing = ("event-driven (publishes when " +
+              ("every needed input has" if program.timing.trigger == "all" else "any needed input has") +
+              " new data)") if program.timing.rate is None else f"at {program.timing.rate:g} Hz"
+    summary = (
+        py_literal(f"module {program.module}: {n_in} input(s) in {len(program.muxes)} mux(es)"),
+        output.description,
+        py_literal(f"publishing {timing}, on_stale={program.policy.on_stale}, "
+                   f"on_nan={program.policy.on_nan}"),
+    )
+    config_name = os.path.basename(program.source) if program.source else program.module
+    rate = program.timing.rate
+    return ModuleView(
+        filename=f"{program.module}.py",
+        config=py_literal(config_name),
+        module=py_literal(program.module),
+        default_prefix=py_literal("/" + program.module),
+        summary=summary,
+        muxes=tuple(muxes),
+        needed=py_literal(needed),
+        rate=py_literal(None if rate is None else float(rate)),
+        trigger=py_literal(program.timing.trigger),
+        on_stale=py_literal(program.policy.on_stale),
+        on_nan=py_literal(program.policy.on_nan),
+        output=output,
+        wire=wire,
+        builder=tuple(b.lines),
+    )
