@@ -842,11 +842,12 @@ class _Checker:
             return b
         n = item.number()
         if n is None:
-            if item.text in self.mux_sections or item.text in ("counter", "timestamp"):
-                return None
-            s.error("E304", f"`{key}` is {base}, not `{item.text}`", item.span,
-                    f'quote text: `"{item.text}"`' if base in ("string",) else
-                    did_you_mean(item.text, list(self.mux_sections)) and f"mux {did_you_mean(item.text, list(self.mux_sections))}")
+            if item.text in ("counter", "timestamp", "time"):
+                s.error("E304", f"`{item.text}` cannot be an item of a list", item.span)
+            elif identifier_problem(item.text) is None:
+                self.unknown_mux(item.text, item.span)
+            else:
+                s.error("E304", f"`{key}` is {base}, not `{item.text}`", item.span)
             return None
         if base in ir.FLOAT_TYPES:
             return float(n)
@@ -866,10 +867,7 @@ class _Checker:
     def is_mux_ref(self, item: ast.Item) -> bool:
         if isinstance(item, ast.Subscript):
             item = item.base
-        return isinstance(item, ast.Word) and (item.text in self.mux_sections or (
-            item.number() is None and item.boolean() is None
-            and item.text not in ("counter", "timestamp", "time") and not item.text.startswith("/")
-            and identifier_problem(item.text) is None))
+        return isinstance(item, ast.Word) and item.text in self.mux_sections
 
     def is_timestamp(self, item: ast.Item) -> bool:
         if isinstance(item, ast.Call):
@@ -1126,8 +1124,11 @@ class _Checker:
             return b, "bool"
         n = item.number()
         if n is None:
-            self.sink.error("E304", f"`{item.text}` is neither a number nor a mux", item.span,
-                            f'quote text: `"{item.text}"`')
+            if identifier_problem(item.text) is None and did_you_mean(item.text, list(self.mux_sections)):
+                self.unknown_mux(item.text, item.span)
+            else:
+                self.sink.error("E304", f"`{item.text}` is neither a number nor a mux", item.span,
+                                f'quote text: `"{item.text}"`')
             return None, None
         if isinstance(n, float):
             return n, "float64"

@@ -245,8 +245,9 @@ class LegacyConverter:
         if "/" not in text:
             cands = self.store.candidates(text)
             if len(cands) == 1:
-                # reported (W502) by the named pass, on this span
-                return text, self.store.resolve(cands[0])
+                s.warning("W502", f"message type `{text}` given without its package: taken as `{cands[0]}`",
+                          te.items[0].span, f"write `ros_msg_name = {cands[0]}`")
+                return cands[0], self.store.resolve(cands[0])
             return text, None
         d = self.store.resolve(text)
         return text, d

@@ -1,0 +1,257 @@
+"""The ``ybgc`` command.
+
+    ybgc CONFIG --backend cpp|py|ros2 [-o DIR]   generate a module
+    ybgc check CONFIG...                          check (pre-commit)
+    ybgc fmt CONFIG... [--check] [--to named]     canonical form / conversion
+    ybgc ir CONFIG                                the checked program as JSON
+
+Exit status: 0 clean (or warnings only), 1 problems, 2 usage or I/O error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import difflib
+import sys
+from pathlib import Path
+
+from ybg import __version__
+
+COMMANDS = ("check", "fmt", "ir", "generate")
+BACKENDS = ("cpp", "py", "ros2")
+EXIT_OK, EXIT_PROBLEMS, EXIT_USAGE = 0, 1, 2
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # usage errors: exit 2 with a hint, no traceback
+        self.print_usage(sys.stderr)
+        sys.stderr.write(f"{self.prog}: error: {message}\n")
+        if "--backend" in message or "backend" in message:
+            sys.stderr.write(f"hint: backends are {', '.join(BACKENDS)}\n")
+        sys.exit(EXIT_USAGE)
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--distro", help="ROS distro of the message definitions (noetic, humble, jazzy, kilted)")
+    p.add_argument("--msg-path", action="append", default=[], metavar="DIR",
+                   help="folder of user .msg files (<DIR>/<pkg>/msg/<Name>.msg); repeatable")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="ybgc", description="YARP bottle generator compiler: a config file to a YARP/ROS bridge module.")
+    p.add_argument("--version", action="version", version=f"ybgc {__version__}")
+    sub = p.add_subparsers(dest="command", parser_class=_Parser)
+
+    c = sub.add_parser("check", help="check configs and report problems")
+    c.add_argument("files", nargs="+", metavar="CONFIG")
+    c.add_argument("--strict", action="store_true", help="warnings fail too")
+    c.add_argument("--format", choices=("text", "json", "github"), default="text")
+    c.add_argument("--backend", choices=BACKENDS, help="also check that this backend can build it")
+    c.add_argument("-v", "--verbose", action="store_true", help="also print notes")
+    _common(c)
+
+    f = sub.add_parser("fmt", help="rewrite configs in canonical form")
+    f.add_argument("files", nargs="+", metavar="CONFIG")
+    f.add_argument("--check", action="store_true", help="only report files that would change (exit 1)")
+    f.add_argument("--diff", action="store_true", help="print the changes instead of writing")
+    f.add_argument("--to", choices=("named",), help="convert a legacy config to the named form")
+    f.add_argument("--ros2", action="store_true", help="with --to named: publish to ROS 2 (drops header.seq)")
+    f.add_argument("-o", "--output", metavar="FILE", help="write here instead of in place (one input file)")
+    f.add_argument("--stdout", action="store_true", help="print instead of writing")
+    _common(f)
+
+    i = sub.add_parser("ir", help="print the checked program (IR) as JSON")
+    i.add_argument("file", metavar="CONFIG")
+    i.add_argument("--backend", choices=BACKENDS)
+    _common(i)
+
+    g = sub.add_parser("generate", help="generate a module (also: ybgc CONFIG --backend B)")
+    g.add_argument("file", metavar="CONFIG")
+    g.add_argument("--backend", "-b", required=True, choices=BACKENDS)
+    g.add_argument("-o", "--output", metavar="DIR", help="output folder (default: ./<module name>)")
+    g.add_argument("--force", action="store_true", help="overwrite files that ybgc did not generate")
+    g.add_argument("--package", action="store_true", help="ros2: also an ament_python package around the node")
+    _common(g)
+    return p
+
+
+def _options(args):
+    from ybg.compiler.check import Options
+    from ybg.compiler.msgtypes import DISTROS
+
+    if args.distro is not None and args.distro not in DISTROS:
+        from ybg.compiler.diagnostics import did_you_mean
+        hint = did_you_mean(args.distro, DISTROS)
+        sys.stderr.write(f"ybgc: unknown distro {args.distro!r} (known: {', '.join(DISTROS)})"
+                         f"{'; ' + hint if hint else ''}\n")
+        sys.exit(EXIT_USAGE)
+    for d in args.msg_path:
+        if not Path(d).is_dir():
+            sys.stderr.write(f"ybgc: --msg-path {d}: not a folder\n")
+            sys.exit(EXIT_USAGE)
+    return Options(distro=args.distro, msg_path=tuple(args.msg_path))
+
+
+def _io_error(result) -> bool:
+    return any(d.code in ("E001", "E002") for d in result.diagnostics)
+
+
+def _print(results, fmt: str, verbose: bool = False) -> None:
+    from ybg.report import report
+
+    diags = [d for r in results for d in r.diagnostics]
+    sources = {r.path: r.text for r in results if r.text is not None}
+    report(fmt, diags, sources, sys.stdout if fmt != "text" else sys.stderr, notes=verbose)
+
+
+def cmd_check(args) -> int:
+    from ybg.compiler.pipeline import compile_path
+
+    options = _options(args)
+    results = [compile_path(f, args.backend, options) for f in args.files]
+    _print(results, args.format, args.verbose)
+    if any(_io_error(r) for r in results):
+        return EXIT_USAGE
+    if any(r.errors for r in results) or (args.strict and any(r.warnings for r in results)):
+        return EXIT_PROBLEMS
+    return EXIT_OK
+
+
+def _formatted(path: str, args, options) -> tuple[str | None, object]:
+    from ybg.compiler.diagnostics import Sink
+    from ybg.compiler.fmt import format_document, strip_positions
+    from ybg.compiler.legacy import is_legacy
+    from ybg.compiler.pipeline import Result, compile_text, read_source, to_named_document
+
+    sink = Sink(path)
+    text = read_source(path, sink)
+    if text is None:
+        return None, Result(path, diagnostics=sink.sorted())
+    result = compile_text(text, path, options)
+    syntax = [d for d in result.errors if d.code.startswith("E1")]
+    if syntax or result.document is None:
+        result.diagnostics = [d for d in result.diagnostics if d.severity.value != "note"]
+        return None, result
+    doc = result.document
+    if args.to == "named" and is_legacy(doc):
+        conv_sink = Sink(path)
+        named, dropped = to_named_document(doc, path, conv_sink, options, ros2=args.ros2)
+        if conv_sink.has_errors:
+            result.diagnostics = conv_sink.sorted()
+            return None, result
+        out = format_document(strip_positions(named))
+        head = f"# {Path(path).name} in the named form (ybgc fmt --to named{' --ros2' if args.ros2 else ''})\n"
+        for key in dropped:
+            head += f"# dropped `{key}`: ROS 2 has no such field\n"
+        return head + "\n" + out, result
+    if args.ros2 and args.to != "named":
+        sys.stderr.write("ybgc fmt: --ros2 goes with --to named\n")
+        sys.exit(EXIT_USAGE)
+    return format_document(doc), result
+
+
+def cmd_fmt(args) -> int:
+    from ybg.writer import write_text_atomic
+
+    options = _options(args)
+    if args.output and len(args.files) != 1:
+        sys.stderr.write("ybgc fmt: -o takes one input file\n")
+        return EXIT_USAGE
+    status = EXIT_OK
+    failed = []
+    for path in args.files:
+        new, result = _formatted(path, args, options)
+        if new is None:
+            failed.append(result)
+            continue
+        old = result.text
+        if args.stdout:
+            sys.stdout.write(new)
+            continue
+        if args.check or args.diff:
+            if new != old:
+                status = EXIT_PROBLEMS
+                if args.diff:
+                    sys.stdout.writelines(difflib.unified_diff(
+                        old.splitlines(keepends=True), new.splitlines(keepends=True), path, path))
+                else:
+                    sys.stderr.write(f"{path}: would be reformatted\n")
+            continue
+        target = Path(args.output) if args.output else Path(path)
+        if target.exists() and target.read_text(encoding="utf-8", errors="replace") == new:
+            continue
+        try:
+            write_text_atomic(target, new)
+        except OSError as e:
+            sys.stderr.write(f"ybgc fmt: cannot write {target}: {e.strerror or e}\n")
+            return EXIT_USAGE
+        sys.stderr.write(f"{path}: {'converted' if args.to else 'reformatted'}"
+                         f"{' -> ' + str(target) if args.output else ''}\n")
+    if failed:
+        _print(failed, "text")
+        return EXIT_USAGE if any(_io_error(r) for r in failed) else EXIT_PROBLEMS
+    return status
+
+
+def cmd_ir(args) -> int:
+    from ybg.compiler import ir
+    from ybg.compiler.pipeline import compile_path
+
+    result = compile_path(args.file, args.backend, _options(args))
+    _print([result], "text")
+    if result.program is None:
+        return EXIT_USAGE if _io_error(result) else EXIT_PROBLEMS
+    sys.stdout.write(ir.to_json(result.program))
+    return EXIT_OK
+
+
+def cmd_generate(args) -> int:
+    from ybg.backends import RenderOptions, get_backend
+    from ybg.compiler.pipeline import compile_path
+    from ybg.writer import WriteError, write_files
+
+    result = compile_path(args.file, args.backend, _options(args))
+    _print([result], "text")
+    if result.program is None:
+        return EXIT_USAGE if _io_error(result) else EXIT_PROBLEMS
+    backend = get_backend(args.backend)
+    files = backend.render(result.program, RenderOptions(package=args.package))
+    outdir = Path(args.output) if args.output else Path(result.program.module)
+    try:
+        rep = write_files(outdir, files, force=args.force)
+    except WriteError as e:
+        sys.stderr.write(f"ybgc: {e}\n")
+        return EXIT_USAGE
+    for path, region in rep.lost_regions:
+        sys.stderr.write(f"ybgc: warning: {path}: user code of region `{region}` has no place in the "
+                         "new file; it was not kept\n")
+    n = len(rep.written)
+    sys.stderr.write(f"ybgc: {args.backend} module `{result.program.module}` in {outdir}/ "
+                     f"({n} file{'s' if n != 1 else ''} written, {len(rep.unchanged)} unchanged)\n")
+    return EXIT_OK
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    # `ybgc config.ini --backend cpp` is `ybgc generate config.ini --backend cpp`
+    if argv and argv[0] not in COMMANDS and not argv[0].startswith("-"):
+        argv = ["generate"] + argv
+    elif argv and argv[0].startswith("-") and any(a in ("--backend", "-b") or a.startswith("--backend=") for a in argv) \
+            and not any(a in COMMANDS for a in argv):
+        argv = ["generate"] + argv
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help(sys.stderr)
+        return EXIT_USAGE
+    handler = {"check": cmd_check, "fmt": cmd_fmt, "ir": cmd_ir, "generate": cmd_generate}[args.command]
+    try:
+        return handler(args)
+    except KeyboardInterrupt:
+        return 130
+    except BrokenPipeError:
+        return EXIT_OK
+
+
+if __name__ == "__main__":
+    sys.exit(main())
