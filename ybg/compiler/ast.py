@@ -121,6 +121,7 @@ class Comment:
     text: str
     line: int
     own_line: bool
+    blank_after: bool = False  # a blank line follows it (kept by the formatter)
 
 
 @dataclass(frozen=True)

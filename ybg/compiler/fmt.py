@@ -96,7 +96,10 @@ def format_document(doc: ast.Document) -> str:
 
     def flush(before_line: int | None) -> None:
         while pending and (before_line is None or pending[0].line < before_line):
-            out.append(pending.pop(0).text)
+            c = pending.pop(0)
+            out.append(c.text)
+            if c.blank_after and before_line is not None:
+                out.append("")
 
     def emit_entry(e: ast.Entry) -> None:
         flush(e.span.line)

@@ -248,7 +248,9 @@ def scan_comments(lines: list[str]) -> list[ast.Comment]:
             elif c == '"':
                 in_str = True
             elif c in "#;":
-                out.append(ast.Comment(line[i:].rstrip("\r"), lno, line[:i].strip() == ""))
+                own = line[:i].strip() == ""
+                blank = own and lno < len(lines) and lines[lno].strip() == "" and lno + 1 < len(lines)
+                out.append(ast.Comment(line[i:].rstrip("\r"), lno, own, blank))
                 break
             i += 1
     return out
