@@ -39,17 +39,30 @@ class Backend:
         raise NotImplementedError
 
 
-#: name -> "module:Class", imported on first use so ``ybgc check`` stays quick
-REGISTRY: dict[str, str] = {
-    "cpp": "ybg.backends.cpp:CppBackend",
-    "py": "ybg.backends.py:PyBackend",
-    "ros2": "ybg.backends.ros2:Ros2Backend",
+@dataclass(frozen=True)
+class BackendInfo:
+    """What the registry knows of a backend without importing it: where it is,
+    and which IR output and input kinds it builds (``ybgc check --backend``)."""
+
+    target: str  # "module:Class"
+    output_kinds: frozenset[str]
+    input_kinds: frozenset[str]
+
+
+_YARP = frozenset({"yarp", "ros1"})
+
+#: name -> backend, imported on first use so ``ybgc check`` stays quick
+REGISTRY: dict[str, BackendInfo] = {
+    "cpp": BackendInfo("ybg.backends.cpp:CppBackend", _YARP, _YARP),
+    "py": BackendInfo("ybg.backends.py:PyBackend", _YARP, _YARP),
+    "ros2": BackendInfo("ybg.backends.ros2:Ros2Backend", frozenset({"ros2", "yarp"}),
+                        frozenset({"yarp", "ros2"})),
 }
 
 
 def get_backend(name: str) -> Backend:
     """The backend registered as ``name`` (KeyError if there is none)."""
-    target = REGISTRY[name]
+    target = REGISTRY[name].target
     module_name, cls_name = target.split(":")
     module = importlib.import_module(module_name)
     return getattr(module, cls_name)()

@@ -269,13 +269,14 @@ class _Checker:
                 muxes.append(m)
         self.muxes = {m.name: m for m in muxes}
 
+        self.out_span = out_sec.span if out_sec else None
         output, msgdef, type_known = self.output(module, via, out_keys)
         message = None
         if "message" in secs:
             message = self.message(secs["message"], msgdef, output, type_known)
 
         for name, sec in self.mux_sections.items():
-            if name in self.muxes and name not in self.used_muxes:
+            if name in self.muxes and name not in self.used_muxes and not self.sink.has_errors:
                 self.sink.warning("W501", f"mux `{name}` is not used by [message]", sec.span,
                                   f"use it in a field (`position = {name}`) or remove the section")
         for p in self.store.problems:
@@ -328,7 +329,7 @@ class _Checker:
         if "topic" not in keys and "port" not in keys:
             if keys or "output" in {x.name for x in self.doc.sections}:
                 s.error("E204", "[output] needs `topic = /name` (ROS) or `port = /name` (YARP)",
-                        None, "e.g. `topic = /joint_states` with `via = ros2`")
+                        self.out_span, "e.g. `topic = /joint_states` with `via = ros2`")
             return None, None, False
         kind = via
         name_entry = keys.get("topic") or keys.get("port")
@@ -394,7 +395,7 @@ class _Checker:
         s = self.sink
         if entry is None:
             if kind == "ros2":
-                s.error("E204", "[output] needs `type` for a ROS 2 topic", None,
+                s.error("E204", "[output] needs `type` for a ROS 2 topic", self.out_span,
                         "e.g. `type = sensor_msgs/JointState`")
             return None, None, False
         text = _word(entry, s, "message type")

@@ -113,18 +113,12 @@ class LegacyConverter:
         by_name: dict[str, ast.Section] = {}
         for sec in doc.sections:
             if sec.label is not None:
-                s.error("E207", f"[{sec.title}] is a named-form header in a legacy file", sec.span,
-                        "convert the whole file with `ybgc fmt --to named`, then edit it")
-                continue
+                continue  # the named form mixed in: reported once by the pipeline (E207)
             if sec.name in by_name:
                 s.error("E205", f"[{sec.name}] is given twice", sec.span,
                         f"first given on line {by_name[sec.name].span.line}")
                 continue
             by_name[sec.name] = sec
-        for name in ("output", "module"):
-            if name in by_name:
-                s.error("E207", f"[{name}] is a named-form section in a legacy file", by_name[name].span,
-                        "convert the whole file with `ybgc fmt --to named`, then edit it")
         gen = by_name.get("general")
         if gen is None:
             s.error("E203", "missing section [general]", None,
@@ -298,7 +292,10 @@ class LegacyConverter:
             s.error("E303", f"`{msgdef.name}` has {len(msgdef.fields)} fields ({names}), "
                     f"[{sec.name}] declares {n}", keys["num_fields"].span,
                     "fields are matched to the message by position: one `N_type` per field, in order")
-            msgdef = None
+            for k, e in keys.items():  # its nested sections are still its own
+                if k.endswith("_msg") and len(e.items) == 1 and isinstance(e.items[0], ast.Word):
+                    used.add(e.items[0].text)
+            return []
         out: list[ast.Entry] = []
         for i in range(1, n + 1):
             te = keys.get(f"{i}_type")

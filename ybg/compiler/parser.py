@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import re
+import unicodedata
 from importlib import resources
 
 from lark import Lark, Token, Transformer, v_args
@@ -164,6 +165,10 @@ def _classify(e: UnexpectedInput, lines: list[str]) -> tuple[str, str, str | Non
     ch = line[col - 1] if col - 1 < len(line) else ""
     stripped = line.strip()
     if isinstance(e, UnexpectedCharacters):
+        if ch and ch.isspace():
+            name = unicodedata.name(ch, f"U+{ord(ch):04X}").lower()
+            return ("E101", f"unexpected character U+{ord(ch):04X} ({name})",
+                    "replace it with a plain space (copied text often holds such characters)", 1)
         if ch == '"':
             return ("E102", "string is not closed on this line", 'end it with `"`; write a quote inside a string as `\\"`', len(line) - col + 1)
         if stripped.startswith("["):
@@ -187,6 +192,9 @@ def _classify(e: UnexpectedInput, lines: list[str]) -> tuple[str, str, str | Non
             if "=" in stripped:
                 return ("E103", "a key is one word, without spaces or quotes", "write `key = value`, e.g. `num_fields = 3`", max(len(str(tok)), 1))
             return ("E103", f"`{stripped}` is not `key = value`", "write `key = value`, or start a section with `[name]`", len(stripped) or 1)
+        if tt == "WORD" and e.column > 1 and line[:col - 1].rstrip().endswith(("[", ":")):
+            return ("E105", f"`{tok}` is not a position: write a whole number, as in `arm[2]` or `arm[0:6]`",
+                    None, max(len(str(tok)), 1))
         if tt in ("RPAR", "RSQB"):
             return ("E108", f"`{tok}` closes nothing", None, 1)
         if tt == "$END" or tt == "_NL":

@@ -105,30 +105,36 @@ def compile_text(text: str, path: str = "<config>", options: Options | None = No
     if not (legacy and sink.has_errors and not named.sections):
         result.program = check_named(named, Path(path).name, sink, options, module_name_for(path))
     if result.program is not None and backend is not None:
-        check_backend(result.program, backend, sink, legacy)
+        check_backend(result.program, backend, sink, legacy, _output_span(named))
         if sink.has_errors:
             result.program = None
     result.diagnostics = sink.sorted()
     return result
 
 
-def check_backend(program: ir.Program, backend: str, sink: Sink, legacy: bool) -> None:
-    """Can ``backend`` build ``program``? (E318 when it cannot.)"""
-    from ybg.backends import get_backend
+def _output_span(doc: ast.Document):
+    sec = doc.section("output")
+    if sec is None:
+        return None
+    e = sec.get("via") or sec.get("topic") or sec.get("port")
+    return e.span if e else sec.span
 
-    b = get_backend(backend)
+
+def check_backend(program: ir.Program, backend: str, sink: Sink, legacy: bool, span=None) -> None:
+    """Can ``backend`` build ``program``? (E318 when it cannot.)"""
+    from ybg.backends import REGISTRY
+
+    b = REGISTRY[backend]
     if program.output.kind not in b.output_kinds:
         if program.output.kind == "ros1" and backend == "ros2":
             hint = ("convert it for ROS 2 in one command: `ybgc fmt --to named --ros2 FILE > new.ini`"
                     if legacy else "set `via = ros2` in [output] (and drop `header.seq`, which ROS 2 has not)")
             sink.error("E318", "this config publishes to ROS 1 through YARP (`to_ros = true` / `via = ros1`); "
-                       "the ros2 backend publishes to ROS 2", None, hint)
+                       "the ros2 backend publishes to ROS 2", span, hint)
         else:
             kinds = {"ros2": "a ROS 2 topic", "ros1": "a ROS 1 topic", "yarp": "a YARP port"}
-            ok = [k for k, bs in (("cpp", None), ("py", None), ("ros2", None))]
-            sink.error("E318", f"the {backend} backend cannot write {kinds[program.output.kind]}", None,
-                       "use `--backend ros2` for ROS 2 outputs, `--backend cpp` or `--backend py` for YARP and ROS 1"
-                       if ok else None)
+            sink.error("E318", f"the {backend} backend cannot write {kinds[program.output.kind]}", span,
+                       "use `--backend ros2` for ROS 2 outputs, `--backend cpp` or `--backend py` for YARP and ROS 1")
         return
     for m in program.muxes:
         for i in m.inputs:
