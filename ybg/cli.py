@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import difflib
+import re
 import sys
 from pathlib import Path
 
@@ -48,6 +49,8 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--format", choices=("text", "json", "github"), default="text")
     c.add_argument("--backend", choices=BACKENDS, help="also check that this backend can build it")
     c.add_argument("-v", "--verbose", action="store_true", help="also print notes")
+    c.add_argument("--skip-foreign", action="store_true",
+                   help="skip files that are not ybgc configs (other INI files, e.g. YARP robot configs)")
     _common(c)
 
     f = sub.add_parser("fmt", help="rewrite configs in canonical form")
@@ -58,6 +61,7 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--ros2", action="store_true", help="with --to named: publish to ROS 2 (drops header.seq)")
     f.add_argument("-o", "--output", metavar="FILE", help="write here instead of in place (one input file)")
     f.add_argument("--stdout", action="store_true", help="print instead of writing")
+    f.add_argument("--skip-foreign", action="store_true", help="skip files that are not ybgc configs")
     _common(f)
 
     i = sub.add_parser("ir", help="print the checked program (IR) as JSON")
@@ -92,6 +96,27 @@ def _options(args):
     return Options(distro=args.distro, msg_path=tuple(args.msg_path))
 
 
+_CONFIG_SECTIONS = re.compile(r"(?m)^[ \t]*\[[ \t]*(general|output)[ \t]*\]")
+_MESSAGE_SECTION = re.compile(r"(?m)^[ \t]*\[[ \t]*message[ \t]*\]")
+
+
+def is_config_file(path: str) -> bool:
+    """Does ``path`` look like a ybgc config (a [message] section and an
+    [output] or [general] one)? Unreadable files count as configs, so that
+    their error is reported."""
+    try:
+        text = Path(path).read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return True
+    return bool(_MESSAGE_SECTION.search(text) and _CONFIG_SECTIONS.search(text))
+
+
+def _select(args) -> list[str]:
+    if not getattr(args, "skip_foreign", False):
+        return list(args.files)
+    return [f for f in args.files if is_config_file(f)]
+
+
 def _io_error(result) -> bool:
     return any(d.code in ("E001", "E002") for d in result.diagnostics)
 
@@ -108,7 +133,7 @@ def cmd_check(args) -> int:
     from ybg.compiler.pipeline import compile_path
 
     options = _options(args)
-    results = [compile_path(f, args.backend, options) for f in args.files]
+    results = [compile_path(f, args.backend, options) for f in _select(args)]
     _print(results, args.format, args.verbose)
     if any(_io_error(r) for r in results):
         return EXIT_USAGE
@@ -159,7 +184,7 @@ def cmd_fmt(args) -> int:
         return EXIT_USAGE
     status = EXIT_OK
     failed = []
-    for path in args.files:
+    for path in _select(args):
         new, result = _formatted(path, args, options)
         if new is None:
             failed.append(result)

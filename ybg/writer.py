@@ -72,7 +72,7 @@ def is_generated(path: Path) -> bool:
             head = "".join(f.readline() for _ in range(3))
     except OSError:
         return False
-    return GENERATED_MARK in head
+    return GENERATED_MARK in head.lower()
 
 
 @dataclass

@@ -1,0 +1,204 @@
+"""The ybgc command as users and pre-commit run it: exit codes, report
+formats, fmt, ir, generate (atomic, no clobbering, user code kept)."""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+from ybg.cli import main
+from ybg.compiler.pipeline import compile_path
+from ybg.report import report_text
+
+ROOT = Path(__file__).resolve().parent.parent
+EXAMPLES = sorted((ROOT / "examples").glob("*.ini"))
+LEGACY = sorted((ROOT.parent / "shared" / "legacy").glob("*.ini"))
+INVALID = ROOT / "tests" / "invalid"
+
+
+def run(*args, cwd=None, input=None):
+    """Run the installed console script, as a user would."""
+    exe = shutil.which("ybgc", path=os.path.dirname(sys.executable)) or shutil.which("ybgc")
+    assert exe, "the ybgc console script is not installed (pip install -e .)"
+    return subprocess.run([exe, *map(str, args)], capture_output=True, text=True, cwd=cwd, input=input,
+                          timeout=120)
+
+
+def test_check_exit_codes():
+    assert run("check", *EXAMPLES).returncode == 0
+    legacy = run("check", *LEGACY)
+    assert legacy.returncode == 0, legacy.stderr  # warnings only
+    assert "warning W504" in legacy.stderr
+    assert run("check", "--strict", *LEGACY).returncode == 1  # warnings fail with --strict
+    assert run("check", "--strict", *EXAMPLES).returncode == 0
+    assert run("check", INVALID / "E301_unknown_type.ini").returncode == 1
+    assert run("check", "/nonexistent/config.ini").returncode == 2
+    assert run("check", INVALID / "E002_not_utf8.ini").returncode == 2
+    assert run("check").returncode == 2  # usage
+    assert run("check", "--format", "xml", EXAMPLES[0]).returncode == 2
+
+
+def test_text_format_is_file_line_col():
+    r = run("check", INVALID / "E313_unknown_converter.ini")
+    path = INVALID / "E313_unknown_converter.ini"
+    assert re.search(rf"^{re.escape(str(path))}:9:11: error E313 unknown converter `deg2rad`$", r.stderr, re.M), r.stderr
+    assert "hint: did you mean `deg_to_rad`?" in r.stderr
+    assert "Traceback" not in r.stderr
+
+
+def test_terminal_output_shows_source_and_caret():
+    path = INVALID / "E313_unknown_converter.ini"
+    result = compile_path(path)
+    out = io.StringIO()
+    report_text(result.diagnostics, {str(path): result.text}, out, color=True)
+    text = re.sub(r"\x1b\[[0-9;]*m", "", out.getvalue())
+    lines = text.splitlines()
+    src = next(i for i, l in enumerate(lines) if "convert = deg2rad" in l)
+    caret = lines[src + 1]
+    assert caret.index("^") == lines[src].index("deg2rad")
+    assert caret.count("^") == len("deg2rad")
+
+
+def test_json_format():
+    r = run("check", "--format", "json", INVALID / "E312_joint_lengths.ini", EXAMPLES[0])
+    assert r.returncode == 1
+    data = json.loads(r.stdout)
+    (d,) = [x for x in data if x["severity"] == "error"]
+    assert d["code"] == "E312" and d["line"] == 12 and d["column"] == 1
+    assert d["title"] == "array lengths disagree" and d["hint"]
+
+
+def test_github_format():
+    r = run("check", "--format", "github", INVALID / "W501_unused_mux.ini")
+    assert r.returncode == 0
+    assert re.match(r"::warning file=.*W501_unused_mux\.ini,line=10,col=1,title=W501::mux `spare` is not used",
+                    r.stdout), r.stdout
+
+
+def test_check_with_backend(tmp_path):
+    r = run("check", "--backend", "ros2", ROOT.parent / "shared" / "legacy" / "thesis_figure5_rviz.ini")
+    assert r.returncode == 1
+    assert "E318" in r.stderr and "ybgc fmt --to named --ros2" in r.stderr
+    assert run("check", "--backend", "cpp", ROOT.parent / "shared" / "legacy" / "thesis_figure5_rviz.ini").returncode == 0
+
+
+def test_fmt_check_and_rewrite(tmp_path):
+    messy = tmp_path / "messy.ini"
+    messy.write_text("[output]\r\nport=/out:o\r\n\r\n\r\n[mux m]\r\nports=/a:o , /b:o ,\r\n[message]\r\nx=m ;c\r\n")
+    before = messy.read_bytes()
+    r = run("fmt", "--check", messy)
+    assert r.returncode == 1 and "would be reformatted" in r.stderr
+    assert messy.read_bytes() == before  # --check writes nothing
+    assert run("fmt", messy).returncode == 0
+    assert messy.read_text() == "[output]\nport = /out:o\n\n[mux m]\nports = /a:o, /b:o\n\n[message]\nx = m  ;c\n"
+    assert run("fmt", "--check", messy).returncode == 0
+    assert run("fmt", "--check", *EXAMPLES).returncode == 0
+
+
+def test_fmt_refuses_broken_files(tmp_path):
+    bad = tmp_path / "bad.ini"
+    bad.write_text('[output]\nport = "unterminated\n')
+    before = bad.read_bytes()
+    r = run("fmt", bad)
+    assert r.returncode == 1 and "E102" in r.stderr
+    assert bad.read_bytes() == before
+
+
+def test_fmt_to_named_in_one_command(tmp_path):
+    src = ROOT.parent / "shared" / "legacy" / "vizzy_upper_body.ini"
+    out = tmp_path / "vizzy_named.ini"
+    r = run("fmt", "--to", "named", src, "-o", out)
+    assert r.returncode == 0, r.stderr
+    text = out.read_text()
+    assert "[mux mux1]" in text and "type = sensor_msgs/JointState" in text and "header.seq = counter" in text
+    assert run("check", "--strict", out).returncode == 0
+    assert compile_path(out).program.message == compile_path(src).program.message
+    r2 = run("fmt", "--to", "named", "--ros2", src, "-o", tmp_path / "ros2.ini")
+    assert r2.returncode == 0
+    assert run("check", "--backend", "ros2", tmp_path / "ros2.ini").returncode == 0
+
+
+def test_ir_command():
+    r = run("ir", EXAMPLES[0])
+    assert r.returncode == 0
+    data = json.loads(r.stdout)
+    assert data["ir_version"] == 1 and data["output"]["kind"] in ("ros1", "ros2", "yarp")
+    assert run("ir", INVALID / "E301_unknown_type.ini").returncode == 1
+
+
+def test_unknown_backend_is_a_usage_error():
+    r = run(EXAMPLES[0], "--backend", "rust")
+    assert r.returncode == 2
+    assert "backends are cpp, py, ros2" in r.stderr
+
+
+def test_generate_writes_atomically_and_keeps_user_code(tmp_path):
+    cfg = ROOT / "examples" / "yarp_to_yarp_end_effector.ini"
+    out = tmp_path / "mod"
+    r = run(cfg, "--backend", "py", "-o", out)
+    assert r.returncode == 0, r.stderr
+    (gen,) = [p for p in out.iterdir() if p.suffix == ".py"]
+    text = gen.read_text()
+    assert "generated by ybgc" in "".join(text.splitlines(True)[:3]).lower()
+    m = re.search(r"ybgc:user-begin (\S+)\n", text)
+    assert m, "the generated module has a place for custom code"
+    edited = text.replace(m.group(0), m.group(0) + "# my own computation\n", 1)
+    gen.write_text(edited)
+    r = run(cfg, "--backend", "py", "-o", out)
+    assert r.returncode == 0, r.stderr
+    assert "# my own computation" in gen.read_text()
+    assert not [p for p in out.iterdir() if p.name.endswith(".tmp")]
+
+
+def test_generate_does_not_clobber_foreign_files(tmp_path):
+    cfg = ROOT / "examples" / "yarp_to_yarp_end_effector.ini"
+    out = tmp_path / "mod"
+    out.mkdir()
+    mine = out / "end_effector_compare.py"
+    mine.write_text("print('my own module')\n")
+    r = run(cfg, "--backend", "py", "-o", out)
+    assert r.returncode == 2 and "--force" in r.stderr
+    assert mine.read_text() == "print('my own module')\n"
+    assert run(cfg, "--backend", "py", "-o", out, "--force").returncode == 0
+    assert "generated by ybgc" in mine.read_text().lower()
+
+
+def test_generate_with_errors_writes_nothing(tmp_path):
+    out = tmp_path / "mod"
+    r = run(INVALID / "E312_joint_lengths.ini", "--backend", "py", "-o", out)
+    assert r.returncode == 1
+    assert not out.exists()
+
+
+def test_pre_commit_hooks():
+    hooks = yaml.safe_load((ROOT / ".pre-commit-hooks.yaml").read_text())
+    ids = {h["id"]: h for h in hooks}
+    assert set(ids) == {"ybgc-check", "ybgc-fmt"}
+    for h in hooks:
+        pattern = re.compile(h["files"])
+        for f in EXAMPLES + LEGACY:
+            assert pattern.search(f.relative_to(f.parents[1]).as_posix()), (h["id"], f)
+        assert h["entry"].split()[0] == "ybgc"
+
+
+def test_pre_commit_entry_skips_foreign_ini_files(tmp_path):
+    robot = tmp_path / "icub_robot.ini"  # a YARP robot config, not a bridge
+    robot.write_text("[GENERAL]\nname icub\nparts (left_arm right_arm)\n")
+    hooks = {h["id"]: h for h in yaml.safe_load((ROOT / ".pre-commit-hooks.yaml").read_text())}
+    for hid in ("ybgc-check", "ybgc-fmt"):
+        args = hooks[hid]["entry"].split()[1:]
+        if hid == "ybgc-fmt":
+            args.append("--check")
+        r = run(*args, robot, *EXAMPLES)
+        assert r.returncode == 0, (hid, r.stderr)
+    # without the flag the robot file is an error, as it should be
+    assert run("check", robot).returncode == 1
