@@ -111,7 +111,6 @@ CODES: dict[str, str] = {
     "W504": "no rate: the module is event-driven",
     "W505": "message type missing: inferred",
     "W506": "key has no effect",
-    "W507": "converter has no effect",
     # notes
     "N601": "legacy form",
 }

@@ -28,14 +28,20 @@ def grammar_text() -> str:
 
 
 @functools.cache
-def lark_parser() -> Lark:
-    """The grammar, loaded once."""
+def lark_parser(cache: bool = True) -> Lark:
+    """The grammar, loaded once per process.
+
+    Strict mode (no LALR conflicts, no terminal collisions) is checked when the
+    parser is built; lark keeps the built parser in its cache (keyed by the
+    grammar, the options and lark's version), so later runs skip the build.
+    ``cache=False`` always builds it."""
     return Lark(
         grammar_text(),
         parser="lalr",
         strict=True,
         propagate_positions=True,
         maybe_placeholders=True,
+        cache=cache,
     )
 
 
