@@ -1,0 +1,681 @@
+"""The ``py`` backend: generated Python modules run against real YARP (and
+ROS 1), with real producer and reader processes.
+
+Each behaviour test generates a module from a Program, starts it as a script
+with the venv's Python, drives it with producer peers and checks what a
+reader peer (or a rospy subscriber) receives, and what the module prints.
+"""
+from __future__ import annotations
+
+import ast
+import importlib.util
+import math
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from middleware import (VENV_PYTHON, Proc, RospySubscriber, YarpProducer, YarpReader,
+                        require_yarp)
+from ybg.backends import get_backend
+from ybg.backends.py import PyBackend
+from ybg.backends.py.lower import LoweringError, py_literal
+from ybg.compiler import ir
+from ybg.compiler.ir import (Converter, Counter, Default, ElementGroup, Field, Input, Literal,
+                             Mux, MuxRef, Output, Policy, Program, Seconds, Struct, Timestamp,
+                             Timing, TypeRef)
+
+GOLDEN = Path(__file__).resolve().parent / "golden" / "py"
+DEG = math.pi / 180.0
+
+#: a string that breaks naive code generation in every way we know of
+EVIL = ("q\"uo'te \\back\\slash\\\nnew line */ /* ''' \"\"\" # ; {{ x }} {% raw %} "
+        "\t tab ünïcødé 日本語 \u2028 end\\")
+
+
+# --------------------------------------------------------------------------
+# programs built by hand (the front end is written concurrently)
+
+
+def jointstate(module="thesis_figure5_rviz", names=None, frame="0"):
+    """The thesis' figure 5: one arm in degrees -> sensor_msgs/JointState on ROS 1."""
+    names = names or ("l_shoulder_scapula_joint", "l_shoulder_flection_joint",
+                      "l_shoulder_abduction_joint", "l_shoulder_rotation_joint",
+                      "l_elbow_flection_joint", "l_forearm_pronation_joint",
+                      "l_wrist_abduction_joint", "l_wrist_flection_joint")
+    return Program(
+        module=module, source=f"{module}.ini",
+        muxes=(Mux("mux1", (Input("/vizzySim/left_shoulder_arm/state:o"),),
+                   (Converter("deg_to_rad", scale=DEG),), verbose=True),),
+        message=Struct((
+            Field("header", Struct((
+                Field("seq", Counter("uint32"), TypeRef("uint32")),
+                Field("stamp", Timestamp(), TypeRef("time")),
+                Field("frame_id", Literal((frame,), "string"), TypeRef("string")),
+            ), "std_msgs/Header"), TypeRef("std_msgs/Header")),
+            Field("name", Literal(tuple(names), "string", True), TypeRef("string", "sequence")),
+            Field("position", MuxRef("mux1"), TypeRef("float64", "sequence")),
+            Field("velocity", Literal((), "float64", True), TypeRef("float64", "sequence")),
+            Field("effort", Default(), TypeRef("float64", "sequence")),
+        ), "sensor_msgs/JointState"),
+        output=Output("ros1", "/yarp/joint_states", "sensor_msgs/JointState",
+                      node=f"/yarp/{module}"),
+        ros="ros1", distro="noetic")
+
+
+def values_program(rate=None, trigger="all"):
+    """Two muxes (undeclared degrees; declared int32, int32, float64) into an
+    untyped Bottle using every kind of source."""
+    return Program(
+        module="values_bridge", source="values_bridge.ini",
+        muxes=(
+            Mux("arm", (Input("/test/arm:o"),), (Converter("deg_to_rad", scale=DEG),)),
+            Mux("sens", (Input("/test/sens:o", layout=(ElementGroup("int32", 2),
+                                                         ElementGroup("float64", 1))),),
+                (Converter("scale", scale=2.0, offset=1.0, start=2, stop=3),)),
+        ),
+        message=Struct((
+            Field("label", Literal(("hello",), "string")),
+            Field("count", Counter("int32")),
+            Field("stamp", Timestamp()),
+            Field("seconds", Seconds()),
+            Field("arm", MuxRef("arm")),
+            Field("first", MuxRef("sens", index=0, element_type="int32")),
+            Field("spliced", MuxRef("sens", splice=True)),
+            Field("nested", Struct((
+                Field("k", Literal((1, 2, 3), "int32", True)),
+                Field("pt", MuxRef("arm", 0, 3, into_fields=("x", "y", "z"),
+                                   into_types=("float64",) * 3)),
+            ))),
+            Field("empty", Literal((), "float64", True)),
+        )),
+        output=Output("yarp", "/values_bridge/out:o"),
+        timing=Timing(rate=rate, trigger=trigger))
+
+
+def simple_program(module, *, rate=None, trigger="all", layout=None, on_stale="skip",
+                   on_nan="pass", timeout=1.0, inputs=("/test/a:o",), envelope=False,
+                   big=0):
+    """One mux of ``inputs`` into (counter, values[, envelope time][, padding])."""
+    fields = [Field("count", Counter("int32")), Field("values", MuxRef("m"))]
+    if envelope:
+        fields.append(Field("stamp", Timestamp(clock="envelope", mux="m")))
+    if big:
+        fields.append(Field("padding", Literal(tuple(float(k) for k in range(big)),
+                                               "float64", True)))
+    return Program(
+        module=module, source=f"{module}.ini",
+        muxes=(Mux("m", tuple(Input(n, layout=layout, timeout=timeout) for n in inputs)),),
+        message=Struct(tuple(fields)),
+        output=Output("yarp", f"/{module}/out:o"),
+        timing=Timing(rate=rate, trigger=trigger),
+        policy=Policy(on_stale=on_stale, on_nan=on_nan))
+
+
+def escape_program():
+    """Config strings full of quotes, backslashes, newlines, comment and
+    template delimiters and non-ASCII text, in every place a string goes."""
+    return Program(
+        module="escape_bridge", source="we'ird \"name\"\n# ''' ü.ini",
+        muxes=(Mux("m", (Input("/test/esc:o"),)),),
+        message=Struct((
+            Field(EVIL, Literal((EVIL,), "string")),
+            Field("list" + EVIL, Literal((EVIL, "", "'", '"', "\\"), "string", True)),
+            Field("values", MuxRef("m")),
+        )),
+        output=Output("yarp", "/escape_bridge/out:o"))
+
+
+def legacy_splice_program():
+    """The legacy untyped YARP output (to_ros = false): literals then the mux
+    elements appended flat, as the tutorial's rpc command `set pos ...`."""
+    return Program(
+        module="tutorial_rpc", source="tutorial_example_ros_yarp.ini",
+        muxes=(Mux("mux1", (Input("/fakebot_motor_control_ros"),), verbose=True),),
+        message=Struct((
+            Field("1", Literal(("set",), "string")),
+            Field("2", Literal(("pos",), "string")),
+            Field("3", MuxRef("mux1", splice=True)),
+        )),
+        output=Output("yarp", "/tutorial_rpc/out:o", connect_to="/fakebot/motor/rpc:i"),
+        timing=Timing(rate=60.0))
+
+
+GOLDEN_PROGRAMS = {
+    "thesis_figure5_rviz": jointstate,
+    "values_bridge": values_program,
+    "escape_bridge": escape_program,
+    "tutorial_rpc": legacy_splice_program,
+    "fixed_rate_hold": lambda: simple_program("fixed_rate_hold", rate=50.0, on_stale="hold",
+                                              layout=(ElementGroup("float64", 3),),
+                                              on_nan="drop", envelope=True),
+}
+
+
+# --------------------------------------------------------------------------
+# helpers
+
+
+def render(program) -> tuple[str, str]:
+    (name, text), = PyBackend().render(program).items()
+    return name, text
+
+
+def write_module(program, folder: Path) -> Path:
+    name, text = render(program)
+    path = folder / name
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+class Bridge(Proc):
+    """A generated module run as a script by the venv's Python."""
+
+    def __init__(self, env, program, folder, *args):
+        self.path = write_module(program, folder)
+        super().__init__([VENV_PYTHON, self.path, *args], env=env, name=program.module)
+
+    def wait_log(self, text, timeout=10.0, count=1):
+        end = time.monotonic() + timeout
+        while True:
+            log = self.log_text()
+            if log.count(text) >= count:
+                return log
+            if not self.alive:
+                raise AssertionError(f"{self.name} exited; log:\n{log[-3000:]}")
+            if time.monotonic() > end:
+                raise AssertionError(f"no {text!r} in the log of {self.name}:\n{log[-3000:]}")
+            time.sleep(0.05)
+
+    def interrupt(self, sig=signal.SIGINT, within=2.0):
+        """Send ``sig`` to the module alone; returns (status, seconds to exit)."""
+        t0 = time.monotonic()
+        os.kill(self.pid, sig)
+        try:
+            rc = self.popen.wait(within + 3.0)
+        except subprocess.TimeoutExpired:
+            rc = None
+        return rc, time.monotonic() - t0
+
+
+def module_log_body(log: str) -> str:
+    """The module's own lines (without YARP's [INFO] lines)."""
+    return "\n".join(l for l in log.splitlines() if not l.startswith("[") or l.startswith("[m"))
+
+
+def totals(log: str) -> dict:
+    """{source: (received, dropped, stale periods)} and 'published' from the exit totals."""
+    out = {}
+    for m in re.finditer(r"input (\S+): received (\d+), dropped (\d+), stale periods (\d+)", log):
+        out[m.group(1)] = tuple(int(x) for x in m.groups()[1:])
+    m = re.search(r"published (\d+) messages, skipped (\d+) cycles", log)
+    if m:
+        out["published"] = int(m.group(1))
+        out["skipped"] = int(m.group(2))
+    return out
+
+
+def registered(server, port: str) -> bool:
+    r = server.yarp("name", "query", port)
+    return r.returncode == 0 and "registration name" in r.stdout and port in r.stdout
+
+
+def assert_clean_exit(server, bridge, rc, seconds, ports):
+    log = bridge.log_text()
+    assert rc == 0, f"exit status {rc}; log:\n{log[-3000:]}"
+    assert seconds < 2.0, f"took {seconds:.2f} s to exit"
+    assert "Traceback" not in log, log[-3000:]
+    assert "totals:" in log
+    for p in ports:
+        assert not registered(server, p), f"{p} still registered after exit"
+
+
+def start_pipeline(env, program, folder, *args, producers=(), reader_port="/test/reader"):
+    """Start the module, its producers and a reader of its output; wait until
+    every connection is up."""
+    bridge = Bridge(env, program, folder, *args).start()
+    prods = [YarpProducer(env, p).start() for p in producers]
+    reader = YarpReader(env, reader_port, source=program.output.name).start()
+    for p in prods:
+        p.wait_outputs(1, timeout=15)
+    reader.wait_connected(timeout=15)
+    return bridge, prods, reader
+
+
+# --------------------------------------------------------------------------
+# generation (no middleware)
+
+
+def test_backend_registered():
+    backend = get_backend("py")
+    assert isinstance(backend, PyBackend)
+    assert backend.output_kinds == {"yarp", "ros1"}
+    assert backend.input_kinds == {"yarp", "ros1"}
+
+
+@pytest.mark.parametrize("stem", sorted(GOLDEN_PROGRAMS))
+def test_golden_files(stem, update_goldens):
+    program = GOLDEN_PROGRAMS[stem]()
+    files = PyBackend().render(program)
+    assert files == PyBackend().render(program), "output is not deterministic"
+    for name, text in files.items():
+        path = GOLDEN / stem / name
+        if update_goldens or os.environ.get("YBG_UPDATE_GOLDENS") == "1":
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(text, encoding="utf-8")
+        assert path.exists(), f"missing golden file {path}; run pytest --update-goldens"
+        assert path.read_text(encoding="utf-8") == text, f"{path} differs from the generated file"
+
+
+@pytest.mark.parametrize("stem", sorted(GOLDEN_PROGRAMS))
+def test_module_is_self_contained(stem):
+    name, text = render(GOLDEN_PROGRAMS[stem]())
+    first = text.splitlines()[0]
+    assert first.startswith("# Generated by ybgc from ")
+    tree = ast.parse(text)
+    imported = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            imported.update(a.name.split(".")[0] for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            imported.add(node.module.split(".")[0])
+    assert imported - set(sys.stdlib_module_names) == {"yarp"}
+    for block in ("imports", "setup", "compute"):
+        assert f"# ybgc:user-begin {block}\n" in text
+        assert f"# ybgc:user-end {block}\n" in text
+    assert text.count("ybgc:user-begin") == text.count("ybgc:user-end") == 3
+
+
+def test_escaping_is_one_function():
+    # repr based: every string evaluates back to itself, on one line
+    for s in (EVIL, "", "\n", "\\", "'''", '"""', "\x00", "\ud800", "a\rb"):
+        lit = py_literal(s)
+        assert "\n" not in lit and "\r" not in lit
+        assert ast.literal_eval(lit) == s
+    assert ast.literal_eval(py_literal((1, 2.5, "x", None, True))) == (1, 2.5, "x", None, True)
+    assert py_literal(float("nan")) == "float('nan')"
+    assert py_literal(DEG) == repr(DEG)
+    _, text = render(escape_program())
+    assert text.splitlines()[0] == ("# Generated by ybgc from " + py_literal("we'ird \"name\"\n# ''' ü.ini")
+                                    + "; do not edit except inside the user blocks.")
+    # nothing of the config pasted: no value broke a line
+    assert not any(line.lstrip().startswith("new line */") for line in text.splitlines())
+    assert text.count(py_literal(EVIL)) == 3  # field name, value, list item
+
+
+def test_generated_module_imports_and_exposes_its_data(tmp_path):
+    require_yarp()
+    path = write_module(escape_program(), tmp_path)
+    spec = importlib.util.spec_from_file_location("escape_bridge_mod", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)  # runs nothing: main() only under __main__
+    assert mod.SPEC.config == "we'ird \"name\"\n# ''' ü.ini"
+    ctx = mod.Context({"m": [1.0, 2.0]}, 0, {"m": None})
+    msg = mod.build_message(ctx)
+    assert msg.fields[0][0] == EVIL and msg.fields[0][1].value == EVIL
+    assert msg.fields[1][1].values == (EVIL, "", "'", '"', "\\")
+
+
+def test_help_without_a_name_server(tmp_path):
+    require_yarp()
+    path = write_module(values_program(), tmp_path)
+    r = subprocess.run([VENV_PYTHON, path, "--help"], capture_output=True, text=True, timeout=30)
+    assert r.returncode == 0, r.stderr
+    for opt in ("--prefix", "--rate", "--timeout", "--verbose", "--help"):
+        assert opt in r.stdout
+    assert "module values_bridge: 2 input(s) in 2 mux(es)" in r.stdout
+
+
+def test_unsupported_output_is_refused():
+    program = simple_program("ros2_out")
+    program = Program(program.module, program.source, program.muxes, program.message,
+                      Output("ros2", "/topic", "std_msgs/Float64MultiArray"))
+    with pytest.raises(LoweringError):
+        PyBackend().render(program)
+
+
+# --------------------------------------------------------------------------
+# behaviour against a real yarpserver
+
+
+def test_values_order_nesting_counter_timestamp(yarp_server, tmp_path):
+    env = yarp_server.env
+    program = values_program()
+    bridge, (arm, sens), reader = start_pipeline(
+        env, program, tmp_path, producers=("/test/arm:o", "/test/sens:o"))
+    try:
+        arm_in = [0.0, 90.0, 180.0, 45.5, 30]
+        arm.write(arm_in)
+        time.sleep(0.2)
+        assert reader.bottles == [], "published before every input had new data (trigger all)"
+        sens.write([7, -3, 2.5])
+        (got,) = reader.wait_for(1)
+        arm.write([1.0, 2.0, 3.0])
+        sens.write([8, 9, -0.25])
+        got2 = reader.wait_for(2)[1]
+    finally:
+        rc, seconds = bridge.interrupt(signal.SIGINT)
+        for p in (arm, sens, reader):
+            p.stop()
+    assert_clean_exit(yarp_server, bridge, rc, seconds,
+                      ["/values_bridge/out:o", "/values_bridge/arm/in0:i", "/values_bridge/sens/in0:i"])
+
+    rad = [x * DEG for x in arm_in]
+    label, count, stamp, seconds_, arm_out, first, *rest = got.data
+    spliced, nested, empty = rest[:3], rest[3], rest[4]
+    assert len(got.data) == 11
+    assert label == "hello" and count == 0
+    assert len(arm_out) == 5 and all(abs(a - b) <= 1e-12 for a, b in zip(arm_out, rad))
+    assert arm_out[1] == pytest.approx(math.pi / 2, abs=1e-12)
+    assert arm_out[2] == pytest.approx(math.pi, abs=1e-12)
+    assert first == 7
+    assert spliced == [7, -3, 2.5 * 2.0 + 1.0]
+    assert nested[0] == [1, 2, 3]
+    assert nested[1] == pytest.approx(rad[:3], abs=1e-12)
+    assert empty == []
+    # wire types: docs/runtime.md for an untyped YARP output
+    assert got.types[:4] == ["string", "int32", ["int64", "int64"], "float64"]
+    assert got.types[4] == ["float64"] * 5
+    assert got.types[5:9] == ["int32", "int32", "int32", "float64"]
+    assert got.types[9] == [["int32"] * 3, ["float64"] * 3]
+    # time stamps within a second of the reader's clock
+    assert abs(stamp[0] + stamp[1] / 1e9 - got.t) < 1.0 and 0 <= stamp[1] < 10**9
+    assert abs(seconds_ - got.t) < 1.0
+    # the counter goes on
+    assert got2.data[1] == 1
+    assert got2.data[5:9] == [8, 8, 9, -0.25 * 2.0 + 1.0]
+    assert got2.data[4] == pytest.approx([DEG, 2 * DEG, 3 * DEG], abs=1e-12)
+    log = bridge.log_text()
+    assert totals(log)["published"] == 2
+    assert totals(log)["/test/arm:o"] == (2, 0, 0)
+
+
+def test_event_driven_wakes_on_arrival(yarp_server, tmp_path):
+    """Event-driven: each arrival is published at once (no polling sleep),
+    trigger "any" publishes on one of two inputs."""
+    env = yarp_server.env
+    program = simple_program("wake_bridge", trigger="any", inputs=("/test/a:o", "/test/b:o"),
+                             on_stale="hold")
+    bridge, (a, b), reader = start_pipeline(env, program, tmp_path,
+                                            producers=("/test/a:o", "/test/b:o"))
+    try:
+        a.write([1.0])
+        time.sleep(0.2)
+        assert reader.bottles == [], "published before every input had delivered (hold)"
+        b.write([2.0])
+        reader.wait_for(1)
+        latencies = []
+        for k in range(20):
+            sent = a.write([float(k)])
+            got = reader.wait_for(2 + k)[-1]
+            latencies.append(got.t - sent["t"])
+            time.sleep(0.02)
+        data = [x.data for x in reader.bottles]
+    finally:
+        rc, seconds = bridge.interrupt(signal.SIGTERM)
+        for p in (a, b, reader):
+            p.stop()
+    assert_clean_exit(yarp_server, bridge, rc, seconds, ["/wake_bridge/out:o"])
+    assert data[0] == [0, [1.0, 2.0]]
+    # "any": every new Bottle of a alone is published, with b's last values
+    assert [d[1] for d in data[1:]] == [[float(k), 2.0] for k in range(20)]
+    assert [d[0] for d in data] == list(range(21))
+    latencies.sort()
+    assert latencies[len(latencies) // 2] < 0.05, latencies
+
+
+def test_fixed_rate_50hz(yarp_server, tmp_path):
+    env = yarp_server.env
+    program = simple_program("rate_bridge", rate=50.0)
+    stream = YarpProducer(env, "/test/a:o", bottles=[[1.0, 2.0]], rate=100)
+    bridge, (), reader = start_pipeline(env, program, tmp_path)
+    try:
+        stream.start()
+        stream.wait_outputs(1, timeout=15)
+        reader.wait_for(5, timeout=10)
+        reader.clear()
+        time.sleep(2.0)
+        n = len(reader.bottles)
+    finally:
+        rc, seconds = bridge.interrupt(signal.SIGTERM)
+        stream.stop()
+        reader.stop()
+    assert_clean_exit(yarp_server, bridge, rc, seconds, ["/rate_bridge/out:o"])
+    assert 80 <= n <= 120, f"{n} messages in 2 s at 50 Hz"
+
+
+def test_producer_never_starts(yarp_server, tmp_path):
+    env = yarp_server.env
+    program = simple_program("lonely_bridge", rate=20.0)
+    bridge = Bridge(env, program, tmp_path).start()
+    reader = YarpReader(env, "/test/reader", source="/lonely_bridge/out:o").start()
+    try:
+        reader.wait_connected(timeout=15)
+        bridge.wait_log("waiting for /test/a:o")
+        time.sleep(2.5)
+        assert bridge.alive
+        assert reader.bottles == []
+        log = bridge.log_text()
+        assert log.count("waiting for /test/a:o") == 1, log
+    finally:
+        rc, seconds = bridge.interrupt(signal.SIGTERM)
+        reader.stop()
+    assert_clean_exit(yarp_server, bridge, rc, seconds,
+                      ["/lonely_bridge/out:o", "/lonely_bridge/m/in0:i"])
+    assert totals(bridge.log_text())["published"] == 0
+
+
+def test_producer_killed_and_restarted(yarp_server, tmp_path):
+    env = yarp_server.env
+    program = simple_program("restart_bridge", timeout=0.5)
+    bridge, (a,), reader = start_pipeline(env, program, tmp_path, producers=("/test/a:o",))
+    try:
+        a.write([1.0])
+        reader.wait_for(1)
+        a.kill()
+        bridge.wait_log("input /test/a:o is stale (no data for")
+        time.sleep(1.0)
+        a.start()
+        a.wait_outputs(1, timeout=15)  # the module's watcher connected it again
+        a.write([2.0])
+        got = reader.wait_for(2)
+        bridge.wait_log("input /test/a:o is fresh again")
+        a.kill()
+        bridge.wait_log("is stale (no data for", count=2)
+        a.start()
+        a.wait_outputs(1, timeout=15)
+        a.write([3.0])
+        got = reader.wait_for(3)
+    finally:
+        rc, seconds = bridge.interrupt(signal.SIGINT)
+        a.stop()
+        reader.stop()
+    assert_clean_exit(yarp_server, bridge, rc, seconds, ["/restart_bridge/out:o"])
+    assert [g.data for g in got] == [[0, [1.0]], [1, [2.0]], [2, [3.0]]]
+    log = bridge.log_text()
+    assert log.count("is stale (no data for") == 2  # once per transition, not per cycle
+    assert log.count("is fresh again") == 2
+    assert totals(log)["/test/a:o"] == (3, 0, 2)
+
+
+def test_malformed_bottles_dropped_and_counted(yarp_server, tmp_path):
+    env = yarp_server.env
+    program = simple_program("strict_bridge", on_nan="drop",
+                             layout=(ElementGroup("int32", 1), ElementGroup("float64", 2)))
+    bridge, (a,), reader = start_pipeline(env, program, tmp_path, producers=("/test/a:o",))
+    try:
+        a.write([1, 2.0, 3])            # ok: float64 takes an int
+        reader.wait_for(1)
+        a.write([1, 2.0])               # wrong size
+        a.write([1, 2.0, 3.0, 4.0])     # wrong size
+        a.write([1.5, 2.0, 3.0])        # float where int32
+        a.write(["x", 2.0, 3.0])        # string
+        a.write([1, [2.0], 3.0])        # list
+        a.write([1, float("nan"), 3.0])  # NaN, on_nan = drop
+        a.write([4, 5.0, 6.0])          # ok
+        got = reader.wait_for(2)
+        time.sleep(0.3)
+    finally:
+        rc, seconds = bridge.interrupt(signal.SIGTERM)
+        a.stop()
+        reader.stop()
+    assert_clean_exit(yarp_server, bridge, rc, seconds, ["/strict_bridge/out:o"])
+    assert [g.data for g in reader.bottles] == [[0, [1, 2.0, 3.0]], [1, [4, 5.0, 6.0]]]
+    assert got[0].types == ["int32", ["int32", "float64", "float64"]]
+    log = bridge.log_text()
+    assert totals(log)["/test/a:o"] == (8, 6, 0)
+    assert log.count("dropped a Bottle") == 1  # the first drop is reported, the rest counted
+    assert "2 elements, expected 3" in log
+    assert totals(log)["published"] == 2
+
+
+def test_nan_passes_by_default(yarp_server, tmp_path):
+    env = yarp_server.env
+    bridge, (a,), reader = start_pipeline(env, simple_program("nan_bridge"), tmp_path,
+                                          producers=("/test/a:o",))
+    try:
+        a.write([float("nan"), 1])
+        (got,) = reader.wait_for(1)
+    finally:
+        rc, seconds = bridge.interrupt(signal.SIGTERM)
+        a.stop()
+        reader.stop()
+    assert rc == 0
+    assert math.isnan(got.data[1][0]) and got.data[1][1] == 1.0
+    assert got.types[1] == ["float64", "float64"]  # undeclared: every element a float64
+
+
+def test_envelope_stamp(yarp_server, tmp_path):
+    env = yarp_server.env
+    program = simple_program("envelope_bridge", envelope=True)
+    bridge, (a,), reader = start_pipeline(env, program, tmp_path, producers=("/test/a:o",))
+    try:
+        a.write([1.0], stamp=[5, 1234.5])
+        reader.wait_for(1)  # (written at once, the second would replace the first: newest only)
+        a.write([2.0], stamp=[6, 1700000000.25])
+        got = reader.wait_for(2)
+    finally:
+        rc, seconds = bridge.interrupt(signal.SIGTERM)
+        a.stop()
+        reader.stop()
+    assert rc == 0
+    assert got[0].data == [0, [1.0], [1234, 500000000]]
+    sec, nsec = got[1].data[2]
+    assert sec == 1700000000 and abs(nsec - 250000000) < 1000
+
+
+def test_hold_policy_and_cli_options(yarp_server, tmp_path):
+    """on_stale = hold keeps publishing the last values; --prefix, --rate,
+    --timeout and --verbose act as docs/runtime.md says."""
+    env = yarp_server.env
+    program = simple_program("hold_bridge", on_stale="hold", timeout=5.0)
+    bridge = Bridge(env, program, tmp_path, "--prefix", "/other", "--rate", "20",
+                    "--timeout", "0.3", "--verbose").start()
+    a = YarpProducer(env, "/test/a:o").start()
+    reader = YarpReader(env, "/test/reader", source="/hold_bridge/out:o").start()
+    try:
+        a.wait_outputs(1, timeout=15)
+        assert yarp_server.exists("/other/m/in0:i")
+        reader.wait_connected()
+        a.write([90.0])
+        bridge.wait_log("input /test/a:o is stale (no data for 0.3 s)", timeout=5)
+        reader.clear()
+        time.sleep(1.0)
+        held = [g.data[1] for g in reader.bottles]
+    finally:
+        rc, seconds = bridge.interrupt(signal.SIGTERM)
+        a.stop()
+        reader.stop()
+    assert_clean_exit(yarp_server, bridge, rc, seconds, ["/other/m/in0:i", "/hold_bridge/out:o"])
+    assert 12 <= len(held) <= 28 and all(h == [90.0] for h in held)
+    assert "[m] 0: 90.0" in bridge.log_text()
+
+
+def test_escaped_strings_arrive_exactly(yarp_server, tmp_path):
+    env = yarp_server.env
+    program = escape_program()
+    bridge, (a,), reader = start_pipeline(env, program, tmp_path, producers=("/test/esc:o",))
+    try:
+        a.write([1.0])
+        (got,) = reader.wait_for(1)
+    finally:
+        rc, seconds = bridge.interrupt(signal.SIGTERM)
+        a.stop()
+        reader.stop()
+    assert_clean_exit(yarp_server, bridge, rc, seconds, ["/escape_bridge/out:o"])
+    assert got.data == [EVIL, [EVIL, "", "'", '"', "\\"], [1.0]]
+
+
+def test_stalled_consumer(yarp_server, tmp_path):
+    """A reader that stops reading (SIGSTOP) neither blocks the module nor
+    makes its memory grow."""
+    env = yarp_server.env
+    program = simple_program("stall_bridge", rate=200.0, on_stale="hold", big=2000)
+    bridge, (a,), reader = start_pipeline(env, program, tmp_path, producers=("/test/a:o",))
+    fast = YarpReader(env, "/test/fast", source="/stall_bridge/out:o").start()
+
+    def rss_kb():
+        with open(f"/proc/{bridge.pid}/status") as f:
+            return int(re.search(r"VmRSS:\s+(\d+)", f.read()).group(1))
+    try:
+        fast.wait_connected()
+        a.write([1.0])
+        reader.wait_for(1)
+        os.kill(reader.pid, signal.SIGSTOP)
+        time.sleep(2.0)  # the stalled connection's buffers fill up
+        rss0 = rss_kb()
+        fast.clear()
+        time.sleep(3.0)
+        rss1 = rss_kb()
+        n_fast = len(fast.bottles)
+        assert bridge.alive
+    finally:
+        rc, seconds = bridge.interrupt(signal.SIGTERM)
+        os.kill(reader.pid, signal.SIGCONT)
+        for p in (a, reader, fast):
+            p.stop()
+    assert rss1 - rss0 < 8 * 1024, f"memory grew from {rss0} kB to {rss1} kB"
+    assert n_fast > 200, f"the other reader got only {n_fast} messages in 3 s at 200 Hz"
+    assert_clean_exit(yarp_server, bridge, rc, seconds, ["/stall_bridge/out:o"])
+
+
+# --------------------------------------------------------------------------
+# ROS 1: the thesis' Rviz scenario
+
+
+def test_thesis_jointstate_to_rospy(yarp_ros_server, tmp_path):
+    env = yarp_ros_server.env
+    program = jointstate()
+    bridge = Bridge(env, program, tmp_path).start()
+    sub = RospySubscriber(env, "/yarp/joint_states").start()
+    arm = YarpProducer(env, "/vizzySim/left_shoulder_arm/state:o").start()
+    degrees = [0.0, 10.0, -45.0, 90.0, 180.0, 12.5, -90.0, 33.0]
+    try:
+        sub.wait_publishers(1, timeout=20)
+        arm.wait_outputs(1, timeout=15)
+        for k in range(3):
+            arm.write([d + k for d in degrees])
+            sub.wait_for(k + 1, timeout=10)
+        msgs = sub.wait_for(3)
+    finally:
+        rc, seconds = bridge.interrupt(signal.SIGINT)
+        arm.stop()
+        sub.stop()
+    log = bridge.log_text()
+    assert rc == 0 and seconds < 2.0 and "Traceback" not in log, log[-3000:]
+    assert not registered(yarp_ros_server, "/yarp/joint_states@/yarp/thesis_figure5_rviz")
+    for k, m in enumerate(msgs):
+        msg = m.msg
+        assert msg["name"] == list(jointstate().message.fields[1].source.values)
+        assert msg["position"] == pytest.approx([(d + k) * DEG for d in degrees], abs=1e-12)
+        assert msg["velocity"] == [] and msg["effort"] == []
+        assert msg["header"]["frame_id"] == "0"
+        assert msg["header"]["seq"] == k
+        stamp = msg["header"]["stamp"]
+        assert abs(stamp["secs"] + stamp["nsecs"] / 1e9 - m.t) < 1.0
+    assert "[mux1] 1: " + repr(10.0 * DEG) in log
