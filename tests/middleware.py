@@ -198,25 +198,40 @@ def require_ros2() -> None:
 # environment
 
 
-def free_port() -> int:
-    """A TCP port that is free on 127.0.0.1 right now (and the next few too,
-    since yarpserver hands out the ports after its own)."""
-    for _ in range(50):
-        with socket.socket() as s:
-            s.bind((LOCALHOST, 0))
-            port = s.getsockname()[1]
-        if port > 65000:
-            continue
-        ok = True
-        for p in (port + 1, port + 2):
-            with socket.socket() as s:
-                try:
-                    s.bind((LOCALHOST, p))
-                except OSError:
-                    ok = False
-        if ok:
-            return port
-    raise RuntimeError("no free port")
+def _ephemeral_range() -> tuple:
+    try:
+        lo, hi = Path("/proc/sys/net/ipv4/ip_local_port_range").read_text().split()
+        return int(lo), int(hi)
+    except (OSError, ValueError):
+        return 32768, 60999
+
+
+def _port_free(port: int) -> bool:
+    with socket.socket() as s:
+        try:
+            s.bind((LOCALHOST, port))
+            return True
+        except OSError:
+            return False
+
+
+def free_port(span: int = 64) -> int:
+    """A TCP port on 127.0.0.1 that is free now, with the ``span`` ports after
+    it free too: yarpserver hands out <port>+2, +3, ... to the ports that
+    register with it. Chosen at random below the kernel's ephemeral range
+    (where outgoing connections would take them) and above 20000 (clear of
+    YARP's and ROS's default ports)."""
+    import random
+
+    lo, _ = _ephemeral_range()
+    top = max(20000 + 1000, lo - span - 1)
+    rnd = random.Random(os.getpid() ^ time.monotonic_ns())
+    for _ in range(200):
+        port = rnd.randrange(20000, top)
+        if all(_port_free(p) for p in range(port, port + span, 4)) and _port_free(port):
+            if all(_port_free(p) for p in range(port, port + span)):
+                return port
+    raise RuntimeError("no free port range found")
 
 
 _ENV_DROP = ("ROS_MASTER_URI", "ROS_IP", "ROS_HOSTNAME", "ROS_DOMAIN_ID",
@@ -926,6 +941,7 @@ class Peer(Proc):
                          cwd=PEERS, name=name or Path(self.script).stem,
                          pipe_stdout=True, pipe_stdin=True)
         self.events: list = []
+        self._mark = 0  # index in .events where the current run starts
         self.noise: list = []
         self._cond = threading.Condition()
         self._reader: Optional[threading.Thread] = None
@@ -982,8 +998,10 @@ class Peer(Proc):
                                        f"while waiting for {what}; log:\n{self.log_text()[-3000:]}")
                 left = end - time.monotonic()
                 if left <= 0:
+                    recent = "\n".join(json.dumps(e) for e in self.events[-10:])
                     raise TimeoutError(f"{self.name}: timed out after {timeout} s waiting for "
-                                       f"{what}; log:\n{self.log_text()[-3000:]}")
+                                       f"{what}; last events:\n{recent}\n"
+                                       f"log:\n{self.log_text()[-3000:]}")
                 self._cond.wait(min(left, 0.1))
 
     def wait_event(self, ev: str, pred: Callable[[dict], bool] = lambda e: True,

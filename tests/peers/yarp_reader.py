@@ -32,14 +32,22 @@ def main():
     poll = float(cfg.get("poll") or 0.2)
     peer_io.emit("ready")
     connected = False
+    last_state = None
     next_check = 0.0
     while True:
         now = time.monotonic()
         if src and now >= next_check:
             next_check = now + poll
             ok = yarp.Network.isConnected(src, name, True)
-            if not ok and yarp.Network.exists(src, True):
-                ok = yarp.Network.connect(src, name, carrier, True)
+            state = ("connected",) if ok else None
+            if not ok:
+                there = yarp.Network.exists(src, True)
+                if there:
+                    ok = yarp.Network.connect(src, name, carrier, True)
+                state = ("exists" if there else "missing", "connect ok" if ok else "no connect")
+            if state != last_state:
+                last_state = state
+                peer_io.emit("check", state=list(state))
             if ok != connected:
                 connected = ok
                 peer_io.emit("connected" if ok else "disconnected", source=src)
