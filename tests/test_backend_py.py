@@ -511,12 +511,14 @@ def test_malformed_bottles_dropped_and_counted(yarp_server, tmp_path):
     try:
         a.write([1, 2.0, 3])            # ok: float64 takes an int
         reader.wait_for(1)
-        a.write([1, 2.0])               # wrong size
-        a.write([1, 2.0, 3.0, 4.0])     # wrong size
-        a.write([1.5, 2.0, 3.0])        # float where int32
-        a.write(["x", 2.0, 3.0])        # string
-        a.write([1, [2.0], 3.0])        # list
-        a.write([1, float("nan"), 3.0])  # NaN, on_nan = drop
+        for bad in ([1, 2.0],               # wrong size
+                    [1, 2.0, 3.0, 4.0],     # wrong size
+                    [1.5, 2.0, 3.0],        # float where int32
+                    ["x", 2.0, 3.0],        # string
+                    [1, [2.0], 3.0],        # list
+                    [1, float("nan"), 3.0]):  # NaN, on_nan = drop
+            a.write(bad)
+            time.sleep(0.05)  # one at a time: an input keeps only the newest Bottle
         a.write([4, 5.0, 6.0])          # ok
         got = reader.wait_for(2)
         time.sleep(0.3)

@@ -682,6 +682,7 @@ class YarpOutput:
         self.msg_type = msg_type
         self.wire = wire
         self.port = yarp.BufferedPortBottle()
+        self.patient = True
 
     def open(self):
         self.port.setWriteOnly()
@@ -694,7 +695,21 @@ class YarpOutput:
         what = self.msg_type or "untyped Bottles"
         return "%s on %s" % (what, self.port_name)
 
+    #: how long a message waits for the previous one to be sent
+    PATIENCE = 0.05
+
     def publish(self, message):
+        # A message written while the previous one is still being sent is
+        # dropped for the connections that are still busy; so wait for it a
+        # little, unless a reader has already shown it stalls.
+        if self.port.isWriting():
+            if self.patient:
+                deadline = time.monotonic() + self.PATIENCE
+                while self.port.isWriting() and time.monotonic() < deadline:
+                    time.sleep(0.0002)
+                self.patient = not self.port.isWriting()
+        else:
+            self.patient = True
         fill_bottle(self.port.prepare(), message, self.wire)
         self.port.write()
 
