@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parent.parent
 # terminals whose regular expressions hold look-aheads get explicit strategies
 _word_chars = string.ascii_letters + string.digits + "_./:@+-~"
 GRAMMAR_TEXT = from_lark(
-    lark_parser(),
+    lark_parser(cache=False),  # built cold: strict mode (no conflicts, no collisions) checked here
     explicit={
         "KEY": st.sampled_from(["topic", "port", "type", "via", "rate", "ports", "convert", "name",
                                 "position", "header.frame_id", "header.stamp", "num_fields", "1_type",

@@ -675,14 +675,18 @@ class _Checker:
                 s.error("E206", f"`{e.key}` is given twice in [message]", e.key_span,
                         f"first given on line {entries[path].span.line}")
                 continue
-            for other in entries:
-                short, long_ = sorted((other, path), key=len)
-                if long_[: len(short)] == short:
-                    s.error("E215", f"`{'.'.join(short)}` is set as a whole and `{'.'.join(long_)}` by itself",
-                            e.key_span, "set either the whole field or its parts")
+            entries[path] = e
+        # a field set as a whole and in parts: report the later line
+        for path in sorted(entries, key=lambda p: entries[p].span.line):
+            for k in range(1, len(path)):
+                short = path[:k]
+                if short in entries and path in entries:
+                    a, b = entries[short], entries[path]
+                    later = b if b.span.line >= a.span.line else a
+                    s.error("E215", f"`{'.'.join(short)}` is set as a whole and `{'.'.join(path)}` by itself",
+                            later.key_span, "set either the whole field or its parts")
+                    del entries[path if later is b else short]
                     break
-            else:
-                entries[path] = e
         if not entries and msgdef is None:
             s.error("E204", "[message] sets no field", sec.span, "e.g. `position = arm`")
             return None
@@ -697,7 +701,8 @@ class _Checker:
     def typed_struct(self, msgdef: MsgDef, prefix: tuple[str, ...],
                      entries: dict[tuple[str, ...], ast.Entry]) -> ir.Struct:
         s = self.sink
-        mine = {p: e for p, e in entries.items() if p[: len(prefix)] == prefix and len(p) > len(prefix)}
+        below = self.below(entries)
+        mine = below.get(prefix, {})
         names = [f.name for f in msgdef.fields]
         for p, e in mine.items():
             head = p[len(prefix)]
@@ -713,13 +718,11 @@ class _Checker:
             path = prefix + (f.name,)
             if path in entries:
                 fields.append(ir.Field(f.name, self.typed_value(entries[path], f.type), f.type))
-            elif any(p[: len(path)] == path and len(p) > len(path) for p in entries):
+            elif path in below:
                 if not f.type.is_message or f.type.array is not None:
-                    for p, e in entries.items():
-                        if p[: len(path)] == path and len(p) > len(path):
-                            s.error("E302", f"`{'.'.join(path)}` is a {f.type}, it has no field `{p[len(path)]}`",
-                                    e.key_span)
-                            break
+                    p, e = next(iter(below[path].items()))
+                    s.error("E302", f"`{'.'.join(path)}` is a {f.type}, it has no field `{p[len(path)]}`",
+                            e.key_span)
                     fields.append(ir.Field(f.name, ir.Default(), f.type))
                     continue
                 sub = self.store.resolve(f.type.base)
@@ -730,6 +733,16 @@ class _Checker:
             else:
                 fields.append(ir.Field(f.name, ir.Default(), f.type))
         return ir.Struct(tuple(fields), msgdef.name)
+
+    def below(self, entries) -> dict[tuple[str, ...], dict[tuple[str, ...], ast.Entry]]:
+        """prefix -> the entries strictly below it (computed once)."""
+        if getattr(self, "_below_of", None) is not entries:
+            index: dict[tuple[str, ...], dict[tuple[str, ...], ast.Entry]] = {}
+            for p, e in entries.items():
+                for k in range(len(p)):
+                    index.setdefault(p[:k], {})[p] = e
+            self._below_of, self._below = entries, index
+        return self._below
 
     def other_dialect_field(self, msg: str, field_name: str) -> str | None:
         other = "ros1" if self.ros == "ros2" else "ros2"
@@ -1035,10 +1048,9 @@ class _Checker:
 
     # untyped Bottles
     def untyped_struct(self, prefix: tuple[str, ...], entries, msg_type: str | None) -> ir.Struct:
-        order: list[str] = []
-        for p in entries:
-            if p[: len(prefix)] == prefix and len(p) > len(prefix) and p[len(prefix)] not in order:
-                order.append(p[len(prefix)])
+        order: dict[str, None] = {}
+        for p in self.below(entries).get(prefix, {}):
+            order.setdefault(p[len(prefix)], None)
         fields = []
         for name in order:
             path = prefix + (name,)
