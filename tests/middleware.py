@@ -332,6 +332,7 @@ def ros2_env(domain_id: Optional[int] = None) -> dict:
 # --------------------------------------------------------------------------
 # processes
 
+_SETPRIV = shutil.which("setpriv")
 _LIVE: "set[Proc]" = set()
 _LIVE_LOCK = threading.Lock()
 
@@ -394,7 +395,7 @@ class Proc:
 
     def __init__(self, argv: Iterable, env: Optional[dict] = None, cwd=None,
                  name: Optional[str] = None, log_dir=None, pipe_stdout: bool = False,
-                 pipe_stdin: bool = False):
+                 pipe_stdin: bool = False, die_with_parent: bool = False):
         self.argv = [str(a) for a in argv]
         self.env = dict(env) if env is not None else base_env()
         self.cwd = str(cwd) if cwd is not None else None
@@ -408,6 +409,7 @@ class Proc:
             self.log_path = self.log_dir / f"{base}.{k}.log"
         self.pipe_stdout = pipe_stdout
         self.pipe_stdin = pipe_stdin
+        self.die_with_parent = die_with_parent
         self.popen: Optional[subprocess.Popen] = None
         self.pgid: Optional[int] = None
         self._known: set = set()
@@ -421,9 +423,15 @@ class Proc:
         log = open(self.log_path, "ab")
         log.write(f"==== start {self.starts}: {' '.join(self.argv)}\n".encode())
         log.flush()
+        argv = self.argv
+        # With die_with_parent the process gets SIGKILL if the test process
+        # itself is killed (no atexit then). The kernel ties this to the thread
+        # that starts it, so only from the main thread.
+        if self.die_with_parent and _SETPRIV and threading.current_thread() is threading.main_thread():
+            argv = [_SETPRIV, "--pdeathsig", "KILL", "--"] + argv
         try:
             self.popen = subprocess.Popen(
-                self.argv, env=self.env, cwd=self.cwd,
+                argv, env=self.env, cwd=self.cwd,
                 stdin=subprocess.PIPE if self.pipe_stdin else subprocess.DEVNULL,
                 stdout=subprocess.PIPE if self.pipe_stdout else log,
                 stderr=log, start_new_session=True)
@@ -649,7 +657,8 @@ class YarpServer:
         argv = [YARP_BIN / "yarpserver", "--ip", LOCALHOST, "--socket", self.port, "--read"]
         if self.ros:
             argv.append("--ros")
-        self.proc = Proc(argv, env=env, name="yarpserver", log_dir=self.tmpdir).start()
+        self.proc = Proc(argv, env=env, name="yarpserver", log_dir=self.tmpdir,
+                         die_with_parent=True).start()
         try:
             _wait_until(lambda: self.exists("/root"), self.timeout,
                         f"yarpserver on port {self.port}", self.proc)
@@ -725,7 +734,7 @@ class RosCore:
         self.env = base_env(self.tmpdir)
         self.env.update(self.ros_env)
         self.proc = Proc(["/usr/bin/roscore", "-p", self.port], env=self.env, name="roscore",
-                         log_dir=self.tmpdir).start()
+                         log_dir=self.tmpdir, die_with_parent=True).start()
         try:
             _wait_until(self._master_ok, self.timeout, f"roscore on port {self.port}", self.proc,
                         interval=0.1)
@@ -815,7 +824,7 @@ class TypeServer:
             shutil.copyfile(path, dst / f"{name}.msg")
         self.proc = Proc([YARP_BIN / "yarpidl_rosmsg", "--name", self.NAME],
                          env=self.yarp_server.env, cwd=self.msg_dir, name="yarpidl_rosmsg",
-                         log_dir=self._tmp.path).start()
+                         log_dir=self._tmp.path, die_with_parent=True).start()
         try:
             _wait_until(lambda: self.yarp_server.exists(self.NAME), self.timeout,
                         f"type server {self.NAME}", self.proc, interval=0.1)

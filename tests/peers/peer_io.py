@@ -57,3 +57,16 @@ def exit_on_signals():
             os._exit(0)
     signal.signal(signal.SIGTERM, handler)
     signal.signal(signal.SIGINT, handler)
+
+
+def exit_at_stdin_eof():
+    """End the process when stdin closes (the test process went away), for
+    peers that take no commands."""
+    def watch():
+        for _ in sys.stdin:
+            pass
+        try:
+            sys.stdout.flush()
+        finally:
+            os._exit(0)
+    threading.Thread(target=watch, daemon=True).start()

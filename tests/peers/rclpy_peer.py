@@ -83,7 +83,11 @@ def main():
         peer_io.emit("sent", n=seq[0], t=t)
         seq[0] += 1
 
-    q = peer_io.commands() if mode == "pub" else queue.Queue()
+    if mode == "pub":
+        q = peer_io.commands()
+    else:
+        q = queue.Queue()
+        peer_io.exit_at_stdin_eof()
     peer_io.emit("ready")
     matched = -1
     messages = cfg.get("messages") or []

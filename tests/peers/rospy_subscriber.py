@@ -27,6 +27,7 @@ def to_py(m):
 def main():
     cfg = peer_io.config()
     peer_io.exit_on_signals()
+    peer_io.exit_at_stdin_eof()
     cls = roslib.message.get_message_class(cfg["type"])
     if cls is None:
         peer_io.emit("error", message="unknown type " + cfg["type"])

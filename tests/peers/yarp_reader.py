@@ -19,6 +19,7 @@ import yarp
 def main():
     cfg = peer_io.config()
     peer_io.exit_on_signals()
+    peer_io.exit_at_stdin_eof()
     yarp.Network.init()
     port = yarp.BufferedPortBottle()
     port.setStrict(True)
