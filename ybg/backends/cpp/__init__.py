@@ -1,0 +1,71 @@
+"""The ``cpp`` backend: one C++17 source and its CMakeLists.txt, a YARP
+module that reads YARP ports or ROS 1 topics and writes a Bottle on a YARP
+port or a ROS 1 topic (YARP's topic@node ports, with the type promised).
+
+The source is made of two templates: ``_runtime.cpp.j2`` (inputs, layout
+checks, freshness, converters, timing, connections, shutdown; the same in
+every module) and ``module.cpp.j2`` (this bridge's description, its muxes,
+the message builder and the places for custom code). :mod:`.lower` makes
+every decision and escapes every value with :mod:`.escape`; the templates
+only print.
+"""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+
+import jinja2
+
+from ybg.backends import Backend, RenderOptions
+from ybg.backends.cpp.lower import Line, LoweringError, lower
+
+TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
+
+
+def _code(text) -> str:
+    """A fragment of C++ (or CMake) already built from escaped parts by lower.py."""
+    if not isinstance(text, str):
+        raise TypeError(f"expected lowered code, got {type(text).__name__}")
+    if "\n" in text or "\r" in text:
+        raise ValueError("lowered code must be one line")
+    return text
+
+
+def _indent_line(line: Line) -> str:
+    if not isinstance(line, Line):
+        raise TypeError(f"expected a Line, got {type(line).__name__}")
+    return "    " * line.indent + _code(line.text)
+
+
+@functools.lru_cache(maxsize=None)
+def environment() -> jinja2.Environment:
+    env = jinja2.Environment(
+        loader=jinja2.FileSystemLoader(str(TEMPLATE_DIR)),
+        autoescape=False,
+        undefined=jinja2.StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        keep_trailing_newline=True,
+    )
+    env.filters["code"] = _code
+    env.filters["indent_line"] = _indent_line
+    return env
+
+
+class CppBackend(Backend):
+    name = "cpp"
+    description = "a C++17 YARP module (one source and its CMakeLists.txt)"
+    output_kinds = frozenset({"yarp", "ros1"})
+    input_kinds = frozenset({"yarp", "ros1"})
+
+    def render(self, program, options: RenderOptions = RenderOptions()) -> dict[str, str]:
+        view = lower(program)
+        env = environment()
+        return {
+            view.filename: env.get_template("module.cpp.j2").render(m=view),
+            "CMakeLists.txt": env.get_template("CMakeLists.txt.j2").render(m=view),
+        }
+
+
+__all__ = ["CppBackend", "LoweringError", "TEMPLATE_DIR", "environment"]

@@ -1,0 +1,595 @@
+"""Lowering of a checked :class:`~ybg.compiler.ir.Program` to the view-model
+that the C++ templates print.
+
+Every decision is taken here: the C++ name of each mux, the Bottle tag of
+every value (which differs between an untyped YARP output and a ROS 1
+topic), the statements that build the message, which muxes gate publishing,
+where each field of a ROS 1 input sits in the Bottle YARP reads. Every value
+taken from the config reaches the C++ text through :mod:`.escape`; the
+templates only print what this module hands them.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass
+
+from ybg.backends.cpp.escape import (cpp_comment, cpp_float, cpp_identifier, cpp_int,
+                                     cpp_std_string, cpp_string, mangle)
+from ybg.compiler import ir
+
+#: Bottle tag of each element type on an untyped or YARP output
+#: (docs/runtime.md, "Value types on the wire").
+WIRE_YARP: dict[str, str] = {
+    "float32": "Float64", "float64": "Float64",
+    "int64": "Int64", "uint32": "Int64", "uint64": "Int64",
+    "int8": "Int32", "uint8": "Int32", "int16": "Int32", "uint16": "Int32",
+    "int32": "Int32", "byte": "Int32", "char": "Int32", "bool": "Int32",
+    "string": "String",
+}
+
+#: Bottle tag of each element type on a ROS 1 output. YARP's tcpros carrier
+#: turns the Bottle into the ROS message by a fixed layout (WireTwiddler)
+#: that compares the tags byte for byte: a uint32 must be an int32 (an int64
+#: is refused, "Structure of message is unexpected"), a float32 a float32 (a
+#: float64 in a float32 field arrives as garbage), a bool an int8.
+WIRE_ROS1: dict[str, str] = {
+    "float32": "Float32", "float64": "Float64",
+    "int64": "Int64", "uint64": "Int64",
+    "int32": "Int32", "uint32": "Int32",
+    "int16": "Int16", "uint16": "Int16",
+    "int8": "Int8", "uint8": "Int8", "byte": "Int8", "char": "Int8", "bool": "Int8",
+    "string": "String",
+}
+
+#: C++ type a counter is cast to before it is written (it wraps like the ROS type)
+CPP_INT_TYPES: dict[str, str] = {
+    "int8": "std::int8_t", "uint8": "std::uint8_t", "int16": "std::int16_t",
+    "uint16": "std::uint16_t", "int32": "std::int32_t", "uint32": "std::uint32_t",
+    "int64": "std::int64_t", "uint64": "std::uint64_t", "byte": "std::int8_t",
+    "char": "std::uint8_t", "bool": "bool",
+}
+
+_WIRE_BITS = {"Int8": 8, "Int16": 16, "Int32": 32, "Int64": 64}
+_TIME_TYPES = ("time", "duration", "builtin_interfaces/Time", "builtin_interfaces/Duration")
+#: target names CMake keeps for itself
+_CMAKE_RESERVED = frozenset({"all", "clean", "help", "install", "test", "package", "package_source",
+                             "edit_cache", "rebuild_cache", "list_install_components", "depend",
+                             "preinstall", "install_strip", "install_local"})
+_SAFE_TEXT = re.compile(r"[A-Za-z0-9_/.:@+\-\[\]<=>]*\Z")
+
+
+class LoweringError(ValueError):
+    """The program uses something this backend cannot generate."""
+
+
+def comment(text: str) -> str:
+    """Config text for a ``//`` comment: as it is when made only of safe
+    characters (names, ports, types), else quoted and escaped."""
+    if _SAFE_TEXT.match(text) and text:
+        return text
+    return cpp_comment(text)
+
+
+# --------------------------------------------------------------------------
+# view-model
+
+
+@dataclass(frozen=True)
+class Line:
+    """One line of generated code, already made of escaped parts."""
+
+    indent: int
+    text: str
+
+
+@dataclass(frozen=True)
+class InputView:
+    index: int           # position in BridgeSpec::inputs
+    initializer: str     # the InputSpec aggregate
+    comment: str
+
+
+@dataclass(frozen=True)
+class MuxView:
+    member: str               # C++ member of struct Muxes
+    name: str                 # string literal of the mux name
+    comment: str
+    gather: tuple[Line, ...]  # statements of gather()
+    verbose: bool
+
+
+@dataclass(frozen=True)
+class ModuleView:
+    filename: str
+    target: str
+    executable: str
+    config_comment: str
+    header: tuple[str, ...]          # comment lines (already safe)
+    spec_module: str
+    spec_config: str
+    description: tuple[str, ...]     # string literals
+    default_prefix: str
+    muxes: tuple[MuxView, ...]
+    inputs: tuple[InputView, ...]
+    needed: str
+    output: str
+    output_comment: str
+    rate: str
+    rate_comment: str
+    trigger_all: str
+    hold: str
+    drop_nan: str
+    msg_comment: str
+    builder: tuple[Line, ...]
+    sizes: str
+
+
+# --------------------------------------------------------------------------
+# helpers
+
+
+def _coerce(value, element_type: str):
+    if element_type in ir.FLOAT_TYPES:
+        return float(value)
+    if element_type == "bool":
+        return bool(value)
+    if element_type == "string":
+        return str(value)
+    if element_type in ir.NUMERIC_TYPES:
+        return int(value)
+    raise LoweringError(f"unknown element type {element_type!r}")
+
+
+def _default_scalar(base: str):
+    if base in ir.FLOAT_TYPES:
+        return 0.0
+    if base == "bool":
+        return False
+    if base == "string":
+        return ""
+    if base in ir.NUMERIC_TYPES:
+        return 0
+    raise LoweringError(f"no default for type {base!r}")
+
+
+def _time_style(base: str, ros: str | None) -> str:
+    if base.startswith("builtin_interfaces/") or ros == "ros2":
+        return "ros2"
+    return "ros1"
+
+
+def _size(n: int | None) -> str:
+    if n is None:
+        return "ybgc::kToEnd"
+    if n < 0:
+        raise LoweringError(f"negative index {n}")
+    return str(int(n))
+
+
+def _ros1_field_paths(inp: ir.Input, distro: str | None) -> list[tuple[str, list[int]]]:
+    """Index path, in the Bottle YARP reads from a ROS 1 topic, of each field
+    the input takes (``point.x`` of geometry_msgs/PointStamped -> [1, 0])."""
+    from ybg.compiler.msgtypes import DISTROS, load_store
+
+    store = load_store("ros1", distro if distro and DISTROS.get(distro) == "ros1" else None)
+    msgdef = store.resolve(inp.ros_type) if inp.ros_type else None
+    if msgdef is None:
+        raise LoweringError(f"unknown ROS 1 message type {inp.ros_type!r} of input {inp.name}")
+    out = []
+    for path in inp.fields or ():
+        cur = msgdef
+        at: list[int] = []
+        for part in path.split("."):
+            m = re.fullmatch(r"([A-Za-z_][A-Za-z0-9_]*)(?:\[(\d+)\])?", part)
+            if m is None or cur is None:
+                raise LoweringError(f"cannot find field {path!r} of {inp.ros_type}")
+            names = [f.name for f in cur.fields]
+            if m.group(1) not in names:
+                raise LoweringError(f"{cur.name} has no field {m.group(1)!r} ({path})")
+            k = names.index(m.group(1))
+            at.append(k)
+            ftype = cur.fields[k].type
+            if m.group(2) is not None:
+                at.append(int(m.group(2)))
+                ftype = ftype.element()
+            cur = store.resolve(ftype.base) if ftype.is_message and ftype.array is None else None
+        out.append((path, at))
+    return out
+
+
+# --------------------------------------------------------------------------
+# the message builder
+
+
+class _Builder:
+    """Writes the body of ``buildMessage`` from the message tree."""
+
+    def __init__(self, program: ir.Program, members: dict[str, str], input_ids: dict[str, list[int]]):
+        self.program = program
+        self.members = members
+        self.input_ids = input_ids
+        self.wire = WIRE_ROS1 if program.output.kind == "ros1" else WIRE_YARP
+        self.lines: list[Line] = []
+        self.needed: list[str] = []
+        self.need_size: dict[str, int] = {}
+
+    def emit(self, indent: int, text: str) -> None:
+        if "\n" in text or "\r" in text:
+            raise AssertionError("a generated line holds a line break")
+        self.lines.append(Line(indent, text))
+
+    def wire_of(self, element_type: str) -> str:
+        try:
+            return "Wire::" + self.wire[element_type]
+        except KeyError:
+            raise LoweringError(f"no Bottle tag for element type {element_type!r}") from None
+
+    def mux(self, name: str, need: int = 0) -> str:
+        try:
+            self.program.mux(name)
+            member = self.members[name]
+        except KeyError:
+            raise LoweringError(f"the message reads an unknown mux {name!r}") from None
+        if name not in self.needed:
+            self.needed.append(name)
+        self.need_size[name] = max(self.need_size.get(name, 0), need)
+        return f"mux.{member}"
+
+    # -- values
+    def add_value(self, var: str, value, element_type: str) -> str:
+        """A statement appending one literal value to ``var``."""
+        wire = self.wire[element_type] if element_type in self.wire else None
+        if wire is None:
+            raise LoweringError(f"no Bottle tag for element type {element_type!r}")
+        value = _coerce(value, element_type)
+        if wire == "String":
+            return f"{var}.addString({cpp_std_string(str(value))});"
+        if wire == "Float64":
+            return f"{var}.addFloat64({cpp_float(float(value))});"
+        if wire == "Float32":
+            return f"{var}.addFloat32(static_cast<float>({cpp_float(float(value))}));"
+        bits = _WIRE_BITS[wire]
+        if isinstance(value, float):
+            raise LoweringError(f"a float literal for an integer field ({element_type})")
+        return f"{var}.add{wire}({cpp_int(int(value), bits)});"
+
+    def struct(self, struct: ir.Struct, parent: str, depth: int, indent: int) -> None:
+        for f in struct.fields:
+            self.field(f, parent, depth, indent)
+
+    def field(self, f: ir.Field, parent: str, depth: int, indent: int) -> None:
+        typ = "" if f.type is None else f" ({comment(str(f.type))})"
+        src = f.source
+        self.emit(indent, f"// {comment(f.name)}{typ}{self.describe(src)}")
+        if isinstance(src, ir.Struct):
+            var = f"b{depth + 1}"
+            self.emit(indent, "{")
+            self.emit(indent + 1, f"yarp::os::Bottle& {var} = {parent}.addList();")
+            self.struct(src, var, depth + 1, indent + 1)
+            self.emit(indent, "}")
+            return
+        self.source(src, f.type, parent, depth, indent)
+
+    def describe(self, src) -> str:
+        if isinstance(src, ir.Counter):
+            return ": counter"
+        if isinstance(src, ir.Timestamp):
+            if src.clock == "envelope":
+                return f": envelope stamp of mux {comment(src.mux or '')}"
+            return ": wall clock"
+        if isinstance(src, ir.Seconds):
+            return ": wall clock, seconds"
+        if isinstance(src, ir.Default):
+            return ": default"
+        if isinstance(src, ir.MuxRef):
+            if src.index is not None:
+                return f": {comment(src.mux)}[{src.index}]"
+            stop = "" if src.stop is None else str(src.stop)
+            rng = "" if src.start == 0 and src.stop is None else f"[{src.start}:{stop}]"
+            return f": {comment(src.mux)}{rng}" + (" (spliced)" if src.splice else "")
+        return ""
+
+    def source(self, src, typ: ir.TypeRef | None, parent: str, depth: int, indent: int) -> None:
+        if isinstance(src, ir.Literal):
+            if not src.is_list:
+                if len(src.values) != 1:
+                    raise LoweringError("a scalar literal holds exactly one value")
+                self.emit(indent, self.add_value(parent, src.values[0], src.element_type))
+                return
+            self.list_of(parent, depth, indent, [
+                (lambda var, v=v: self.add_value(var, v, src.element_type)) for v in src.values])
+            return
+        if isinstance(src, ir.MuxRef):
+            self.mux_ref(src, parent, depth, indent)
+            return
+        if isinstance(src, ir.Counter):
+            ctype = CPP_INT_TYPES.get(src.element_type)
+            if ctype is None:
+                raise LoweringError(f"a counter cannot be a {src.element_type}")
+            self.emit(indent, f"ybgc::putInteger({parent}, static_cast<{ctype}>(ctx.counter), "
+                              f"{self.wire_of(src.element_type)});")
+            return
+        if isinstance(src, ir.Timestamp):
+            if src.clock == "envelope":
+                if src.mux is None:
+                    raise LoweringError("an envelope timestamp names its mux")
+                self.mux(src.mux)
+                ids = ", ".join(str(i) for i in self.input_ids[src.mux])
+                ns = f"ctx.envelopeNs({{{ids}}})"
+            elif src.clock == "wall":
+                ns = "ctx.wallNs"
+            else:
+                raise LoweringError(f"unknown clock {src.clock!r}")
+            self.time(parent, ns, src.style, indent)
+            return
+        if isinstance(src, ir.Seconds):
+            self.emit(indent, f"{parent}.addFloat64(ctx.seconds);")
+            return
+        if isinstance(src, ir.Default):
+            self.default(typ, parent, depth, indent)
+            return
+        raise LoweringError(f"unknown source {type(src).__name__}")
+
+    def time(self, parent: str, ns: str, style: str, indent: int) -> None:
+        if style == "ros2":
+            sec, nsec = self.wire_of("int32"), self.wire_of("uint32")
+        elif style == "ros1":
+            sec, nsec = self.wire_of("uint32"), self.wire_of("uint32")
+        else:
+            raise LoweringError(f"unknown time style {style!r}")
+        self.emit(indent, f"ybgc::putTime({parent}, {ns}, {sec}, {nsec});")
+
+    def list_of(self, parent: str, depth: int, indent: int, statements: list) -> None:
+        """A nested list: ``statements`` are functions of the list's variable
+        name, each giving the statement that appends one item."""
+        if not statements:
+            self.emit(indent, f"{parent}.addList();")
+            return
+        var = f"b{depth + 1}"
+        self.emit(indent, "{")
+        self.emit(indent + 1, f"yarp::os::Bottle& {var} = {parent}.addList();")
+        for statement in statements:
+            self.emit(indent + 1, statement(var))
+        self.emit(indent, "}")
+
+    def mux_ref(self, ref: ir.MuxRef, parent: str, depth: int, indent: int) -> None:
+        if ref.index is not None:
+            values = self.mux(ref.mux, ref.index + 1)
+            self.emit(indent, f"ybgc::put({parent}, {values}[{ref.index:d}], {self.wire_of(ref.element_type)});")
+            return
+        if ref.into_fields is not None:
+            n = len(ref.into_fields)
+            values = self.mux(ref.mux, ref.start + n)
+            types = ref.into_types or (ref.element_type,) * n
+            self.list_of(parent, depth, indent, [
+                (lambda var, k=k, name=name, t=t:
+                 f"ybgc::put({var}, {values}[{ref.start + k:d}], {self.wire_of(t)});  // {comment(name)}")
+                for k, (name, t) in enumerate(zip(ref.into_fields, types))
+            ])
+            return
+        values = self.mux(ref.mux)
+        mux = self.program.mux(ref.mux)
+        et = mux.element_types
+        sliced: tuple[str, ...] = ()
+        if et is not None:
+            stop_i = len(et) if ref.stop is None else min(ref.stop, len(et))
+            sliced = tuple(et[ref.start:stop_i])
+        if sliced and len(set(sliced)) > 1:
+            # a mux that mixes types: each element with its own tag
+            statements = [(lambda var, k=k, t=t: f"ybgc::put({var}, {values}[{ref.start + k:d}], {self.wire_of(t)});")
+                          for k, t in enumerate(sliced)]
+            self.need_size[ref.mux] = max(self.need_size[ref.mux], ref.start + len(sliced))
+            if ref.splice:
+                for statement in statements:
+                    self.emit(indent, statement(parent))
+            else:
+                self.list_of(parent, depth, indent, statements)
+            return
+        target = parent if ref.splice else f"{parent}.addList()"
+        self.emit(indent, f"ybgc::putRange({target}, {values}, {_size(ref.start)}, {_size(ref.stop)}, "
+                          f"{self.wire_of(ref.element_type)});")
+
+    def default(self, typ: ir.TypeRef | None, parent: str, depth: int, indent: int) -> None:
+        if typ is None:
+            raise LoweringError("a default value needs a typed field")
+        base = typ.base
+        if typ.array == "sequence":
+            self.emit(indent, f"{parent}.addList();")
+            return
+        if base in _TIME_TYPES:
+            if typ.array is not None:
+                raise LoweringError(f"no default for an array of {base}")
+            self.time(parent, "0", _time_style(base, self.program.ros), indent)
+            return
+        if typ.is_message:
+            raise LoweringError(f"a default {typ} needs its fields; the checker expands nested messages")
+        value = _default_scalar(base)
+        if typ.array == "fixed":
+            self.list_of(parent, depth, indent,
+                         [lambda var: self.add_value(var, value, base)] * (typ.size or 0))
+            return
+        self.emit(indent, self.add_value(parent, value, base))
+
+
+# --------------------------------------------------------------------------
+# the module
+
+
+def _members(program: ir.Program) -> dict[str, str]:
+    """C++ member name of each mux: its own name when that is a usable
+    identifier, else a mangled ``mux_<name>``; unique."""
+    out: dict[str, str] = {}
+    used: set[str] = set()
+    for m in program.muxes:
+        try:
+            member = cpp_identifier(m.name)
+        except ValueError:
+            member = mangle("mux_", m.name)
+        base, k = member, 2
+        while member in used:
+            member = f"{base}_{k}"
+            k += 1
+        used.add(member)
+        out[m.name] = member
+    return out
+
+
+def _layout(inp: ir.Input) -> str:
+    if inp.layout is None:
+        return "false, {}"
+    groups = ", ".join(f"{{{cpp_string(g.type)}, {int(g.count)}}}" for g in inp.layout)
+    return f"true, {{{groups}}}"
+
+
+def _fields(inp: ir.Input, distro: str | None) -> str:
+    if inp.kind != "ros1" or not inp.fields:
+        return "{}"
+    paths = _ros1_field_paths(inp, distro)
+    items = ", ".join(f"{{{cpp_string(name)}, {{{', '.join(str(i) for i in at)}}}}}" for name, at in paths)
+    return f"{{{items}}}"
+
+
+def _input_comment(mux: str, k: int, inp: ir.Input) -> str:
+    if inp.layout is None:
+        what = "any number of numbers"
+    else:
+        what = ", ".join(f"{g.type} x{g.count}" for g in inp.layout)
+    kind = "ROS 1 topic" if inp.kind == "ros1" else "port"
+    extra = f" ({comment(inp.ros_type)})" if inp.ros_type else ""
+    return f"mux {comment(mux)}, input {k}: {kind} {comment(inp.name)}{extra}, {what}"
+
+
+def _executable(module: str) -> tuple[str, str]:
+    """(CMake target, executable name) for the module."""
+    if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", module):
+        raise LoweringError(f"module name {module!r} cannot name an executable")
+    target = f"{module}_module" if module.lower() in _CMAKE_RESERVED else module
+    return target, module
+
+
+def lower(program: ir.Program) -> ModuleView:
+    """The view-model of the module generated for ``program``."""
+    out = program.output
+    if out.kind not in ("yarp", "ros1"):
+        raise LoweringError(f"the cpp backend cannot publish to a {out.kind!r} output")
+    target, executable = _executable(program.module)
+    members = _members(program)
+
+    # inputs, in mux order; their position is their index in BridgeSpec::inputs
+    inputs: list[InputView] = []
+    input_ids: dict[str, list[int]] = {}
+    mux_views = []
+    for mi, m in enumerate(program.muxes):
+        ids = []
+        gather = [Line(1, f"mux.{members[m.name]}.clear();")]
+        for k, i in enumerate(m.inputs):
+            if i.kind not in ("yarp", "ros1"):
+                raise LoweringError(f"the cpp backend cannot read a {i.kind!r} input ({i.name})")
+            if not i.timeout > 0:
+                raise LoweringError(f"input {i.name} has a timeout of {i.timeout!r}")
+            n = len(inputs)
+            ids.append(n)
+            kind = "ybgc::InputKind::Ros1" if i.kind == "ros1" else "ybgc::InputKind::Yarp"
+            init = (f"{{{mi}, {k}, {cpp_string(i.name)}, {kind}, {cpp_float(float(i.timeout))}, "
+                    f"{_layout(i)}, {_fields(i, program.distro)}}}")
+            inputs.append(InputView(n, init, _input_comment(m.name, k, i)))
+            gather.append(Line(1, f"ybgc::append(mux.{members[m.name]}, in[{n}]);  // {comment(i.name)}"))
+        for c in m.converters:
+            if c.start < 0 or (c.stop is not None and c.stop < c.start):
+                raise LoweringError(f"converter {c.name} has the range [{c.start}:{c.stop}]")
+            stop = "" if c.stop is None else str(c.stop)
+            gather.append(Line(1, (
+                f"ybgc::convert(mux.{members[m.name]}, {cpp_float(float(c.scale))}, {cpp_float(float(c.offset))}, "
+                f"{'true' if c.to_float else 'false'}, {_size(c.start)}, {_size(c.stop)});"
+                f"  // {comment(c.name)}[{c.start}:{stop}]")))
+        input_ids[m.name] = ids
+        srcs = ", ".join(comment(i.name) for i in m.inputs)
+        mux_views.append(MuxView(members[m.name], cpp_string(m.name), srcs, tuple(gather), bool(m.verbose)))
+
+    b = _Builder(program, members, input_ids)
+    b.struct(program.message, "msg", 0, 1)
+    checks: list[Line] = []
+    for name in b.needed:
+        need = b.need_size.get(name, 0)
+        if need > 0:
+            checks += [Line(1, f"if (mux.{members[name]}.size() < {need}) {{"),
+                       Line(2, "return false;"), Line(1, "}")]
+    builder = tuple(checks) + tuple(b.lines)
+    needed = [next(k for k, m in enumerate(program.muxes) if m.name == name) for name in b.needed]
+
+    rate = program.timing.rate
+    if rate is not None and not rate > 0:
+        raise LoweringError(f"rate {rate!r} is not positive")
+    if program.timing.trigger not in ("all", "any"):
+        raise LoweringError(f"unknown trigger {program.timing.trigger!r}")
+    if rate is None and not inputs:
+        raise LoweringError("an event-driven bridge needs at least one input (set a rate)")
+
+    if out.kind == "ros1":
+        node = out.node or f"/yarp/{program.module}"
+        port = f"{out.name}@{node}"
+        where = f"the ROS 1 topic {comment(out.name)} (port {comment(port)})"
+        kind = "ybgc::OutputKind::Ros1"
+        plain_where = f"the ROS 1 topic {out.name} (port {port})"
+    else:
+        port = out.name
+        where = f"the YARP port {comment(port)}"
+        kind = "ybgc::OutputKind::Yarp"
+        plain_where = f"the YARP port {port}"
+    if out.connect_to:
+        where += f", connected to {comment(out.connect_to)}"
+        plain_where += f", connected to {out.connect_to}"
+    what = out.msg_type or "untyped Bottles"
+    output = (f"{{{kind}, {cpp_string(port)}, {cpp_string(out.msg_type or '')}, "
+              f"{cpp_string(out.connect_to or '')}}}")
+
+    n_in = len(inputs)
+    timing = ("event-driven (publishes when " +
+              ("every needed input has" if program.timing.trigger == "all" else "any needed input has") +
+              " new data)") if rate is None else f"at {rate:g} Hz"
+    policy = f"on_stale={program.policy.on_stale}, on_nan={program.policy.on_nan}"
+    if program.policy.on_stale not in ("skip", "hold") or program.policy.on_nan not in ("pass", "drop"):
+        raise LoweringError(f"unknown policy {policy}")
+    description = (
+        f"module {program.module}: {n_in} input(s) in {len(program.muxes)} mux(es)",
+        f"publishes {what} on {plain_where}",
+        f"publishing {timing}, {policy}",
+    )
+    header = (
+        f"Module {comment(program.module)}: {n_in} input(s) in {len(program.muxes)} mux(es), "
+        f"publishing {comment(what)} on {where},",
+        f"{timing}, {policy}.",
+    )
+    config_name = os.path.basename(program.source) if program.source else program.module
+    sizes = " + \", \" + ".join(
+        f"{cpp_string(m.name + ' has ')} + std::to_string(mux.{members[m.name]}.size())" for m in program.muxes
+    ) or '""'
+    return ModuleView(
+        filename=f"{executable}.cpp",
+        target=target,
+        executable=executable,
+        config_comment=comment(config_name),
+        header=header,
+        spec_module=cpp_string(program.module),
+        spec_config=cpp_string(config_name),
+        description=tuple(cpp_string(d) for d in description),
+        default_prefix=cpp_string("/" + program.module),
+        muxes=tuple(mux_views),
+        inputs=tuple(inputs),
+        needed="{" + ", ".join(str(k) for k in needed) + "}",
+        output=output,
+        output_comment=f"{comment(what)} on {where}",
+        rate=cpp_float(float(rate)) if rate is not None else "0.0",
+        rate_comment="Hz" if rate is not None else "event-driven",
+        trigger_all="true" if program.timing.trigger == "all" else "false",
+        hold="true" if program.policy.on_stale == "hold" else "false",
+        drop_nan="true" if program.policy.on_nan == "drop" else "false",
+        msg_comment=comment(program.message.msg_type or out.msg_type or "untyped Bottle"),
+        builder=builder,
+        sizes=sizes,
+    )
+
+
+__all__ = ["lower", "LoweringError", "ModuleView", "WIRE_YARP", "WIRE_ROS1", "comment"]
