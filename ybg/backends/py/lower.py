@@ -81,6 +81,23 @@ def py_literal(value) -> str:
     raise TypeError(f"no Python literal for {type(value).__name__}")
 
 
+def py_types(types) -> str:
+    """Python source for a tuple of element type names (or None), with runs
+    written compactly: ``('float64',) * 16 + ('int32',) * 3``."""
+    if types is None:
+        return "None"
+    if not types:
+        return "()"
+    runs: list[list] = []
+    for t in types:
+        if runs and runs[-1][0] == t:
+            runs[-1][1] += 1
+        else:
+            runs.append([t, 1])
+    parts = [py_literal((t,)) + (f" * {n:d}" if n > 1 else "") for t, n in runs]
+    return " + ".join(parts)
+
+
 # --------------------------------------------------------------------------
 # view-model
 
@@ -331,7 +348,7 @@ def lower(program: ir.Program) -> ModuleView:
                 index=k,
                 source=py_literal(i.name),
                 kind=py_literal(i.kind),
-                types=py_literal(types),
+                types=py_types(types),
                 timeout=py_literal(float(i.timeout)),
                 description=py_literal(f"{i.kind} {i.name}: {width}"),
             ))
@@ -351,7 +368,7 @@ def lower(program: ir.Program) -> ModuleView:
             inputs=tuple(inputs),
             converters=convs,
             verbose=py_literal(bool(m.verbose)),
-            types=py_literal(m.element_types),
+            types=py_types(m.element_types),
         ))
 
     b = _Builder(program)

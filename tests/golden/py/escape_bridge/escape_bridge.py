@@ -764,8 +764,7 @@ SPEC = BridgeSpec(
                 InputSpec('m', 0, '/test/esc:o', 'yarp',
                           types=None, timeout=1.0),
             ),
-            converters=(
-            ),
+            converters=(),
             verbose=False,
             types=None,
         ),
@@ -818,8 +817,9 @@ def build_message(ctx):
 
 
 def make_output():
-    return YarpOutput('yarp', '/escape_bridge/out:o', connect_to=None,
-                      msg_type=None, wire=WIRE)
+    return YarpOutput('yarp', '/escape_bridge/out:o',
+                      connect_to=None, msg_type=None,
+                      wire=WIRE)
 
 
 def main(argv=None):

@@ -762,12 +762,11 @@ SPEC = BridgeSpec(
             inputs=(
                 # 'yarp /test/a:o: 3 elements'
                 InputSpec('m', 0, '/test/a:o', 'yarp',
-                          types=('float64', 'float64', 'float64'), timeout=1.0),
+                          types=('float64',) * 3, timeout=1.0),
             ),
-            converters=(
-            ),
+            converters=(),
             verbose=False,
-            types=('float64', 'float64', 'float64'),
+            types=('float64',) * 3,
         ),
     ),
     needed=('m',),
@@ -818,8 +817,9 @@ def build_message(ctx):
 
 
 def make_output():
-    return YarpOutput('yarp', '/fixed_rate_hold/out:o', connect_to=None,
-                      msg_type=None, wire=WIRE)
+    return YarpOutput('yarp', '/fixed_rate_hold/out:o',
+                      connect_to=None, msg_type=None,
+                      wire=WIRE)
 
 
 def main(argv=None):

@@ -826,8 +826,9 @@ def build_message(ctx):
 
 
 def make_output():
-    return YarpOutput('ros1', '/yarp/joint_states@/yarp/thesis_figure5_rviz', connect_to=None,
-                      msg_type='sensor_msgs/JointState', wire=WIRE)
+    return YarpOutput('ros1', '/yarp/joint_states@/yarp/thesis_figure5_rviz',
+                      connect_to=None, msg_type='sensor_msgs/JointState',
+                      wire=WIRE)
 
 
 def main(argv=None):

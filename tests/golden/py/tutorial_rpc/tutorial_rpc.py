@@ -764,8 +764,7 @@ SPEC = BridgeSpec(
                 InputSpec('mux1', 0, '/fakebot_motor_control_ros', 'yarp',
                           types=None, timeout=1.0),
             ),
-            converters=(
-            ),
+            converters=(),
             verbose=True,
             types=None,
         ),
@@ -818,8 +817,9 @@ def build_message(ctx):
 
 
 def make_output():
-    return YarpOutput('yarp', '/tutorial_rpc/out:o', connect_to='/fakebot/motor/rpc:i',
-                      msg_type=None, wire=WIRE)
+    return YarpOutput('yarp', '/tutorial_rpc/out:o',
+                      connect_to='/fakebot/motor/rpc:i', msg_type=None,
+                      wire=WIRE)
 
 
 def main(argv=None):

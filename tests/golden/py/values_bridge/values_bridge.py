@@ -776,14 +776,14 @@ SPEC = BridgeSpec(
             inputs=(
                 # 'yarp /test/sens:o: 3 elements'
                 InputSpec('sens', 0, '/test/sens:o', 'yarp',
-                          types=('int32', 'int32', 'float64'), timeout=1.0),
+                          types=('int32',) * 2 + ('float64',), timeout=1.0),
             ),
             converters=(
                 ConverterSpec('scale', scale=2.0, offset=1.0,
                               to_float=True, start=2, stop=3),
             ),
             verbose=False,
-            types=('int32', 'int32', 'float64'),
+            types=('int32',) * 2 + ('float64',),
         ),
     ),
     needed=('arm', 'sens'),
@@ -843,8 +843,9 @@ def build_message(ctx):
 
 
 def make_output():
-    return YarpOutput('yarp', '/values_bridge/out:o', connect_to=None,
-                      msg_type=None, wire=WIRE)
+    return YarpOutput('yarp', '/values_bridge/out:o',
+                      connect_to=None, msg_type=None,
+                      wire=WIRE)
 
 
 def main(argv=None):
