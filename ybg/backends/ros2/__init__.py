@@ -1,0 +1,123 @@
+"""The ``ros2`` backend: an rclpy node between YARP ports and ROS 2 topics.
+
+``<module>_node.py`` is one Python file (rclpy, the ``yarp`` bindings and the
+standard library). It is made of the ``py`` backend's shared runtime
+(``_runtime.py.j2``: inputs, freshness, converters, timing, shutdown), the
+ROS 2 side (``_ros2_node.py.j2``: topics as inputs, typed messages, the
+node's clock and parameters), for a Bottle output the ``py`` backend's
+``_yarp_output.py.j2``, and ``node.py.j2`` (this bridge's data and message
+builder). With ``RenderOptions(package=True)`` the files of an
+ament_python package are generated around it. :mod:`.lower` makes every
+decision; the templates only print.
+"""
+
+from __future__ import annotations
+
+import functools
+import re
+from pathlib import Path
+from xml.sax.saxutils import escape as _xml_escape
+
+import jinja2
+
+from ybg.backends import Backend, RenderOptions
+from ybg.backends.py import TEMPLATE_DIR as PY_TEMPLATE_DIR
+from ybg.backends.py.lower import Line, LoweringError, py_literal
+from ybg.backends.ros2.lower import lower, lower_package
+
+TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
+
+
+def _code(text) -> str:
+    """A fragment of Python already built from escaped parts by lower.py."""
+    if not isinstance(text, str):
+        raise TypeError(f"expected lowered code, got {type(text).__name__}")
+    if "\n" in text or "\r" in text:
+        raise ValueError("lowered code must be one line")
+    return text
+
+
+def _int_literal(value) -> str:
+    if not isinstance(value, int) or isinstance(value, bool):
+        raise TypeError(f"expected an int, got {type(value).__name__}")
+    return py_literal(value)
+
+
+def _indent_line(line: Line) -> str:
+    return "    " * line.indent + _code(line.text)
+
+
+def _xml(text) -> str:
+    """Text for an XML element or attribute value."""
+    if not isinstance(text, str):
+        raise TypeError(f"expected a str, got {type(text).__name__}")
+    return _xml_escape(text, {'"': "&quot;", "'": "&apos;"})
+
+
+def _xml_comment(text) -> str:
+    """Text for inside an XML comment (which cannot hold ``--``)."""
+    return _xml(text).replace("--", "- -")
+
+
+def _package_name(text) -> str:
+    """A ROS package name, checked (it is printed unquoted in setup.cfg)."""
+    if not isinstance(text, str) or not re.fullmatch(r"[a-z][a-z0-9_]*", text):
+        raise ValueError(f"{text!r} is not a ROS package name")
+    return text
+
+
+def _py_comment(text) -> str:
+    """Text for a Python comment: one line."""
+    if not isinstance(text, str):
+        raise TypeError(f"expected a str, got {type(text).__name__}")
+    return " ".join(text.splitlines())
+
+
+@functools.lru_cache(maxsize=None)
+def environment() -> jinja2.Environment:
+    """Templates of this backend first, then the ``py`` backend's shared ones."""
+    env = jinja2.Environment(
+        loader=jinja2.FileSystemLoader([str(TEMPLATE_DIR), str(PY_TEMPLATE_DIR)]),
+        autoescape=False,
+        undefined=jinja2.StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        keep_trailing_newline=True,
+    )
+    env.filters["code"] = _code
+    env.filters["int_literal"] = _int_literal
+    env.filters["indent_line"] = _indent_line
+    env.filters["pyliteral"] = py_literal
+    env.filters["xml"] = _xml
+    env.filters["xml_comment"] = _xml_comment
+    env.filters["py_comment"] = _py_comment
+    env.filters["package_name"] = _package_name
+    return env
+
+
+class Ros2Backend(Backend):
+    name = "ros2"
+    description = "an rclpy node between YARP ports and ROS 2 topics (optionally an ament_python package)"
+    output_kinds = frozenset({"ros2", "yarp"})
+    input_kinds = frozenset({"yarp", "ros2"})
+
+    def render(self, program, options: RenderOptions = RenderOptions()) -> dict[str, str]:
+        view = lower(program)
+        env = environment()
+        node = env.get_template("node.py.j2").render(m=view)
+        if not options.package:
+            return {view.filename: node}
+        pkg = lower_package(program, view)
+        files = {
+            f"{pkg.package}/{view.filename}": node,
+            f"{pkg.package}/__init__.py": env.get_template("package_init.py.j2").render(p=pkg),
+            "package.xml": env.get_template("package.xml.j2").render(p=pkg),
+            "setup.py": env.get_template("setup.py.j2").render(p=pkg),
+            "setup.cfg": env.get_template("setup.cfg.j2").render(p=pkg),
+            f"resource/{pkg.package}": env.get_template("resource_marker.j2").render(p=pkg),
+            f"launch/{pkg.launch_file}": env.get_template("launch.py.j2").render(p=pkg),
+        }
+        return files
+
+
+__all__ = ["Ros2Backend", "LoweringError", "TEMPLATE_DIR", "environment"]
