@@ -202,3 +202,25 @@ def test_pre_commit_entry_skips_foreign_ini_files(tmp_path):
         assert r.returncode == 0, (hid, r.stderr)
     # without the flag the robot file is an error, as it should be
     assert run("check", robot).returncode == 1
+
+
+def test_user_messages_from_msg_path_and_environment(tmp_path):
+    cfg = ROOT.parent / "shared" / "legacy" / "tutorial_example_yarp_ros.ini"
+    msgs = ROOT / "tests" / "msgs"
+    without = run("check", cfg)
+    assert "W503" in without.stderr  # custom type not found: not checked
+    r = run("check", "--msg-path", msgs, cfg)
+    assert r.returncode == 0 and "W503" not in r.stderr
+    assert "taken as `motors_inertial_msgs/MotorsInertial`" in r.stderr  # bare name resolved
+    data = json.loads(run("ir", "--msg-path", msgs, cfg).stdout)
+    assert [f["name"] for f in data["message"]["fields"]] == ["inertial", "motors"]
+    env = dict(os.environ, YBG_MSG_PATH=str(msgs))
+    r = subprocess.run([shutil.which("ybgc", path=os.path.dirname(sys.executable)), "check", str(cfg)],
+                       capture_output=True, text=True, env=env)
+    assert r.returncode == 0 and "W503" not in r.stderr
+    # and a wrong field count against the real definition is now an error
+    bad = tmp_path / "bad.ini"
+    bad.write_text(cfg.read_text().replace("num_fields = 2", "num_fields = 1").replace("2_type = mux\n2_mux = mux1\n", ""))
+    r = run("check", "--msg-path", msgs, bad)
+    assert r.returncode == 1 and "E303" in r.stderr
+    assert run("check", "--msg-path", tmp_path / "nowhere", cfg).returncode == 2
