@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass, field
-from typing import Mapping
+from typing import Callable, Mapping
 
 from ybg.compiler import ast, ir
 from ybg.compiler.diagnostics import Sink, Span, did_you_mean
@@ -148,11 +148,14 @@ def _bool(entry: ast.Entry, sink: Sink) -> bool | None:
     return b
 
 
-def check_keys(section: ast.Section, allowed: tuple[str, ...], sink: Sink) -> dict[str, ast.Entry]:
-    """Entries of ``section`` by key; unknown and duplicate keys reported."""
+def check_keys(section: ast.Section, allowed: tuple[str, ...], sink: Sink,
+               extra: Callable[[str], bool] | None = None) -> dict[str, ast.Entry]:
+    """Entries of ``section`` by key; unknown keys (neither ``allowed`` nor
+    accepted by ``extra``) and duplicate keys reported. Empty ``allowed`` and
+    no ``extra``: any key."""
     out: dict[str, ast.Entry] = {}
     for e in section.entries:
-        if allowed and e.key not in allowed:
+        if (allowed or extra) and e.key not in allowed and not (extra and extra(e.key)):
             sink.error("E202", f"unknown key `{e.key}` in [{section.title}]", e.key_span,
                        did_you_mean(e.key, allowed) or f"keys of [{section.name}]: {', '.join(allowed)}")
             continue

@@ -14,6 +14,7 @@ from __future__ import annotations
 import re
 
 from ybg.compiler import ast
+from ybg.compiler.check import check_keys
 from ybg.compiler.diagnostics import Sink, Span, did_you_mean
 from ybg.compiler.msgtypes import MsgDef, TypeStore
 
@@ -36,21 +37,6 @@ def is_legacy(doc: ast.Document) -> bool:
 
 def is_named(doc: ast.Document) -> bool:
     return any(s.name in ("output", "module") or (s.name == "mux" and s.label) for s in doc.sections)
-
-
-def _keys(section: ast.Section, allowed, sink: Sink, extra=None) -> dict[str, ast.Entry]:
-    out: dict[str, ast.Entry] = {}
-    for e in section.entries:
-        if e.key not in allowed and not (extra and extra(e.key)):
-            sink.error("E202", f"unknown key `{e.key}` in [{section.title}]", e.key_span,
-                       did_you_mean(e.key, allowed) or f"keys of [{section.name}]: {', '.join(allowed)}")
-            continue
-        if e.key in out:
-            sink.error("E206", f"`{e.key}` is given twice in [{section.title}]", e.key_span,
-                       f"first given on line {out[e.key].span.line}")
-            continue
-        out[e.key] = e
-    return out
 
 
 def _int(e: ast.Entry | None, sink: Sink) -> int | None:
@@ -126,7 +112,7 @@ class LegacyConverter:
             return ast.Document(())
         s.note("N601", "legacy form", gen.span,
                "`ybgc fmt --to named FILE` converts it to the named form")
-        g = _keys(gen, GENERAL_KEYS, s)
+        g = check_keys(gen, GENERAL_KEYS, s)
         for req in ("output_name", "num_mux"):
             if req not in g:
                 s.error("E204", f"[general] needs `{req}`", gen.span)
@@ -248,7 +234,7 @@ class LegacyConverter:
 
     def mux(self, sec: ast.Section, from_ros: bool) -> ast.Section | None:
         s = self.sink
-        keys = _keys(sec, MUX_KEYS, s)
+        keys = check_keys(sec, MUX_KEYS, s)
         name = sec.name
         if "ports" not in keys:
             s.error("E204", f"[{name}] needs `ports`", sec.span)
@@ -274,7 +260,7 @@ class LegacyConverter:
     def fields(self, sec: ast.Section, msgdef: MsgDef | None, prefix: tuple[str, ...],
                by_name, used: set[str], stack: set[str], typed: bool) -> list[ast.Entry]:
         s = self.sink
-        keys = _keys(sec, ("num_fields",), s, extra=lambda k: bool(_FIELD_KEY.match(k)))
+        keys = check_keys(sec, ("num_fields",), s, extra=lambda k: bool(_FIELD_KEY.match(k)))
         if "num_fields" not in keys:
             s.error("E204", f"[{sec.name}] needs `num_fields`", sec.span)
             return []
