@@ -926,3 +926,21 @@ def test_config_end_to_end(path, yarp_ros_server, tmp_path):
     want = reference(program.message, muxes, COUNTER, named=out.kind != "yarp")
     assert_matches(received, want, now)
 
+
+
+def test_counter_wraps_like_its_ros_type(tmp_path):
+    """The counter of a uint32 seq wraps at 2**32 and goes out as YARP's
+    int32 tag on a ROS 1 output, as the C++ module casts it."""
+    require_yarp()
+    import yarp
+    path = write_module(jointstate(), tmp_path)
+    spec = importlib.util.spec_from_file_location("thesis_wrap_mod", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    for counter, seq in ((2**32 + 3, 3), (2**31, -2**31), (7, 7)):
+        msg = mod.build_message(mod.Context({"mux1": [1.0, 2.0]}, counter, {"mux1": None}))
+        bottle = mod.fill_bottle(yarp.Bottle(), msg, mod.WIRE)
+        header = bottle.get(0).asList()
+        assert header.get(0).isInt32() and header.get(0).asInt32() == seq
+        assert header.get(1).asList().get(0).isInt32()  # time (secs nsecs): uint32 -> int32
+        assert bottle.size() == 5 and bottle.get(3).asList().size() == 0

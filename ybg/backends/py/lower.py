@@ -244,7 +244,8 @@ class _Builder:
         if isinstance(src, ir.MuxRef):
             return self.mux_ref(src, typ)
         if isinstance(src, ir.Counter):
-            return f"Scalar({py_literal(src.element_type)}, ctx.counter)"
+            etype = py_literal(src.element_type)
+            return f"Scalar({etype}, ctx.count({etype}))"
         if isinstance(src, ir.Timestamp):
             if src.clock == "envelope":
                 if src.mux is None:

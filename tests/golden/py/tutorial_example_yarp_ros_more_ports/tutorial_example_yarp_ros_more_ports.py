@@ -33,6 +33,9 @@ _FLOAT_TYPES = frozenset(("float32", "float64"))
 _INT_TYPES = frozenset(("int8", "uint8", "int16", "uint16", "int32", "uint32",
                         "int64", "uint64", "byte", "char"))
 
+_INT_BITS = {"int8": 8, "uint8": 8, "byte": 8, "char": 8, "int16": 16, "uint16": 16,
+             "int32": 32, "uint32": 32, "int64": 64, "uint64": 64}
+
 InputSpec = collections.namedtuple("InputSpec", "mux index source kind types timeout")
 ConverterSpec = collections.namedtuple("ConverterSpec", "name scale offset to_float start stop")
 MuxSpec = collections.namedtuple("MuxSpec", "name inputs converters verbose types")
@@ -294,6 +297,16 @@ class Context:
         self._envelopes = envelopes
         self._ns = time.time_ns()
         self.seconds = self._ns / 1e9
+
+    def count(self, type_):
+        """The message counter, wrapped like an integer of ROS type ``type_``."""
+        bits = _INT_BITS.get(type_)
+        if bits is None:
+            return self.counter
+        if type_.startswith("uint") or type_ == "char":
+            return self.counter % (1 << bits)
+        half = 1 << (bits - 1)
+        return ((self.counter + half) % (half << 1)) - half
 
     def wall_time(self, style):
         return time_msg(self._ns, style)
@@ -625,13 +638,20 @@ def run(spec, argv, default_prefix, make_output, build, compute):
 # topic through YARP's topic@node ports).
 # ===========================================================================
 
+def _signed(x, bits):
+    """``x`` as the two's complement integer of ``bits`` bits (a uint32
+    above 2**31 on an int32 wire keeps its bits, as in C++)."""
+    half = 1 << (bits - 1)
+    return ((int(x) + half) % (half << 1)) - half
+
+
 _ADD = {
     "float64": lambda b, x: b.addFloat64(float(x)),
     "float32": lambda b, x: b.addFloat32(float(x)),
-    "int64": lambda b, x: b.addInt64(int(x)),
-    "int32": lambda b, x: b.addInt32(int(x)),
-    "int16": lambda b, x: b.addInt16(int(x)),
-    "int8": lambda b, x: b.addInt8(int(x)),
+    "int64": lambda b, x: b.addInt64(_signed(x, 64)),
+    "int32": lambda b, x: b.addInt32(_signed(x, 32)),
+    "int16": lambda b, x: b.addInt16(_signed(x, 16)),
+    "int8": lambda b, x: b.addInt8(_signed(x, 8)),
     "string": lambda b, x: b.addString(str(x)),
 }
 
