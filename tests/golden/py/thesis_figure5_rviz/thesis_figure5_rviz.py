@@ -26,6 +26,11 @@ import yarp
 # Runtime: the same in every module that ybgc generates (docs/runtime.md).
 # Inputs, freshness, converters, timing, message tree, shutdown. The output
 # side (a YARP port, a ROS topic) is below it, the bridge's own data after.
+#
+# run(SPEC, argv, default_prefix, make_output, build_message, compute) is the
+# entry point. The object make_output() returns has: port_name, open() ->
+# bool, connections() -> [(source, destination)] for the watcher, describe()
+# -> str, publish(message tree), close().
 # ===========================================================================
 
 #: an input element type -> what the input Bottle must hold there
