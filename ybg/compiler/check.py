@@ -734,8 +734,21 @@ class _Checker:
                     continue
                 fields.append(ir.Field(f.name, self.typed_struct(sub, path, entries), f.type))
             else:
-                fields.append(ir.Field(f.name, ir.Default(), f.type))
+                fields.append(ir.Field(f.name, self.default(f, path), f.type))
         return ir.Struct(tuple(fields), msgdef.name)
+
+    def default(self, f, path: tuple[str, ...]):
+        """The default of an unset field: a nested message becomes a struct of
+        its own defaults, so that backends see the layout."""
+        t = f.type
+        if t.is_message and t.array is None:
+            sub = self.store.resolve(t.base)
+            if sub is not None:
+                return self.typed_struct(sub, path, {})
+        if t.is_message and t.array == "fixed":
+            self.sink.error("E304", f"`{'.'.join(path)}` is {t}, a fixed-size array of messages, "
+                            "which cannot be filled yet", None)
+        return ir.Default(f.default)
 
     def below(self, entries) -> dict[tuple[str, ...], dict[tuple[str, ...], ast.Entry]]:
         """prefix -> the entries strictly below it (computed once)."""

@@ -234,7 +234,12 @@ class Seconds:
 
 @dataclass(frozen=True)
 class Default:
-    """Not set by the config: the type's default (0, "", empty, nested defaults)."""
+    """Not set by the config: ``value`` is the default the ``.msg`` gives
+    (ROS 2 ``float64 w 1.0``; a tuple for an array), else ``None`` for the
+    type's own default (0, false, "", empty list, a fixed array of those,
+    time 0). A nested message left unset is a :class:`Struct` of defaults."""
+
+    value: Union[str, int, float, bool, tuple, None] = None
 
 
 Source = Union[Literal, MuxRef, Counter, Timestamp, Seconds, Default, "Struct"]
@@ -394,6 +399,9 @@ def _source(d: dict[str, Any]) -> Any:
             if args[k] is not None:
                 args[k] = tuple(args[k])
         return MuxRef(**args)
+    if kind == "default":
+        v = d.get("value")
+        return Default(tuple(v) if isinstance(v, list) else v)
     cls = _SOURCE_KINDS[kind]
     return cls(**{k: v for k, v in d.items() if k != "kind"})
 

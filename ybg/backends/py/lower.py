@@ -256,7 +256,7 @@ class _Builder:
         if isinstance(src, ir.Seconds):
             return "Scalar('float64', ctx.seconds)"
         if isinstance(src, ir.Default):
-            return self.default(typ)
+            return self.default(typ, src.value)
         raise LoweringError(f"unknown source {type(src).__name__}")
 
     def mux_ref(self, ref: ir.MuxRef, typ: ir.TypeRef | None) -> str:
@@ -288,10 +288,14 @@ class _Builder:
         kind = "Splice" if ref.splice else "Array"
         return f"{kind}({etype}, {part})"
 
-    def default(self, typ: ir.TypeRef | None) -> str:
+    def default(self, typ: ir.TypeRef | None, value=None) -> str:
         if typ is None:
             raise LoweringError("a default value needs a typed field")
         base = typ.base
+        if value is not None:  # the .msg's own default (ROS 2 `float64 w 1.0`)
+            if typ.array is not None:
+                return f"Array({py_literal(base)}, {py_literal(tuple(value))})"
+            return f"Scalar({py_literal(base)}, {py_literal(value)})"
         if typ.array == "sequence":
             return f"Array({py_literal(base)}, ())"
         if base in _TIME_TYPES:
