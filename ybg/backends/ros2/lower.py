@@ -334,6 +334,9 @@ class _MessageBuilder:
         if isinstance(src, ir.MuxRef):
             return self.mux_ref(src, typ, name)
         if isinstance(src, ir.Counter):
+            if base in ir.INTEGER_TYPES and typ.array is None:
+                # wrapped like an integer of the field's type, as on every backend
+                return self.scalar(typ, f"ctx.count({py_literal(base)})", name)
             return self.scalar(typ, "ctx.counter", name)
         if isinstance(src, ir.Seconds):
             return self.scalar(typ, "stamps.seconds", name)

@@ -1,0 +1,1101 @@
+"""The ``ros2`` backend: generated rclpy nodes run against real YARP and real
+ROS 2 (separate producer, subscriber and publisher processes).
+
+- generation: golden files of every ROS 2 example, Python types of every
+  field (the generated module imported and its message builder called),
+  escaping, lowering errors, no name clash with the shared runtime;
+- YARP -> ROS 2 end to end for every example that publishes to ROS 2, and
+  ROS 2 -> YARP for every example that reads ROS 2 topics;
+- the thesis' legacy Rviz config converted with ``ybgc fmt --to named --ros2``;
+- faults: a producer killed and restarted, malformed Bottles, SIGINT/SIGTERM;
+- parameters (rate, timeout, prefix, verbose, use_sim_time);
+- differential: the same inputs through the ROS 2 node and the ``py`` module;
+- the ament_python package (``--package``).
+"""
+from __future__ import annotations
+
+import ast
+import configparser
+import dataclasses
+import functools
+import importlib.util
+import math
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+import xml.etree.ElementTree as ET
+import zipfile
+from pathlib import Path
+from types import SimpleNamespace
+
+import pytest
+
+from middleware import VENV_PYTHON, Peer, Proc, Ros2Publisher, YarpProducer, YarpReader
+from ybg.backends import RenderOptions, get_backend
+from ybg.backends.py import PyBackend
+from ybg.backends.py import TEMPLATE_DIR as PY_TEMPLATE_DIR
+from ybg.backends.ros2 import TEMPLATE_DIR, Ros2Backend
+from ybg.backends.ros2.lower import LoweringError, package_name
+from ybg.compiler import ir
+from ybg.compiler.ir import (Converter, Counter, Default, ElementGroup, Field, Input, Literal, Mux,
+                             MuxRef, Output, Program, QoS, Seconds, Struct, Timestamp, Timing,
+                             TypeRef)
+from ybg.compiler.pipeline import compile_path
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = ROOT / "examples"
+LEGACY_DIR = ROOT.parent / "shared" / "legacy"
+GOLDEN = Path(__file__).resolve().parent / "golden" / "ros2"
+DEG = math.pi / 180.0
+TOL = 1e-12
+
+#: a string that breaks naive code generation in every way we know of
+EVIL = ("q\"uo'te \\back\\slash\\\nnew line */ /* ''' \"\"\" # ; {{ x }} {% raw %} "
+        "\t tab ünïcødé 日本語 \u2028 end\\ -- <x>&amp;")
+
+
+# --------------------------------------------------------------------------
+# the examples
+
+
+@functools.lru_cache(maxsize=None)
+def compiled(path: str) -> Program:
+    result = compile_path(path, backend="ros2")
+    assert result.ok, "\n".join(str(d) for d in result.diagnostics)
+    return result.program
+
+
+def _targets_ros2(program: Program) -> bool:
+    return program.output.kind == "ros2" or any(
+        i.kind == "ros2" for m in program.muxes for i in m.inputs)
+
+
+@functools.lru_cache(maxsize=None)
+def ros2_examples() -> tuple[str, ...]:
+    """Stems of the examples that compile for the ros2 backend and involve ROS 2."""
+    out = []
+    for p in sorted(EXAMPLES.glob("*.ini")):
+        result = compile_path(str(p), backend="ros2")
+        if result.ok and _targets_ros2(result.program):
+            out.append(p.stem)
+    return tuple(out)
+
+
+def example(stem: str) -> Program:
+    return compiled(str(EXAMPLES / f"{stem}.ini"))
+
+
+def yarp_to_ros2_examples():
+    return [s for s in ros2_examples() if example(s).output.kind == "ros2"]
+
+
+def ros2_to_yarp_examples():
+    return [s for s in ros2_examples() if example(s).output.kind == "yarp"]
+
+
+# --------------------------------------------------------------------------
+# helpers
+
+
+def render_node(program: Program) -> tuple[str, str]:
+    (name, text), = Ros2Backend().render(program).items()
+    return name, text
+
+
+def write_node(program: Program, folder: Path) -> Path:
+    name, text = render_node(program)
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / name
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def import_node(program: Program, folder: Path):
+    """The generated node imported as a module (it runs nothing on import)."""
+    path = write_node(program, folder)
+    spec = importlib.util.spec_from_file_location(f"ybg_test_{program.module}_node", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+_STARTED: list = []
+
+
+@pytest.fixture(autouse=True)
+def _print_node_logs():
+    """The logs of the nodes a test ran, shown by pytest when it fails."""
+    _STARTED.clear()
+    yield
+    for node in _STARTED:
+        print(f"---- log of {node.name}:\n{node.log_text()[-4000:]}")
+
+
+class Node(Proc):
+    """A generated node run as a script by the venv's Python."""
+
+    def __init__(self, env, path: Path, *args, name=None):
+        self.path = path
+        super().__init__([VENV_PYTHON, path, *args], env=env, name=name or path.stem)
+        _STARTED.append(self)
+
+    def wait_log(self, text, timeout=15.0, count=1):
+        end = time.monotonic() + timeout
+        while True:
+            log = self.log_text()
+            if log.count(text) >= count:
+                return log
+            if not self.alive:
+                raise AssertionError(f"{self.name} exited; log:\n{log[-3000:]}")
+            if time.monotonic() > end:
+                raise AssertionError(f"no {text!r} in the log of {self.name}:\n{log[-3000:]}")
+            time.sleep(0.05)
+
+    def interrupt(self, sig=signal.SIGINT, within=2.0):
+        """Send ``sig`` to the node alone; returns (status, seconds to exit)."""
+        t0 = time.monotonic()
+        os.kill(self.pid, sig)
+        try:
+            rc = self.popen.wait(within + 3.0)
+        except subprocess.TimeoutExpired:
+            rc = None
+        return rc, time.monotonic() - t0
+
+
+class QosSubscriber(Peer):
+    """An rclpy subscriber with a chosen QoS (tests/peers/ros2_qos_subscriber.py)."""
+
+    script = "ros2_qos_subscriber.py"
+
+    def __init__(self, env, topic, msg_type, qos: QoS | None = None):
+        qos = qos or QoS()
+        super().__init__(env, {"topic": topic, "type": msg_type, "reliability": qos.reliability,
+                               "durability": qos.durability, "depth": 100},
+                         name=f"ros2_sub{topic.replace('/', '_')}")
+        self.messages: list = []
+        self.publishers = 0
+
+    def _on_event(self, ev):
+        if ev["ev"] == "msg":
+            self.messages.append(SimpleNamespace(t=ev["t"], msg=ev["msg"]))
+        elif ev["ev"] == "matched":
+            self.publishers = ev["n"]
+
+    def wait_for(self, n, timeout=10.0):
+        self.wait(lambda: len(self.messages) >= n, timeout, f"{n} messages")
+        with self._cond:
+            return list(self.messages)
+
+    def wait_after(self, t, timeout=10.0, pred=lambda m: True):
+        """The first message received after time ``t`` that satisfies ``pred``."""
+        def find():
+            for m in self.messages:
+                if m.t > t and pred(m):
+                    return m
+            return None
+        return self.wait(find, timeout, f"a message after {t}")
+
+    def wait_publishers(self, n=1, timeout=15.0):
+        self.wait(lambda: self.publishers >= n, timeout, f"{n} publishers")
+
+    def clear(self):
+        with self._cond:
+            self.messages.clear()
+
+
+def subscriber_for(env, program: Program) -> QosSubscriber:
+    out = program.output
+    pkg, name = out.msg_type.split("/")
+    return QosSubscriber(env, out.name, f"{pkg}/msg/{name}", out.qos)
+
+
+def ros2_type(msg_type: str) -> str:
+    pkg, name = msg_type.split("/")
+    return f"{pkg}/msg/{name}"
+
+
+def totals(log: str) -> dict:
+    """{source: (received, dropped, stale periods)} and 'published' from the exit totals."""
+    out = {}
+    for m in re.finditer(r"input (\S+): received (\d+), dropped (\d+), stale periods (\d+)", log):
+        out[m.group(1)] = tuple(int(x) for x in m.groups()[1:])
+    m = re.search(r"published (\d+) messages, skipped (\d+) cycles, build failures (\d+)", log)
+    if m:
+        out["published"], out["skipped"], out["failures"] = (int(x) for x in m.groups())
+    return out
+
+
+def stop_clean(node: Node, sig=signal.SIGINT) -> str:
+    """Stop the node with ``sig``: exit 0 within 2 s, no traceback; its log."""
+    rc, took = node.interrupt(sig)
+    log = node.log_text()
+    assert rc == 0, f"exit status {rc}; log:\n{log[-3000:]}"
+    assert took < 2.0, f"took {took:.2f} s to exit"
+    assert "Traceback" not in log, log
+    assert "totals:" in log
+    return log
+
+
+def ns_of(seconds: float) -> tuple[int, int]:
+    return divmod(round(seconds * 1e9), 1_000_000_000)
+
+
+def stamp_seconds(stamp: dict) -> float:
+    return stamp["sec"] + stamp["nanosec"] * 1e-9
+
+
+def assert_close(actual, expected, path="msg"):
+    """Exact structure and strings; numbers to 1e-12."""
+    if isinstance(expected, dict):
+        assert isinstance(actual, dict), f"{path}: {actual!r} is not a message"
+        assert sorted(actual) == sorted(expected), f"{path}: fields {sorted(actual)} != {sorted(expected)}"
+        for k in expected:
+            assert_close(actual[k], expected[k], f"{path}.{k}")
+    elif isinstance(expected, (list, tuple)):
+        assert isinstance(actual, list), f"{path}: {actual!r} is not a list"
+        assert len(actual) == len(expected), f"{path}: {len(actual)} values, expected {len(expected)}"
+        for k, (a, e) in enumerate(zip(actual, expected)):
+            assert_close(a, e, f"{path}[{k}]")
+    elif isinstance(expected, float):
+        assert isinstance(actual, float), f"{path}: {actual!r} is not a float"
+        assert math.isclose(actual, expected, rel_tol=0, abs_tol=TOL), f"{path}: {actual!r} != {expected!r}"
+    else:
+        assert actual == expected and type(actual) is type(expected), f"{path}: {actual!r} != {expected!r}"
+
+
+@pytest.fixture
+def mw(yarp_server, ros2_domain):
+    """One environment with the YARP name server and the ROS 2 domain."""
+    env = dict(yarp_server.env)
+    env.update(ros2_domain.ros_env)
+    for key in ("ROS_HOME", "ROS_LOG_DIR"):
+        env[key] = ros2_domain.env[key]
+    return SimpleNamespace(env=env, yarp=yarp_server, ros2=ros2_domain)
+
+
+# --------------------------------------------------------------------------
+# what each example must publish, from the values its producers wrote
+
+
+def input_values(program: Program, offset: float = 0.0) -> dict[str, list]:
+    """Distinct values for each YARP input, of its declared element types."""
+    out = {}
+    for j, inp in enumerate(i for m in program.muxes for i in m.inputs if i.kind == "yarp"):
+        types = inp.element_types or ("float64",) * 4
+        vals = []
+        for k, t in enumerate(types):
+            x = 10.0 * j + 1.5 * k - 7.25 + offset
+            vals.append(int(x) if t in ir.INTEGER_TYPES else x)
+        out[inp.name] = vals
+    return out
+
+
+def _vizzy(sent, stamps):
+    return {
+        "header": {"frame_id": "base_link"},
+        "name": ["waist_joint", "l_shoulder_scapula_joint", "l_shoulder_flection_joint",
+                 "l_shoulder_abduction_joint", "l_shoulder_rotation_joint", "l_elbow_flection_joint",
+                 "l_forearm_pronation_joint", "l_wrist_abduction_joint", "l_wrist_flection_joint"],
+        "position": [x * DEG for x in sent["/vizzy/torso/state:o"]
+                     + sent["/vizzy/left_shoulder_arm/state:o"]],
+        "velocity": [], "effort": [],
+    }, None
+
+
+def _icub(sent, stamps):
+    body = sent["/icub/torso/state:o"] + sent["/icub/left_arm/state:o"]
+    return {
+        "header": {"frame_id": "root_link"},
+        "name": ["torso_yaw", "torso_roll", "torso_pitch", "l_shoulder_pitch", "l_shoulder_roll",
+                 "l_shoulder_yaw", "l_elbow", "l_wrist_prosup", "l_wrist_pitch", "l_wrist_yaw"],
+        "position": [x * DEG for x in body[:10]],
+        "velocity": [], "effort": [],
+    }, max(stamps.values())
+
+
+def _ball(sent, stamps):
+    x, y, z = sent["/pf3dTracker/data:o"]
+    return {
+        "header": {"frame_id": "l_camera_vision_link"},
+        "point": {"x": x * 0.001, "y": y * 0.001, "z": z * 0.001},
+    }, stamps["/pf3dTracker/data:o"]
+
+
+def _imu(sent, stamps):
+    v = sent["/icub/inertial"]
+    xyz = ("x", "y", "z")
+    return {
+        "header": {"frame_id": "imu_link"},
+        "orientation": dict(zip(("x", "y", "z", "w"), v[0:4])),
+        "orientation_covariance": [0.01, 0.0, 0.0, 0.0, 0.01, 0.0, 0.0, 0.0, 0.01],
+        "angular_velocity": dict(zip(xyz, (a * DEG for a in v[4:7]))),
+        "angular_velocity_covariance": [0.001, 0.0, 0.0, 0.0, 0.001, 0.0, 0.0, 0.0, 0.001],
+        "linear_acceleration": dict(zip(xyz, v[7:10])),
+        "linear_acceleration_covariance": [-1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    }, None
+
+
+#: stem -> (sent values, envelope stamps) -> (expected message without
+#: header.stamp, the expected envelope stamp or None for the node's clock)
+EXPECTED = {
+    "vizzy_rviz_joint_states": _vizzy,
+    "icub_moveit_joint_states": _icub,
+    "ball_point_stamped": _ball,
+    "imu_ros2": _imu,
+}
+
+
+def test_every_ros2_example_is_covered():
+    """A new ROS 2 example must come with its expected message here."""
+    stems = set(ros2_examples())
+    assert {"vizzy_rviz_joint_states", "icub_moveit_joint_states", "ball_point_stamped",
+            "imu_ros2", "ros2_to_yarp_gaze"} <= stems
+    assert set(yarp_to_ros2_examples()) == set(EXPECTED)
+    assert set(ros2_to_yarp_examples()) == {"ros2_to_yarp_gaze"}
+
+
+def _uses_envelope(struct: Struct) -> bool:
+    for f in struct.fields:
+        if isinstance(f.source, Timestamp) and f.source.clock == "envelope":
+            return True
+        if isinstance(f.source, Struct) and _uses_envelope(f.source):
+            return True
+    return False
+
+
+def check_message(got, expected_and_stamp, t_before):
+    expected, envelope = expected_and_stamp
+    msg = dict(got.msg)
+    header = dict(msg.pop("header"))
+    stamp = header.pop("stamp")
+    exp = dict(expected)
+    exp_header = exp.pop("header")
+    assert_close(header, exp_header, "header")
+    assert_close(msg, exp)
+    if envelope is None:
+        # the node's clock (system time here): between the writes and the arrival
+        assert t_before - 0.05 <= stamp_seconds(stamp) <= got.t + 0.05, (stamp, t_before, got.t)
+    else:
+        # the envelope's time, far from the clock; YARP sends envelopes as
+        # text with 15 significant digits (10 microseconds at this epoch)
+        assert abs(stamp_seconds(stamp) - envelope) < 2e-5, (stamp, envelope)
+
+
+# --------------------------------------------------------------------------
+# golden files
+
+
+def golden_files(stem: str) -> dict[str, str]:
+    program = example(stem)
+    files = dict(Ros2Backend().render(program))
+    if stem in ("vizzy_rviz_joint_states", "ros2_to_yarp_gaze"):
+        pkg = Ros2Backend().render(program, RenderOptions(package=True))
+        node_in_pkg = f"{package_name(program.module)}/{render_node(program)[0]}"
+        assert pkg[node_in_pkg] == files[render_node(program)[0]]
+        for rel, text in pkg.items():
+            if rel != node_in_pkg:
+                files[f"package/{rel}"] = text
+    return files
+
+
+@pytest.mark.parametrize("stem", ros2_examples())
+def test_golden(stem, update_goldens):
+    files = golden_files(stem)
+    folder = GOLDEN / stem
+    if update_goldens or os.environ.get("YBG_UPDATE_GOLDENS") == "1":
+        for rel, text in files.items():
+            path = folder / rel
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(text, encoding="utf-8", newline="\n")
+        return
+    on_disk = sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if p.is_file())
+    assert on_disk == sorted(files), "golden files differ in name; run pytest --update-goldens"
+    for rel, text in files.items():
+        want = (folder / rel).read_text(encoding="utf-8")
+        assert text == want, f"{stem}/{rel} differs from its golden file; run pytest --update-goldens"
+
+
+def test_output_is_deterministic_and_compiles():
+    for stem in ros2_examples():
+        program = example(stem)
+        a = Ros2Backend().render(program, RenderOptions(package=True))
+        b = get_backend("ros2").render(program, RenderOptions(package=True))
+        assert a == b
+        for rel, text in a.items():
+            assert "generated by ybgc from" in text.splitlines()[0].lower(), rel
+            if rel.endswith(".py"):
+                compile(text, rel, "exec")
+                assert not undefined_globals(text, rel), (rel, undefined_globals(text, rel))
+        node = a[f"{package_name(program.module)}/{program.module}_node.py"]
+        for region in ("imports", "setup", "compute"):
+            assert f"# ybgc:user-begin {region}\n" in node and f"# ybgc:user-end {region}\n" in node
+
+
+def undefined_globals(source: str, filename: str) -> set[str]:
+    """Names that functions of ``source`` read as globals but that neither
+    the module nor the builtins define (an import the runtime needs and the
+    node template lacks shows up here, not only when that code runs)."""
+    import builtins
+    import symtable
+
+    top = symtable.symtable(source, filename, "exec")
+    defined = {s.get_name() for s in top.get_symbols() if s.is_assigned() or s.is_imported()}
+    defined |= {c.get_name() for c in top.get_children()}
+    defined |= set(dir(builtins))
+    missing = set()
+
+    def walk(table):
+        for sym in table.get_symbols():
+            if sym.is_referenced() and sym.is_global() and sym.get_name() not in defined:
+                missing.add(sym.get_name())
+        for child in table.get_children():
+            walk(child)
+
+    for child in top.get_children():
+        walk(child)
+    return missing
+
+
+def _top_level_names(template: Path) -> set[str]:
+    text = template.read_text()
+    text = text.replace("{% raw %}", "").replace("{% endraw %}", "")
+    names = set()
+    for node in ast.parse(text).body:
+        if isinstance(node, (ast.FunctionDef, ast.ClassDef)):
+            names.add(node.name)
+        elif isinstance(node, ast.Assign):
+            names.update(t.id for t in node.targets if isinstance(t, ast.Name))
+    return names
+
+
+def test_no_name_clash_with_the_shared_runtime():
+    """The ROS 2 part is pasted after the py backend's runtime: it must not
+    redefine any of its names (the runtime is written by another backend)."""
+    ours = _top_level_names(TEMPLATE_DIR / "_ros2_node.py.j2")
+    theirs = _top_level_names(PY_TEMPLATE_DIR / "_runtime.py.j2") | \
+        _top_level_names(PY_TEMPLATE_DIR / "_yarp_output.py.j2")
+    assert {"Bridge", "Input", "Context", "convert"} <= theirs
+    assert not ours & theirs, ours & theirs
+    # and no message class alias (ros_<pkg>_<Name>) can clash with either
+    assert not any(n.startswith("ros_") for n in ours | theirs)
+
+
+# --------------------------------------------------------------------------
+# the message builder, called in-process on real rclpy messages
+
+
+def test_imu_fields_have_the_right_python_types(tmp_path):
+    import rclpy.time
+
+    program = example("imu_ros2")
+    node = import_node(program, tmp_path)
+    values = [0.1, 0.2, 0.3, 0.9, 10.0, 20.0, 30.0, 0.0, 0.0, 9.81]
+    ctx = node.Context({"inertial": node.convert(values, node.SPEC.muxes[0].converters)}, 0, {})
+    msg = node.build_message(ctx, node.Stamps(rclpy.time.Time(nanoseconds=1_500_000_000), {}))
+    assert type(msg).__name__ == "Imu"
+    assert (msg.header.stamp.sec, msg.header.stamp.nanosec) == (1, 500_000_000)
+    assert msg.header.frame_id == "imu_link"
+    assert [msg.orientation.x, msg.orientation.y, msg.orientation.z, msg.orientation.w] == values[:4]
+    assert msg.angular_velocity.y == 20.0 * DEG
+    assert msg.linear_acceleration.z == 9.81
+    assert list(msg.orientation_covariance) == [0.01, 0, 0, 0, 0.01, 0, 0, 0, 0.01]
+    assert str(msg.orientation_covariance.dtype) == "float64" and len(msg.linear_acceleration_covariance) == 9
+
+
+def typed_program(layout, target_type="sensor_msgs/JointState", fields=None, rate=None):
+    """One mux (``layout`` None: undeclared) into a typed message."""
+    return Program(
+        module="typed_bridge", source="typed_bridge.ini",
+        muxes=(Mux("m", (Input("/typed/in:o", layout=layout),)),),
+        message=Struct(tuple(fields), target_type),
+        output=Output("ros2", "/typed", target_type, qos=QoS()),
+        timing=Timing(rate=rate), ros="ros2", distro="jazzy")
+
+
+def _header(frame, stamp=Timestamp(style="ros2")):
+    return Field("header", Struct((
+        Field("stamp", stamp, TypeRef("builtin_interfaces/Time")),
+        Field("frame_id", Literal((frame,), "string"), TypeRef("string")),
+    ), "std_msgs/Header"), TypeRef("std_msgs/Header"))
+
+
+def test_integers_strings_counter_and_escaping(tmp_path):
+    """Int mux values into float64[]; int literals into float64[9]; a
+    counter and the node-clock seconds into scalars; strings full of
+    quotes round-trip exactly."""
+    import rclpy.time
+
+    program = typed_program(
+        (ElementGroup("int32", 3),),
+        "sensor_msgs/JointState",
+        [_header(EVIL),
+         Field("name", Literal((EVIL, "", "b"), "string", True), TypeRef("string", "sequence")),
+         Field("position", MuxRef("m"), TypeRef("float64", "sequence")),
+         Field("velocity", Literal((1, 2), "int32", True), TypeRef("float64", "sequence")),
+         Field("effort", Default(), TypeRef("float64", "sequence"))])
+    node = import_node(program, tmp_path)
+    ctx = node.Context({"m": [1, -2, 3]}, 7, {})
+    msg = node.build_message(ctx, node.Stamps(rclpy.time.Time(nanoseconds=5), {}))
+    assert msg.header.frame_id == EVIL
+    assert list(msg.name) == [EVIL, "", "b"]
+    assert list(msg.position) == [1.0, -2.0, 3.0] and all(type(x) is float for x in msg.position)
+    assert list(msg.velocity) == [1.0, 2.0]
+    assert list(msg.effort) == []
+
+    program = typed_program(
+        (ElementGroup("float64", 3), ElementGroup("int32", 1)), "sensor_msgs/Imu",
+        [_header("f"),
+         Field("orientation", MuxRef("m", 0, 3, into_fields=("x", "y", "z"),
+                                     into_types=("float64",) * 3), TypeRef("geometry_msgs/Quaternion")),
+         Field("orientation_covariance", Literal((0, 1, 2, 3, 4, 5, 6, 7, 8), "int32", True),
+               TypeRef("float64", "fixed", 9))])
+    node = import_node(program, tmp_path / "imu")
+    msg = node.build_message(node.Context({"m": [0.5, 0.25, -1.0, 4]}, 0, {}),
+                             node.Stamps(rclpy.time.Time(nanoseconds=0), {}))
+    assert (msg.orientation.x, msg.orientation.y, msg.orientation.z, msg.orientation.w) == (0.5, 0.25, -1.0, 1.0)
+    assert list(msg.orientation_covariance) == [float(k) for k in range(9)]
+
+    counter = typed_program((ElementGroup("float64", 1),), "std_msgs/UInt32",
+                            [Field("data", Counter("uint32"), TypeRef("uint32"))])
+    node = import_node(counter, tmp_path / "counter")
+    msg = node.build_message(node.Context({"m": [1.0]}, 41, {}),
+                             node.Stamps(rclpy.time.Time(nanoseconds=0), {}))
+    assert msg.data == 41
+    seconds = typed_program((ElementGroup("float64", 1),), "std_msgs/Float64",
+                            [Field("data", Seconds(), TypeRef("float64"))])
+    node = import_node(seconds, tmp_path / "seconds")
+    msg = node.build_message(node.Context({"m": [1.0]}, 0, {}),
+                             node.Stamps(rclpy.time.Time(nanoseconds=2_250_000_000), {}))
+    assert msg.data == 2.25
+
+
+def test_dynamic_width_checks_sizes_at_run_time(tmp_path):
+    """An undeclared mux into a fixed-size field: the wrong number of values
+    is refused (and counted by the bridge), never sent."""
+    import rclpy.time
+
+    program = typed_program(None, "sensor_msgs/Imu", [
+        Field("angular_velocity_covariance", MuxRef("m", 0, 9), TypeRef("float64", "fixed", 9)),
+        Field("orientation_covariance", MuxRef("m"), TypeRef("float64", "fixed", 9)),
+    ])
+    node = import_node(program, tmp_path)
+    stamps = node.Stamps(rclpy.time.Time(nanoseconds=0), {})
+    msg = node.build_message(node.Context({"m": [float(k) for k in range(9)]}, 0, {}), stamps)
+    assert list(msg.orientation_covariance) == list(msg.angular_velocity_covariance) == [float(k) for k in range(9)]
+    with pytest.raises(node.FillError):
+        node.build_message(node.Context({"m": [1.0] * 10}, 0, {}), stamps)
+    with pytest.raises(IndexError):
+        node.build_message(node.Context({"m": [1.0] * 8}, 0, {}), stamps)
+
+
+def test_lowering_errors():
+    backend = Ros2Backend()
+    bad_size = typed_program((ElementGroup("float64", 1),), "sensor_msgs/Imu", [
+        Field("orientation_covariance", Literal((0.0,) * 8, "float64", True), TypeRef("float64", "fixed", 9))])
+    with pytest.raises(LoweringError, match="fixed-size"):
+        backend.render(bad_size)
+    bad_slice = typed_program((ElementGroup("float64", 4),), "sensor_msgs/Imu", [
+        Field("orientation_covariance", MuxRef("m", 0, 4), TypeRef("float64", "fixed", 9))])
+    with pytest.raises(LoweringError, match="fixed-size"):
+        backend.render(bad_slice)
+    no_yarp = dataclasses.replace(example("ball_point_stamped"), muxes=(
+        Mux("tracker", (Input("/p", "ros2", (ElementGroup("float64", 3),), "geometry_msgs/Point",
+                              ("x", "y", "z")),)),))
+    with pytest.raises(LoweringError, match="no YARP port"):
+        backend.render(no_yarp)
+    ros1 = dataclasses.replace(example("ball_point_stamped"),
+                               output=Output("ros1", "/ball", "geometry_msgs/PointStamped"))
+    with pytest.raises(LoweringError, match="ros1"):
+        backend.render(ros1)
+    assert package_name("Vizzy__Upper-Body") == "vizzy_upper_body"
+    assert package_name("9lives") == "ybg_9lives"
+
+
+# --------------------------------------------------------------------------
+# YARP -> ROS 2, every example
+
+
+def start_yarp_to_ros2(mw, stem, folder, *args):
+    program = example(stem)
+    path = write_node(program, folder)
+    sub = subscriber_for(mw.env, program).start()
+    node = Node(mw.env, path, *args).start()
+    producers = [YarpProducer(mw.env, port).start() for port in input_values(program)]
+    node.wait_log("publishing")
+    for p in producers:
+        p.wait_outputs(1, timeout=15)
+    wait_matched(node, sub, program)
+    return program, node, sub, producers
+
+
+def wait_matched(node, sub, program):
+    """Both sides of the topic matched: a message published now is delivered."""
+    sub.wait_publishers(1)
+    node.wait_log(f"{program.output.name}: 1 subscriber\n")
+
+
+def write_all(program, producers, offset=0.0, stamped=False):
+    sent = input_values(program, offset)
+    stamps = {}
+    t_before = time.time()
+    for k, p in enumerate(producers):
+        stamp = None
+        if stamped:
+            stamps[p.port] = 1_700_000_000.0 + 12.5 * k + 0.123456789 + offset
+            stamp = [k, stamps[p.port]]
+        p.write(sent[p.port], stamp=stamp)
+    return sent, stamps, t_before
+
+
+def wait_matching(sub, t_before, expected, timeout=10.0):
+    """The first message received after ``t_before`` that is the expected
+    one; on a timeout, the mismatch of the last message received."""
+    end = time.monotonic() + timeout
+    problem = "no message at all"
+    while time.monotonic() < end:
+        with sub._cond:
+            fresh = [m for m in sub.messages if m.t > t_before]
+        for m in fresh:
+            try:
+                check_message(m, expected, t_before)
+                return m
+            except AssertionError as e:
+                problem = f"{e}\nin {m.msg}"
+        time.sleep(0.05)
+    raise AssertionError(f"no expected message within {timeout} s: {problem}")
+
+
+@pytest.mark.parametrize("stem", yarp_to_ros2_examples())
+def test_yarp_to_ros2(mw, tmp_path, stem):
+    """Producers, the node, a subscriber with the output's QoS: the exact
+    message; new values give a new message; exit totals."""
+    program, node, sub, producers = start_yarp_to_ros2(mw, stem, tmp_path)
+    stamped = _uses_envelope(program.message)
+    try:
+        sent, stamps, t_before = write_all(program, producers, stamped=stamped)
+        got = sub.wait_after(t_before)
+        check_message(got, EXPECTED[stem](sent, stamps), t_before)
+        sent, stamps, t_before = write_all(program, producers, offset=100.0, stamped=stamped)
+        wait_matching(sub, t_before, EXPECTED[stem](sent, stamps))
+        log = stop_clean(node)
+    finally:
+        for p in producers:
+            p.stop()
+        sub.stop()
+        node.stop()
+    t = totals(log)
+    for port in sent:
+        assert t[port][:2] == (2, 0), t
+    assert t["published"] >= 2 and t["failures"] == 0
+
+
+# --------------------------------------------------------------------------
+# ROS 2 -> YARP
+
+
+@pytest.mark.parametrize("stem", ros2_to_yarp_examples())
+def test_ros2_to_yarp(mw, tmp_path, stem):
+    """A ROS 2 publisher, the node, a YARP reader on the port the config
+    connects to; the reader restarted: the node connects to it again."""
+    program = example(stem)
+    assert program.output.connect_to
+    (inp,) = [i for m in program.muxes for i in m.inputs]
+    assert inp.kind == "ros2" and inp.fields == ("point.x", "point.y", "point.z")
+    path = write_node(program, tmp_path)
+    reader = YarpReader(mw.env, program.output.connect_to).start()
+    node = Node(mw.env, path).start()
+    pub = Ros2Publisher(mw.env, inp.name, ros2_type(inp.ros_type)).start()
+    try:
+        node.wait_log(f"connected {program.output.name} -> {program.output.connect_to}")
+        pub.wait_matched(1, timeout=15)
+        node.wait_log(f"{inp.name}: 1 publisher\n")  # the node's side of the match
+        pub.publish({"header": {"frame_id": "goal"}, "point": {"x": 0.5, "y": -0.25, "z": 1.125}})
+        (first, *_) = reader.wait_for(1)
+        assert first.data == [0.5, -0.25, 1.125]
+        assert first.types == ["float64"] * 3
+        pub.publish({"point": {"x": 1e-3, "y": 2.0, "z": -3.0}})
+        reader.wait(lambda: any(b.data == [1e-3, 2.0, -3.0] for b in reader.bottles), 10, "new point")
+        # the consumer restarts: the node's watcher connects to it again
+        reader.stop()
+        reader.start()
+        node.wait_log(f"connected {program.output.name} -> {program.output.connect_to}", count=2)
+        pub.publish({"point": {"x": 7.0, "y": 8.0, "z": 9.0}})
+        reader.wait(lambda: any(b.data == [7.0, 8.0, 9.0] for b in reader.bottles), 10, "after restart")
+        log = stop_clean(node, signal.SIGTERM)
+    finally:
+        pub.stop()
+        reader.stop()
+        node.stop()
+    t = totals(log)
+    assert t[inp.name] == (3, 0, 0) or t[inp.name][:2] == (3, 0), t
+
+
+# --------------------------------------------------------------------------
+# the thesis' Rviz config (legacy, ROS 1) for ROS 2, through the CLI
+
+
+def ybgc(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "ybg.cli", *map(str, args)], capture_output=True,
+                          text=True, cwd=cwd or ROOT, timeout=120)
+
+
+def test_legacy_ros1_config_gives_e318():
+    out = ybgc(LEGACY_DIR / "thesis_figure5_rviz.ini", "--backend", "ros2", "-o", "/nonexistent/never")
+    assert out.returncode == 1, out
+    assert "E318" in out.stderr
+    assert "fmt --to named --ros2" in out.stderr
+    assert not Path("/nonexistent/never").exists()
+
+
+def test_thesis_rviz_config_converted_for_ros2(mw, tmp_path):
+    named = tmp_path / "thesis_rviz_ros2.ini"
+    out = ybgc("fmt", "--to", "named", "--ros2", LEGACY_DIR / "thesis_figure5_rviz.ini", "-o", named)
+    assert out.returncode == 0, out.stderr
+    out = ybgc(named, "--backend", "ros2", "-o", tmp_path / "gen")
+    assert out.returncode == 0, out.stderr
+    (path,) = (tmp_path / "gen").glob("*_node.py")
+    program = compiled(str(named))
+    sub = subscriber_for(mw.env, program).start()
+    node = Node(mw.env, path).start()
+    producer = YarpProducer(mw.env, "/vizzySim/left_shoulder_arm/state:o").start()
+    try:
+        node.wait_log("publishing")
+        producer.wait_outputs(1, timeout=15)
+        wait_matched(node, sub, program)
+        degrees = [0.0, 90.0, -45.0, 30.0, 180.0, -90.0, 1.0, 360.0]
+        t_before = time.time()
+        producer.write(degrees)
+        got = sub.wait_after(t_before)
+        log = stop_clean(node)
+    finally:
+        producer.stop()
+        sub.stop()
+        node.stop()
+    check_message(got, ({
+        "header": {"frame_id": "0"},
+        "name": ["l_shoulder_scapula_joint", "l_shoulder_flection_joint",
+                 "l_shoulder_abduction_joint", "l_shoulder_rotation_joint",
+                 "l_elbow_flection_joint", "l_forearm_pronation_joint",
+                 "l_wrist_abduction_joint", "l_wrist_flection_joint"],
+        "position": [d * math.pi / 180.0 for d in degrees],
+        "velocity": [], "effort": [],
+    }, None), t_before)
+    assert got.msg["position"][4] == math.pi  # pi to full precision, not 3.1415926
+    # the legacy config asks for verbose output: every value after conversion
+    assert "[mux1] 1: %r" % (math.pi / 2) in log
+
+
+# --------------------------------------------------------------------------
+# faults
+
+
+def test_producer_killed_and_restarted(mw, tmp_path):
+    program, node, sub, (producer,) = start_yarp_to_ros2(mw, "ball_point_stamped", tmp_path)
+    try:
+        producer.write([1000.0, 2000.0, 3000.0])
+        sub.wait(lambda: any(m.msg["point"]["x"] == 1.0 for m in sub.messages), 10, "first point")
+        producer.kill()
+        node.wait_log("input /pf3dTracker/data:o is stale")
+        assert node.alive
+        producer.start()
+        node.wait_log("connected /pf3dTracker/data:o", count=2)
+        producer.write([4000.0, 5000.0, 6000.0])
+        got = sub.wait(lambda: [m for m in sub.messages if m.msg["point"]["x"] == 4.0], 10,
+                       "a point after the restart")[0]
+        assert got.msg["point"] == {"x": 4.0, "y": 5.0, "z": 6.0}
+        log = stop_clean(node)
+    finally:
+        producer.stop()
+        sub.stop()
+        node.stop()
+    assert log.count("is stale") == 1 and "is fresh again" in log
+    assert totals(log)["/pf3dTracker/data:o"] == (2, 0, 1)
+
+
+def test_malformed_bottles_are_dropped_and_counted(mw, tmp_path):
+    program, node, sub, (producer,) = start_yarp_to_ros2(mw, "ball_point_stamped", tmp_path)
+    try:
+        for bad in (["a", 1.0, 2.0], [1.0, 2.0], [1.0, 2.0, 3.0, 4.0], [[1.0, 2.0, 3.0]]):
+            producer.write(bad)
+        producer.write([10.0, 20.0, 30.0])
+        got = sub.wait_for(1)
+        time.sleep(0.3)
+        assert len(sub.messages) == 1
+        assert_close(got[0].msg["point"], {"x": 0.01, "y": 0.02, "z": 0.03})
+        log = stop_clean(node, signal.SIGTERM)
+    finally:
+        producer.stop()
+        sub.stop()
+        node.stop()
+    assert log.count("dropped a Bottle") == 1, log
+    assert "element 0 is a string" in log
+    assert totals(log)["/pf3dTracker/data:o"][:2] == (5, 4)
+    assert totals(log)["published"] == 1
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_signal_exits_cleanly(mw, tmp_path, sig):
+    """Exit 0 within 2 s with no traceback, while waiting for its inputs and
+    while publishing; the node's ports are gone from the name server."""
+    program = example("vizzy_rviz_joint_states")
+    path = write_node(program, tmp_path)
+    node = Node(mw.env, path).start()
+    try:
+        node.wait_log("waiting for")
+        stop_clean(node, sig)
+    finally:
+        node.stop()
+    assert not mw.yarp.exists("/vizzy_rviz_joint_states/arm/in0:i")
+    program, node, sub, producers = start_yarp_to_ros2(mw, "imu_ros2", tmp_path / "b")
+    try:
+        for p in producers:
+            p.send(cmd="write", data=input_values(program)[p.port])
+        sub.wait_for(3)
+        log = stop_clean(node, sig)
+    finally:
+        for p in producers:
+            p.stop()
+        sub.stop()
+        node.stop()
+    assert totals(log)["published"] >= 3
+
+
+# --------------------------------------------------------------------------
+# parameters
+
+
+def test_parameters(mw, tmp_path):
+    """prefix names the node's ports, rate overrides the config's (event-driven
+    here), verbose prints the values, timeout the freshness of every input."""
+    program = example("ball_point_stamped")
+    path = write_node(program, tmp_path)
+    sub = subscriber_for(mw.env, program).start()
+    node = Node(mw.env, path, "--ros-args", "-p", "prefix:=/custom", "-p", "rate:=20",
+                "-p", "verbose:=true", "-p", "timeout:=0.3").start()
+    producer = YarpProducer(mw.env, "/pf3dTracker/data:o", bottles=[[1.0, 2.0, 3.0]], rate=100).start()
+    try:
+        node.wait_log("on 20 Hz")
+        assert mw.yarp.exists("/custom/tracker/in0:i")
+        wait_matched(node, sub, program)
+        node.wait_log("connected /pf3dTracker/data:o -> /custom/tracker/in0:i")
+        first = sub.wait_for(1)[0]
+        time.sleep(1.0)
+        window = [m for m in sub.messages if first.t + 0.1 <= m.t <= first.t + 1.0]
+        assert 13 <= len(window) <= 20, len(window)  # 20 Hz, though the input comes at 100 Hz
+        t_stop = time.monotonic()
+        producer.stop()
+        node.wait_log("input /pf3dTracker/data:o is stale")
+        assert time.monotonic() - t_stop < 0.9  # 0.3 s, not the config's 1 s
+        log = stop_clean(node)
+    finally:
+        producer.stop()
+        sub.stop()
+        node.stop()
+    assert "[tracker] 2: 0.003" in log
+
+
+def test_bad_parameter_exits_with_status_2(mw, tmp_path):
+    path = write_node(example("ball_point_stamped"), tmp_path)
+    for args, text in ((("-p", "rate:=-1.0"), "rate must be"), (("-p", "prefix:=nope"), "prefix must"),
+                       (("-p", "verbose:=3"), "verbose must")):
+        out = subprocess.run([VENV_PYTHON, path, "--ros-args", *args], env=mw.env, capture_output=True,
+                             text=True, timeout=30)
+        assert out.returncode == 2, out
+        assert text in out.stdout and "Traceback" not in out.stdout + out.stderr
+    out = subprocess.run([VENV_PYTHON, path, "--help"], env=mw.env, capture_output=True, text=True,
+                         timeout=30)
+    assert out.returncode == 0 and "use_sim_time" in out.stdout and "geometry_msgs/msg/PointStamped" in out.stdout
+
+
+def test_use_sim_time_stamps_with_the_clock_topic(mw, tmp_path):
+    program = example("vizzy_rviz_joint_states")
+    path = write_node(program, tmp_path)
+    clock = Ros2Publisher(mw.env, "/clock", "rosgraph_msgs/msg/Clock",
+                          messages=[{"clock": {"sec": 4242, "nanosec": 500}}], rate=50).start()
+    sub = subscriber_for(mw.env, program).start()
+    node = Node(mw.env, path, "--ros-args", "-p", "use_sim_time:=true").start()
+    producers = [YarpProducer(mw.env, port).start() for port in input_values(program)]
+    try:
+        node.wait_log("publishing")
+        for p in producers:
+            p.wait_outputs(1, timeout=15)
+        clock.wait_matched(1, timeout=15)
+        wait_matched(node, sub, program)
+        time.sleep(0.3)  # a few /clock messages
+        sent, stamps, t_before = write_all(program, producers)
+        got = sub.wait_after(t_before)
+        stop_clean(node)
+    finally:
+        for p in producers:
+            p.stop()
+        clock.stop()
+        sub.stop()
+        node.stop()
+    assert got.msg["header"]["stamp"] == {"sec": 4242, "nanosec": 500}
+    assert_close(got.msg["position"], _vizzy(sent, stamps)[0]["position"])
+
+
+# --------------------------------------------------------------------------
+# differential: the ROS 2 node and the py module on the same input streams
+
+
+def assert_same_values(ros, bottle, path):
+    """A ROS 2 value against a Bottle value: lists item by item, numbers to
+    1e-12 whatever their wire type, strings exactly."""
+    if isinstance(ros, list):
+        assert isinstance(bottle, list) and len(ros) == len(bottle), (path, ros, bottle)
+        for k, (a, b) in enumerate(zip(ros, bottle)):
+            assert_same_values(a, b, f"{path}[{k}]")
+    elif isinstance(ros, str):
+        assert ros == bottle, (path, ros, bottle)
+    else:
+        assert isinstance(bottle, (int, float)), (path, ros, bottle)
+        assert math.isclose(float(ros), float(bottle), rel_tol=0, abs_tol=TOL), (path, ros, bottle)
+
+
+def _compare_tree(struct: Struct, ros: dict, bottle: list, path="msg"):
+    """Field by field: the typed ROS 2 message against the py module's Bottle."""
+    assert isinstance(bottle, list) and len(bottle) == len(struct.fields), f"{path}: {bottle!r}"
+    for f, item in zip(struct.fields, bottle):
+        value = ros[f.name]
+        where = f"{path}.{f.name}"
+        src = f.source
+        if isinstance(src, Struct):
+            _compare_tree(src, value, item, where)
+        elif isinstance(src, Timestamp):
+            if src.clock == "envelope":  # the same envelope: the same stamp
+                assert [value["sec"], value["nanosec"]] == item, (where, value, item)
+        elif isinstance(src, MuxRef) and src.into_fields is not None:
+            assert_same_values([value[n] for n in src.into_fields], item, where)
+        else:
+            assert_same_values(value, item, where)
+
+
+@pytest.mark.parametrize("stem", yarp_to_ros2_examples())
+def test_differential_with_the_py_module(mw, tmp_path, stem):
+    """The py module renders the same message tree as a Bottle: every field
+    value (and every envelope stamp) is the same as in the ROS 2 message."""
+    program = example(stem)
+    py_program = dataclasses.replace(program, module="diff_py",
+                                     output=Output("yarp", "/diff_py/out:o", program.output.msg_type))
+    (py_name, py_text), = PyBackend().render(py_program).items()
+    py_path = tmp_path / py_name
+    py_path.write_text(py_text, encoding="utf-8")
+    path = write_node(program, tmp_path)
+    sub = subscriber_for(mw.env, program).start()
+    reader = YarpReader(mw.env, "/diff_py/in:i", source="/diff_py/out:o").start()
+    node = Node(mw.env, path, "--ros-args", "-p", "rate:=0.0").start()
+    py_module = Node(mw.env, py_path, "--rate", "0", name="diff_py").start()
+    producers = [YarpProducer(mw.env, port).start() for port in input_values(program)]
+    stamped = _uses_envelope(program.message)
+    try:
+        node.wait_log("event-driven")
+        py_module.wait_log("event-driven")
+        for p in producers:
+            p.wait_outputs(2, timeout=15)
+        wait_matched(node, sub, program)
+        reader.wait_connected()
+        rounds = 4
+        for k in range(rounds):
+            write_all(program, producers, offset=3.0 * k, stamped=stamped)
+            sub.wait_for(k + 1)
+            reader.wait_for(k + 1)
+        time.sleep(0.2)
+        assert len(sub.messages) == len(reader.bottles) == rounds
+        for m, b in zip(sub.messages, reader.bottles):
+            _compare_tree(program.message, m.msg, b.data)
+        assert sub.messages[0].msg != sub.messages[-1].msg
+    finally:
+        for p in producers:
+            p.stop()
+        for proc in (sub, reader, node, py_module):
+            proc.stop()
+
+
+# --------------------------------------------------------------------------
+# the ament_python package
+
+
+@pytest.mark.parametrize("stem", ["vizzy_rviz_joint_states", "ros2_to_yarp_gaze"])
+def test_package_is_well_formed(tmp_path, stem):
+    program = example(stem)
+    files = Ros2Backend().render(program, RenderOptions(package=True))
+    pkg = package_name(program.module)
+    exe = f"{program.module}_node"
+    root = tmp_path / pkg
+    for rel, text in files.items():
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        (root / rel).write_text(text, encoding="utf-8")
+    assert sorted(files) == sorted([
+        "package.xml", "setup.py", "setup.cfg", f"resource/{pkg}", f"{pkg}/__init__.py",
+        f"{pkg}/{exe}.py", f"launch/{program.module}.launch.py"])
+
+    # package.xml: format 3, ament_python, exec_depend on rclpy and the message packages
+    xml = ET.parse(root / "package.xml").getroot()
+    assert xml.tag == "package" and xml.get("format") == "3"
+    assert xml.findtext("name") == pkg
+    assert xml.find("maintainer").get("email") and xml.findtext("license")
+    assert xml.find("export").findtext("build_type") == "ament_python"
+    deps = [e.text for e in xml.findall("exec_depend")]
+    msg_pkgs = {t.split("/")[0] for t in
+                [program.output.msg_type] + [i.ros_type for m in program.muxes for i in m.inputs]
+                if t}
+    assert deps[0] == "rclpy" and msg_pkgs <= set(deps)
+
+    # setup.cfg: scripts into lib/<package> (where ros2 run looks)
+    cfg = configparser.ConfigParser()
+    cfg.read(root / "setup.cfg")
+    assert cfg["install"]["install_scripts"] == f"$base/lib/{pkg}"
+
+    # setup.py builds a wheel with the console script, the marker, package.xml and the launch file
+    out = subprocess.run([VENV_PYTHON, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation",
+                          "-q", "-w", tmp_path / "dist", root], capture_output=True, text=True,
+                         timeout=180)
+    assert out.returncode == 0, out.stderr
+    (wheel,) = (tmp_path / "dist").glob("*.whl")
+    with zipfile.ZipFile(wheel) as z:
+        names = z.namelist()
+        (entry,) = [n for n in names if n.endswith("entry_points.txt")]
+        assert f"{exe} = {pkg}.{exe}:main" in z.read(entry).decode()
+        for data in (f"share/ament_index/resource_index/packages/{pkg}", f"share/{pkg}/package.xml",
+                     f"share/{pkg}/launch/{program.module}.launch.py"):
+            assert any(n.endswith(".data/data/" + data) for n in names), (data, names)
+        assert f"{pkg}/{exe}.py" in names
+        z.extractall(tmp_path / "installed")
+    # the installed node runs (its --help, without any middleware)
+    out = subprocess.run([VENV_PYTHON, "-c", f"import sys; from {pkg}.{exe} import main; sys.exit(main(['--help']))"],
+                         cwd=tmp_path / "installed", capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0 and "ROS parameters" in out.stdout, out
+
+    # the launch file imports, and starts that executable with the node's parameters
+    spec = importlib.util.spec_from_file_location("launch_file", root / "launch" / f"{program.module}.launch.py")
+    launch = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(launch)
+    assert callable(launch.generate_launch_description)
+    assert (launch.PACKAGE, launch.EXECUTABLE) == (pkg, exe)
+    assert launch.PARAMETERS == {"rate": program.timing.rate or 0.0, "timeout": 0.0,
+                                 "prefix": "/" + program.module, "verbose": False,
+                                 "use_sim_time": False}
+    tree = ast.parse((root / "launch" / f"{program.module}.launch.py").read_text())
+    imported = {a.name for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)
+                for a in n.names if n.module in ("launch", "launch_ros.actions")}
+    assert {"LaunchDescription", "Node"} <= imported
+
+
+def test_package_regeneration_keeps_user_blocks(tmp_path):
+    """Through the CLI: --package writes the package; a second run keeps what
+    the user wrote in the marked places (maintainer, compute)."""
+    out_dir = tmp_path / "pkg"
+    out = ybgc(EXAMPLES / "imu_ros2.ini", "--backend", "ros2", "--package", "-o", out_dir)
+    assert out.returncode == 0, out.stderr
+    xml = out_dir / "package.xml"
+    text = xml.read_text().replace('<maintainer email="maintainer@todo.todo">maintainer</maintainer>',
+                                   '<maintainer email="me@example.org">Me</maintainer>')
+    xml.write_text(text)
+    out = ybgc(EXAMPLES / "imu_ros2.ini", "--backend", "ros2", "--package", "-o", out_dir)
+    assert out.returncode == 0, out.stderr
+    assert ET.parse(xml).getroot().find("maintainer").get("email") == "me@example.org"
+    assert (out_dir / "resource" / "imu_ros2").exists()
