@@ -48,7 +48,7 @@ pip_install() { "$vpy" -m pip install --disable-pip-version-check -q "$@"; }
 if ! "$vpy" -c 'import ybg, lark, jinja2, rich, hypothesis, pytest, rosbags' 2>/dev/null \
    || [ "$root/pyproject.toml" -nt "$venv/.ybg-installed" ]; then
   log "installing ybgc (editable) with its test dependencies"
-  pip_install -e "$root[test]"
+  pip_install -e "$root[test,bench]"
   touch "$venv/.ybg-installed"
 fi
 

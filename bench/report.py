@@ -1,0 +1,442 @@
+"""docs/benchmarks.md and its plots from the JSON results of bench/run.py.
+
+    .venv/bin/python bench/run.py --report-only     (the full run's results)
+
+The targets are evaluated here, from figures of the same run. The analysis of
+what limits a missed target is written by hand in bench/findings.md (after
+profiling) and included as it is.
+"""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Optional
+
+BENCH = Path(__file__).resolve().parent
+ROOT = BENCH.parent
+ORDER = ("direct", "relay", "cpp", "py", "ros2", "rclpy")
+COLORS = {"direct": "#555555", "relay": "#000000", "cpp": "#1f77b4", "py": "#ff7f0e",
+          "ros2": "#2ca02c", "rclpy": "#9467bd"}
+WORKLOAD_TEXT = {
+    "joints_100hz": "2 ports x 15 float64 at 100 Hz, event-driven",
+    "joints_1khz": "2 ports x 15 float64 at 1 kHz, event-driven",
+    "wide_1khz": "4 ports x 50 float64 at 1 kHz, event-driven",
+    "joints_500hz": "2 ports x 15 float64 at 500 Hz, event-driven (smoke)",
+}
+
+
+def us(v) -> str:
+    return "–" if v is None else (f"{v:,.0f}" if v >= 100 else f"{v:.1f}")
+
+
+def pct(v) -> str:
+    return "–" if v is None else f"{v:.0f}"
+
+
+def mb(kb) -> str:
+    return "–" if kb is None else f"{kb / 1024:.1f}"
+
+
+def rel(path: Path, start: Path) -> str:
+    return os.path.relpath(path, start).replace(os.sep, "/")
+
+
+def entries(data: dict, stage: str, **match) -> list:
+    return [e for e in data.get(stage, []) if all(e.get(k) == v for k, v in match.items())]
+
+
+def one(data: dict, stage: str, **match) -> Optional[dict]:
+    found = [e for e in entries(data, stage, **match) if "error" not in e]
+    return found[0] if found else None
+
+
+# --------------------------------------------------------------------------
+# targets
+
+
+def targets(data: dict) -> list:
+    """Rows: target, workload, measured, limit, ratio (or value), met (True,
+    False, None when not measurable), note."""
+    rows = []
+    workloads = []
+    for e in data.get("latency", []):
+        if e["workload"] not in workloads:
+            workloads.append(e["workload"])
+
+    def row(target, workload, measured, limit, ratio, met, note=""):
+        rows.append({"target": target, "workload": workload, "measured": measured,
+                     "limit": limit, "ratio": ratio, "met": met, "note": note})
+
+    def missing(*names):
+        return ", ".join(n for n in names) + " not measured"
+
+    for wl in workloads:
+        get = {s: one(data, "latency", workload=wl, subject=s) for s in ORDER}
+        relay, cpp, py, ros2 = get["relay"], get["cpp"], get["py"], get["ros2"]
+        direct, rclpy = get["direct"], get["rclpy"]
+        if relay and cpp:
+            r = cpp["median_us"] / relay["median_us"]
+            row("C++ median <= 1.15 x relay", wl, f"{us(cpp['median_us'])} / {us(relay['median_us'])} us",
+                "1.15", r, r <= 1.15)
+            r = cpp["p99_us"] / relay["p99_us"]
+            row("C++ p99 <= 1.5 x relay", wl, f"{us(cpp['p99_us'])} / {us(relay['p99_us'])} us",
+                "1.5", r, r <= 1.5)
+        else:
+            row("C++ median <= 1.15 x relay", wl, "–", "1.15", None, None, missing("cpp", "relay"))
+        if "1khz" in wl:
+            if cpp:
+                row("C++ no loss at 1 kHz", wl, f"{cpp['delivered']}/{cpp['sent']} delivered",
+                    "0 lost", cpp["lost"], cpp["lost"] == 0,
+                    f"relay: {relay['lost']} lost" if relay else "")
+            else:
+                row("C++ no loss at 1 kHz", wl, "–", "0 lost", None, None, missing("cpp"))
+        if cpp and py:
+            r = py["median_us"] / cpp["median_us"]
+            row("Python median <= 2 x C++", wl, f"{us(py['median_us'])} / {us(cpp['median_us'])} us",
+                "2", r, r <= 2.0)
+        else:
+            row("Python median <= 2 x C++", wl, "–", "2", None, None, missing("py", "cpp"))
+        if wl == "joints_1khz":
+            if py:
+                row("Python no loss at 1 kHz (2 x 15)", wl, f"{py['delivered']}/{py['sent']} delivered",
+                    "0 lost", py["lost"], py["lost"] == 0)
+            else:
+                row("Python no loss at 1 kHz (2 x 15)", wl, "–", "0 lost", None, None, missing("py"))
+        if ros2 and direct and rclpy:
+            base = direct["median_us"] + rclpy["median_us"]
+            r = ros2["median_us"] / base
+            row("ROS 2 median <= 1.5 x (YARP hop + rclpy hop)", wl,
+                f"{us(ros2['median_us'])} / ({us(direct['median_us'])} + {us(rclpy['median_us'])}) us",
+                "1.5", r, r <= 1.5)
+        else:
+            row("ROS 2 median <= 1.5 x (YARP hop + rclpy hop)", wl, "–", "1.5", None, None,
+                missing("ros2", "direct", "rclpy"))
+    for e in data.get("fixed_rate", []):
+        if e["subject"] == "relay":
+            continue
+        name = f"fixed rate within 1 % ({e['subject']})"
+        wl = f"{e['shape']} {e['rate']} Hz"
+        if "error" in e or e.get("error_pct") is None:
+            row(name, wl, "–", "1 %", None, None, (e.get("error") or "no data").splitlines()[0][:80])
+            continue
+        relay = one(data, "fixed_rate", shape=e["shape"], rate=e["rate"], subject="relay")
+        note = f"relay {relay['error_pct']:+.2f} %" if relay and relay.get("error_pct") is not None else ""
+        row(name, wl, f"{e['achieved_hz']:.2f} Hz", "1 %", abs(e["error_pct"]),
+            abs(e["error_pct"]) <= 1.0, note)
+    for e in data.get("memory", []):
+        if e["subject"] == "relay":
+            continue
+        name = f"RSS growth < 10 MB, stalling consumer ({e['subject']})"
+        wl = f"joints 1 kHz, {e.get('duration_s', 0):.0f} s"
+        if "error" in e:
+            row(name, wl, "–", "10 MB", None, None, e["error"].splitlines()[0][:80])
+            continue
+        g = e["growth_kb"] / 1024
+        row(name, wl, f"{mb(e['rss_start_kb'])} -> {mb(e['rss_end_kb'])} MB", "10 MB", g,
+            g < 10 and e["peak_growth_kb"] / 1024 < 10, f"peak {mb(e['rss_peak_kb'])} MB")
+    return rows
+
+
+# --------------------------------------------------------------------------
+# plots
+
+
+def plot_cdf(data: dict, workload: str, path: Path) -> bool:
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return False
+    fig, ax = plt.subplots(figsize=(7.5, 4.2), dpi=110)
+    drawn = False
+    for s in ORDER:
+        e = one(data, "latency", workload=workload, subject=s)
+        if not e or not e.get("cdf_us"):
+            continue
+        pts = e["cdf_us"]
+        ys = [i / (len(pts) - 1) for i in range(len(pts))]
+        ax.step(pts, ys, where="post", color=COLORS[s], lw=1.6,
+                label=f"{s} (median {us(e['median_us'])} us)")
+        drawn = True
+    if not drawn:
+        plt.close(fig)
+        return False
+    ax.set_xscale("log")
+    ax.set_xlabel("latency, send -> receive (us, log scale)")
+    ax.set_ylabel("fraction of messages")
+    ax.set_ylim(0, 1.0)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.set_title(f"Latency CDF: {WORKLOAD_TEXT.get(workload, workload)}", fontsize=10)
+    ax.legend(loc="lower right", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return True
+
+
+def plot_memory(data: dict, path: Path) -> bool:
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return False
+    series = [e for e in data.get("memory", []) if e.get("samples")]
+    if not series:
+        return False
+    fig, ax = plt.subplots(figsize=(7.5, 3.6), dpi=110)
+    for e in series:
+        ts = [t for t, _ in e["samples"]]
+        ax.plot(ts, [kb / 1024 for _, kb in e["samples"]], color=COLORS.get(e["subject"]),
+                lw=1.4, label=e["subject"])
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("RSS (MB)")
+    ax.set_ylim(bottom=0)
+    ax.grid(True, alpha=0.3)
+    st = data.get("stall", {})
+    ax.set_title(f"RSS at 1 kHz, consumer stalling {st.get('for_s', '?')} s every "
+                 f"{st.get('every_s', '?')} s", fontsize=10)
+    ax.legend(loc="center right", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return True
+
+
+# --------------------------------------------------------------------------
+# the page
+
+
+def mark(met) -> str:
+    return {True: "met", False: "**missed**", None: "not measured"}[met]
+
+
+def write(data: dict, docs: Path, json_path: Path) -> Path:
+    docs = Path(docs)
+    docs.mkdir(parents=True, exist_ok=True)
+    out = docs / "benchmarks.md"
+    L = []
+    add = L.append
+    mode = data.get("mode", "full")
+    cmd = ".venv/bin/python bench/run.py" + ("" if mode == "full" else f" --{mode}")
+    add("# Benchmarks of the generated bridge modules")
+    add("")
+    add("This page is written by the benchmark harness, `bench/run.py`, from the figures of one "
+        "run (raw numbers: `" + rel(json_path, ROOT) + "`); the analysis of missed targets comes "
+        "from `bench/findings.md`. Run it again with")
+    add("")
+    add("```")
+    add(".venv/bin/python bench/run.py            # full run (about 17 minutes): this page")
+    add(".venv/bin/python bench/run.py --quick    # under a minute once built: bench/results/quick/")
+    add("```")
+    add("")
+    add("The first run also builds the C++ peers, the reference relay and the generated C++ "
+        "modules (about 30 s, under `bench/build/`). `--subjects cpp,relay`, `--skip-memory`, "
+        "`--skip-fixed` run a part; `--report-only` rewrites this page from the JSON. The "
+        "Python packages it needs are the `bench` extra: `pip install -e '.[bench]'` "
+        "(matplotlib for the plots, py-spy for profiling).")
+    add("")
+    add("| run | |")
+    add("|---|---|")
+    add(f"| date | {data['date']} |")
+    add(f"| machine | {data['machine']} |")
+    add(f"| command | `{cmd}` ({data.get('durations_s', {}).get('total', '?')} s: build "
+        f"{data.get('durations_s', {}).get('build', '?')} s, latency "
+        f"{data.get('durations_s', {}).get('latency', '?')} s, fixed rate "
+        f"{data.get('durations_s', {}).get('fixed_rate', '?')} s, memory "
+        f"{data.get('durations_s', {}).get('memory', '?')} s) |")
+    add(f"| load average (1, 5, 15 min) | before {fmt_load(data.get('load_before'))}, after "
+        f"{fmt_load(data.get('load_after'))} |")
+    add(f"| peers | {data.get('peers', '')} |")
+    add("")
+    add("The machine has 2 cores, shared with other work: every process of a subject (producer, "
+        "module, consumer, name server) competes for them, so the tails (p99, max) move from run "
+        "to run by a factor of two or more when anything else runs; medians move by some tens of "
+        "percent. The load average above says how quiet this run was.")
+    add("")
+
+    # --- targets
+    add("## Targets")
+    add("")
+    add("Ratios from figures of the same run; reported, not asserted by the tests.")
+    add("")
+    add("| target | workload | measured | value | limit | result | note |")
+    add("|---|---|---|---|---|---|---|")
+    for t in targets(data):
+        v = t["ratio"]
+        val = "–" if v is None else (f"{v:.2f}" if isinstance(v, float) else str(v))
+        add(f"| {t['target']} | {t['workload']} | {t['measured']} | {val} | {t['limit']} | "
+            f"{mark(t['met'])} | {t['note']} |")
+    add("")
+
+    # --- method
+    add("## What is measured")
+    add("")
+    add("| subject | what |")
+    add("|---|---|")
+    for s, info in data.get("subjects", {}).items():
+        avail = "" if info.get("available", True) else \
+            f" (not available: {(info.get('error') or '').splitlines()[0][:100]})"
+        add(f"| `{s}` | {info['description']}{avail} |")
+    add("")
+    add("| workload | config |")
+    add("|---|---|")
+    for k, v in data.get("shapes", {}).items():
+        add(f"| {k}: {v['label']} | `bench/configs/{v['config']}` (YARP port out), "
+            f"`bench/configs/{v['ros2_config']}` (ROS 2 `sensor_msgs/JointState` out) |")
+    add("")
+    add("- **Latency**: the producer writes one Bottle on each of its ports per tick (strict "
+        "writes, absolute deadlines), each holding its sequence number and its send time "
+        "(CLOCK_MONOTONIC, taken just before the write; also in the envelope). Every subject "
+        "converts it all with `deg_to_rad`, so the consumer divides by pi/180 to read them back. "
+        "Latency = receive time − the newest send time in the output (the tick's last port, whose "
+        "arrival completes the set). `direct` measures each Bottle of each port. The consumer is a "
+        "`yarp::os::Port` whose reader runs in the connection thread (nothing queued); the ROS 2 "
+        "consumer is an rclpy subscription (reliable, depth 100) whose callback appends one tuple.")
+    add("- **Delivered / sent**: outputs whose blocks all carry the same tick, counted once; a "
+        "tick that never comes out (its input was overwritten by a newer one before use: inputs "
+        "keep only the newest Bottle) is lost. The consumer also checks every value.")
+    add("- **CPU %** of the module process over the measured run (user + system, all threads, "
+        "100 % = one core); **RSS** from /proc (VmRSS; peak = VmHWM).")
+    add("- Before each measured run a warm-up run (discarded) lets connections and buffers "
+        "settle.")
+    add("")
+
+    # --- latency tables
+    add("## Latency, event-driven")
+    add("")
+    for wl in unique(e["workload"] for e in data.get("latency", [])):
+        add(f"### {WORKLOAD_TEXT.get(wl, wl)}")
+        add("")
+        add("| subject | median us | p99 us | max us | delivered / sent | output rate Hz | "
+            "CPU % | RSS MB (peak) |")
+        add("|---|---|---|---|---|---|---|---|")
+        for s in ORDER:
+            for e in entries(data, "latency", workload=wl, subject=s):
+                if "error" in e:
+                    add(f"| `{s}` | {short_err(e['error'])} | | | | | | |")
+                    continue
+                extra = []
+                if e.get("mismatched"):
+                    extra.append(f"{e['mismatched']} mixed")
+                if e.get("bad"):
+                    extra.append(f"{e['bad']} bad")
+                deliv = f"{e['delivered']} / {e['sent']}" + (f" ({', '.join(extra)})" if extra else "")
+                rate = "–" if e.get("rate_hz") is None else f"{e['rate_hz']:.1f}"
+                add(f"| `{s}` | {us(e['median_us'])} | {us(e['p99_us'])} | {us(e['max_us'])} | "
+                    f"{deliv} | {rate} | {pct(e.get('cpu_pct'))} | {mb(e.get('rss_peak_kb'))} |")
+        png = docs / f"bench_latency_{wl}.png"
+        if plot_cdf(data, wl, png):
+            add("")
+            add(f"![latency CDF, {wl}]({rel(png, docs)})")
+        add("")
+
+    # --- fixed rate
+    if data.get("fixed_rate"):
+        add("## Fixed rate")
+        add("")
+        add("The module runs with `--rate HZ` (the ROS 2 node with `-p rate:=HZ`), fed by the "
+            "producer at the same rate; the rate is counted on the consumer's receive times over "
+            "a window inside the producer's run (from 0.5 s after its start). *first / last "
+            "third*: the rate over the first and the last third of the window (drift shows as a "
+            "difference); *missed*: gaps longer than 1.5 periods, in periods; *jitter*: "
+            "|interval − period|, as received (it includes the two YARP hops).")
+        add("")
+        add("| workload | subject | achieved Hz | error % | first / last third Hz | missed | "
+            "jitter p99 us | CPU % |")
+        add("|---|---|---|---|---|---|---|---|")
+        for e in data["fixed_rate"]:
+            wl = f"{e['shape']} {e['rate']} Hz"
+            if "error" in e or e.get("achieved_hz") is None:
+                add(f"| {wl} | `{e['subject']}` | {short_err(e.get('error') or 'no data')} | | | | | |")
+                continue
+            thirds = (f"{e['first_third_hz']:.2f} / {e['last_third_hz']:.2f}"
+                      if e.get("first_third_hz") else "–")
+            add(f"| {wl} | `{e['subject']}` | {e['achieved_hz']:.2f} | {e['error_pct']:+.2f} | "
+                f"{thirds} | {e['missed_cycles']} | {us(e['jitter_p99_us'])} | {pct(e.get('cpu_pct'))} |")
+        add("")
+
+    # --- memory
+    if data.get("memory"):
+        st = data.get("stall", {})
+        add("## Memory under a stalling consumer")
+        add("")
+        add(f"Every module at once (each with its own name server, producer and consumer; "
+            f"ROS 2 in its own domain), event-driven, fed at 1 kHz with the 2 x 15 workload, "
+            f"its consumer stopping reading for {st.get('for_s')} s every {st.get('every_s')} s "
+            f"(the YARP consumer's reader sleeps in the connection thread, so the socket fills "
+            f"and the module's writes back up; the rclpy one sleeps in its callback). RSS sampled "
+            f"every second; growth = last sample − the sample at 2 s.")
+        add("")
+        add("| subject | duration s | RSS at 2 s MB | RSS at end MB | peak MB | growth MB | "
+            "delivered / sent |")
+        add("|---|---|---|---|---|---|---|")
+        for e in data["memory"]:
+            if "error" in e:
+                add(f"| `{e['subject']}` | {short_err(e['error'])} | | | | | |")
+                continue
+            add(f"| `{e['subject']}` | {e['duration_s']:.0f} | {mb(e['rss_start_kb'])} | "
+                f"{mb(e['rss_end_kb'])} | {mb(e['rss_peak_kb'])} | {e['growth_kb'] / 1024:+.2f} | "
+                f"{e['received']} / {e['sent']} |")
+        png = docs / "bench_memory.png"
+        if plot_memory(data, png):
+            add("")
+            add(f"![RSS over time]({rel(png, docs)})")
+        add("")
+
+    # --- findings
+    findings = BENCH / "findings.md"
+    if findings.exists():
+        add(findings.read_text().rstrip())
+        add("")
+
+    # --- compiler
+    comp = ROOT / "bench" / "results" / "compiler.json"
+    if comp.exists():
+        c = json.loads(comp.read_text())
+        add("## The compiler itself")
+        add("")
+        add(f"From `bench/compiler.py` (`{c.get('command')}`, {c.get('date')}, {c.get('machine')}; "
+            f"raw: `bench/results/compiler.json`).")
+        add("")
+        add("| figure | value |")
+        add("|---|---|")
+        add(f"| `ybgc check` of {c['check_files']} configs, one process | "
+            f"{c['check_s'] * 1000:.0f} ms ({c['check_over_bare']:.1f} x a bare `python -c pass`, "
+            f"{c['bare_python_s'] * 1000:.0f} ms) |")
+        add(f"| synthetic config, 1,000 muxes x 8 ports, 2,000 fields ({c['mux1000_lines']} lines) | "
+            f"{c['mux1000_wall_s'] * 1000:.0f} ms wall |")
+        for g in c.get("growth", []):
+            add(f"| {g['fields']:,} fields, {g['muxes']} muxes, in process | "
+                f"{g['seconds'] * 1000:.1f} ms ({g['us_per_field']:.0f} us per field) |")
+        add(f"| time per field, largest / smallest | "
+            f"{c['growth_per_field_ratio_largest_to_smallest']:.2f} (1.0 = linear) |")
+        add("")
+    text = "\n".join(L).rstrip() + "\n"
+    out.write_text(text)
+    return out
+
+
+def unique(items) -> list:
+    seen = []
+    for x in items:
+        if x not in seen:
+            seen.append(x)
+    return seen
+
+
+def short_err(err: str) -> str:
+    line = (err or "").strip().splitlines()[0] if err else ""
+    return "failed: " + line.replace("|", "/")[:120]
+
+
+def fmt_load(load) -> str:
+    return ", ".join(f"{x:.2f}" for x in load) if load else "?"
+
+
+if __name__ == "__main__":
+    import sys
+    path = Path(sys.argv[1]) if len(sys.argv) > 1 else BENCH / "results" / "bridges.json"
+    write(json.loads(path.read_text()), ROOT / "docs", path)

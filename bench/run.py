@@ -1,0 +1,641 @@
+"""Benchmark of the bridge modules that ybgc generates, against the floor.
+
+    .venv/bin/python bench/run.py            full run, about 17 minutes: writes
+                                             docs/benchmarks.md, docs/bench_*.png,
+                                             bench/results/bridges.json
+    .venv/bin/python bench/run.py --quick    under a minute once built (the first
+                                             run builds the C++ peers and modules):
+                                             bench/results/quick/
+    .venv/bin/python bench/run.py --smoke    the floors only (direct + relay, a
+                                             few hundred messages), for the tests
+
+Everything runs on 127.0.0.1 with its own yarpserver and ROS 2 domain (the test
+suite's helpers, tests/middleware.py). The producer and the consumer are C++
+programs against YARP 3.5 (bench/tools/), built once with CMake like a
+generated module; the ROS 2 peers are rclpy (bench/peers/).
+
+Subjects, on the same workloads in the same run:
+  direct   producer -> consumer (one hop)
+  relay    the hand-written C++ relay, bench/relay/relay.cpp (two hops: the floor)
+  cpp      the generated C++ module         (ybgc CONFIG --backend cpp)
+  py       the generated Python module      (ybgc CONFIG --backend py)
+  ros2     the generated ROS 2 node, YARP in, ROS 2 out (--backend ros2)
+  rclpy    a bare rclpy publisher -> rclpy subscriber hop, for reference
+Stages: latency (event-driven), fixed rate, memory under a stalling consumer.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import shutil
+import sys
+import threading
+import time
+import traceback
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Optional
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import harness as h  # noqa: E402
+from harness import BenchError, mw  # noqa: E402
+
+ROOT = h.ROOT
+BENCH = h.BENCH
+CONFIGS = BENCH / "configs"
+
+
+@dataclass(frozen=True)
+class Shape:
+    name: str
+    config: str
+    ros2_config: str
+    ports: int
+    width: int
+    label: str
+
+
+SHAPES = {
+    "joints": Shape("joints", "joints_2x15.ini", "joints_2x15_ros2.ini", 2, 15,
+                    "2 ports x 15 float64 (30-joint state)"),
+    "wide": Shape("wide", "wide_4x50.ini", "wide_4x50_ros2.ini", 4, 50, "4 ports x 50 float64"),
+}
+SUBJECTS = ("direct", "relay", "cpp", "py", "ros2", "rclpy")
+MODULES = ("relay", "cpp", "py", "ros2")   # the subjects that are a module process
+ROS2_OUT = ("ros2", "rclpy")
+DESCRIPTION = {
+    "direct": "producer -> consumer, one YARP hop (no bridge)",
+    "relay": "hand-written C++ relay (bench/relay/relay.cpp), two YARP hops: the floor",
+    "cpp": "generated C++ module (--backend cpp)",
+    "py": "generated Python module (--backend py)",
+    "ros2": "generated ROS 2 node (--backend ros2): YARP in, ROS 2 JointState out",
+    "rclpy": "bare rclpy publisher -> rclpy subscriber, one ROS 2 hop (reference)",
+}
+
+
+@dataclass
+class Mode:
+    name: str
+    latency: list          # (workload, shape, rate Hz, seconds)
+    fixed: list            # (shape, rate Hz, seconds)
+    memory_s: float
+    subjects: tuple
+    warmup_ticks: int
+
+
+MODES = {
+    "full": Mode("full",
+                 [("joints_100hz", "joints", 100, 10.0), ("joints_1khz", "joints", 1000, 10.0),
+                  ("wide_1khz", "wide", 1000, 10.0)],
+                 [("joints", 100, 10.0), ("joints", 1000, 10.0), ("wide", 1000, 10.0)],
+                 600.0, SUBJECTS, 200),
+    "quick": Mode("quick",
+                  [("joints_1khz", "joints", 1000, 1.0), ("wide_1khz", "wide", 1000, 0.5)],
+                  [("joints", 1000, 1.0)],
+                  20.0, SUBJECTS, 50),
+    "smoke": Mode("smoke", [("joints_500hz", "joints", 500, 0.6)], [], 0.0, ("direct", "relay"), 20),
+}
+STALL_EVERY, STALL_FOR = 3.0, 2.0   # the stalling consumer of the memory stage
+
+
+def say(text: str) -> None:
+    print(text, flush=True)
+
+
+class Progress:
+    def __init__(self, total: int):
+        self.total, self.done, self.t0 = total, 0, time.monotonic()
+
+    def step(self, text: str) -> None:
+        self.done += 1
+        say(f"[{self.done:2d}/{self.total}  {time.monotonic() - self.t0:5.0f} s] {text}")
+
+
+# --------------------------------------------------------------------------
+# preparing the subjects
+
+
+def prepare(build_root: Path, subjects: tuple, shapes: list) -> dict:
+    """Build the peers and every subject's module; returns
+    {"tools": {...}, "subjects": {name: {"ok", "error", shape: launch info}}}."""
+    say("building the C++ producer, consumer and reference relay (bench/tools, bench/relay)")
+    tools = h.build_tools(build_root)
+    out = {"tools": tools, "subjects": {}}
+    for s in subjects:
+        info = {"ok": True, "error": None}
+        try:
+            for shape in shapes:
+                sh = SHAPES[shape]
+                gen = build_root / "gen" / s / shape
+                if s == "cpp":
+                    say(f"generating and building the C++ module of {sh.config}")
+                    info[shape] = h.build_generated_cpp(CONFIGS / sh.config, gen)
+                elif s == "py":
+                    info[shape] = h.generated_python(CONFIGS / sh.config, "py", gen)
+                elif s == "ros2":
+                    info[shape] = h.generated_python(CONFIGS / sh.ros2_config, "ros2", gen)
+        except (BenchError, OSError, mw.subprocess.TimeoutExpired) as e:
+            info = {"ok": False, "error": str(e).strip()}
+            say(f"  {s}: not available: {info['error'].splitlines()[0]}")
+        out["subjects"][s] = info
+    return out
+
+
+# --------------------------------------------------------------------------
+# one subject wired up: source -> [module] -> sink
+
+
+class Rig:
+    """The processes of one subject on one shape: source, module, sink."""
+
+    def __init__(self, ctx: dict, subject: str, shape: Shape, rate: Optional[float],
+                 stall: bool = False, record: bool = True):
+        self.ctx, self.subject, self.shape, self.rate = ctx, subject, shape, rate
+        self.stall, self.record = stall, record
+        self.module: Optional[mw.Proc] = None
+        self.source: Optional[h.Source] = None
+        self.sink: Optional[h.Sink] = None
+        self.per_block = subject == "direct"
+
+    # names of the YARP ports of the producer
+    def src_ports(self) -> list:
+        return [f"/bench/src{i}:o" for i in range(self.shape.ports)]
+
+    def start(self) -> "Rig":
+        ctx, s, sh = self.ctx, self.subject, self.shape
+        tools = ctx["tools"]
+        yenv = ctx["yarp_env"]
+        renv = dict(ctx["ros2_env"]) if ctx.get("ros2_env") else None
+        stall = (["--stall-every", str(STALL_EVERY), "--stall-for", str(STALL_FOR)]
+                 if self.stall else [])
+        norec = [] if self.record else ["--no-record"]
+        tag = ctx.get("tag", "")
+        try:
+            if s == "rclpy":
+                self.source = h.Source([h.PYTHON, BENCH / "peers" / "ros2_source.py",
+                                        "--width", sh.width, "--blocks", sh.ports],
+                                       env=renv, name=f"ros2_source{tag}").start()
+            else:
+                self.source = h.Source([tools["producer"], "--ports", ",".join(self.src_ports()),
+                                        "--width", sh.width], env=yenv,
+                                       name=f"producer{tag}").start()
+            if s in ROS2_OUT:
+                scale = "deg" if s == "ros2" else "1"
+                self.sink = h.Sink([h.PYTHON, BENCH / "peers" / "ros2_sink.py", "--width", sh.width,
+                                    "--scale", scale, *stall, *norec], env=renv,
+                                   name=f"ros2_sink{tag}").start()
+            else:
+                if s == "direct":
+                    sources = self.src_ports()
+                elif s == "relay":
+                    sources = ["/bench/relay/out:o"]
+                else:
+                    sources = [f"/bench_{sh.name}/out:o"]
+                argv = [tools["consumer"], "--port", "/bench/sink:i", "--width", sh.width,
+                        "--scale", "1" if s == "direct" else "deg", *stall, *norec]
+                for src in sources:
+                    argv += ["--source", src]
+                self.sink = h.Sink(argv, env=yenv, name=f"consumer{tag}").start()
+            rate_args = []
+            info = ctx["subjects"].get(s, {})
+            if s == "relay":
+                argv = [tools["relay"], "--inputs", ",".join(self.src_ports()),
+                        "--output", "/bench/relay/out:o", "--prefix", "/bench/relay"]
+                if self.rate:
+                    argv += ["--rate", self.rate]
+                self.module = mw.Proc(argv, env=yenv, name=f"relay{tag}", die_with_parent=True)
+            elif s == "cpp":
+                if self.rate:
+                    rate_args = ["--rate", self.rate]
+                self.module = mw.Proc([info[sh.name], "--prefix", "/bench/cpp", *rate_args],
+                                      env=yenv, name=f"cpp_module{tag}", die_with_parent=True)
+            elif s == "py":
+                if self.rate:
+                    rate_args = ["--rate", self.rate]
+                self.module = mw.Proc([h.PYTHON, info[sh.name], "--prefix", "/bench/py", *rate_args],
+                                      env=yenv, name=f"py_module{tag}", die_with_parent=True)
+            elif s == "ros2":
+                env = dict(yenv)
+                env.update(ctx["ros2_vars"])
+                params = ["-p", "prefix:=/bench/ros2"]
+                if self.rate:
+                    params += ["-p", f"rate:={float(self.rate)}"]
+                self.module = mw.Proc([h.PYTHON, info[sh.name], "--ros-args", *params],
+                                      env=env, name=f"ros2_node{tag}", die_with_parent=True)
+            if self.module is not None:
+                self.module.start()
+            self.sink.wait_connected(timeout=30, proc=self.module)
+            self.source.wait_outputs(1, timeout=30, proc=self.module)
+        except BaseException:
+            self.stop()
+            raise
+        return self
+
+    def check_alive(self) -> None:
+        if self.module is not None and not self.module.alive:
+            raise BenchError(f"{self.module.name} exited (status {self.module.returncode}); log:\n"
+                             f"{self.module.log_text()[-3000:]}")
+
+    def stop(self) -> Optional[int]:
+        status = None
+        if self.source is not None:
+            self.source.quit()
+        if self.module is not None:
+            status = self.module.stop(timeout=5)
+        if self.sink is not None:
+            self.sink.quit()
+        return status
+
+
+# --------------------------------------------------------------------------
+# stages
+
+
+def latency_stage(ctx: dict, mode: Mode, progress: Progress) -> list:
+    """Event-driven runs: every subject, every latency workload. A subject's
+    processes are started once per shape and serve every rate of that shape."""
+    results = []
+    by_shape: dict = {}
+    for wl, shape, rate, secs in mode.latency:
+        by_shape.setdefault(shape, []).append((wl, rate, secs))
+    tmp = Path(mw.tmp_root())
+    for shape, runs in by_shape.items():
+        sh = SHAPES[shape]
+        for s in mode.subjects:
+            info = ctx["subjects"].get(s, {"ok": s in ("direct", "rclpy")})
+            if s in ("direct", "rclpy") or s == "relay":
+                info = {"ok": True}
+            if s == "rclpy" and not ctx.get("ros2_env"):
+                info = {"ok": False, "error": "ROS 2 not available"}
+            if not info.get("ok", False):
+                for wl, rate, secs in runs:
+                    results.append({"workload": wl, "shape": shape, "rate": rate, "subject": s,
+                                    "error": info.get("error") or "not available"})
+                    progress.step(f"latency {wl:13s} {s:6s} not available")
+                continue
+            rig = None
+            try:
+                rig = Rig(ctx, s, sh, None).start()
+                for wl, rate, secs in runs:
+                    entry = {"workload": wl, "shape": shape, "rate": rate, "subject": s}
+                    try:
+                        warm = rig.source.run(min(mode.warmup_ticks, max(10, rate // 4)), rate)
+                        rig.sink.settle(warm["ticks"] * (sh.ports if rig.per_block else 1))
+                        rig.sink.reset()
+                        ticks = max(1, int(round(secs * rate)))
+                        cpu = h.CpuWindow(rig.module.pid if rig.module else None)
+                        run = rig.source.run(ticks, rate)
+                        expected = ticks * (sh.ports if rig.per_block else 1)
+                        rig.sink.settle(expected)
+                        entry["cpu_pct"] = cpu.percent()
+                        if rig.module is not None:
+                            mem = h.memory_kb(rig.module.pid)
+                            entry["rss_kb"] = mem.get("VmRSS")
+                            entry["rss_peak_kb"] = mem.get("VmHWM")
+                        rig.check_alive()
+                        recs = rig.sink.dump(tmp / f"lat_{wl}_{s}.bin")
+                        entry.update(h.analyse_latency(recs, run["first"], run["ticks"], sh.ports,
+                                                       rig.per_block))
+                        entry["source_late_ticks"] = run["late"]
+                        entry["source_rate_hz"] = run["ticks"] / run["elapsed"] if run["elapsed"] else None
+                        progress.step(f"latency {wl:13s} {s:6s} median {fmt_us(entry['median_us'])} "
+                                      f"p99 {fmt_us(entry['p99_us'])} max {fmt_us(entry['max_us'])} "
+                                      f"delivered {entry['delivered']}/{entry['sent']} "
+                                      f"cpu {fmt_pct(entry.get('cpu_pct'))}")
+                    except (BenchError, OSError) as e:
+                        entry["error"] = str(e).strip()
+                        progress.step(f"latency {wl:13s} {s:6s} FAILED: {entry['error'].splitlines()[0]}")
+                    results.append(entry)
+            except (BenchError, OSError) as e:
+                err = str(e).strip()
+                for wl, rate, secs in runs:
+                    if not any(r["workload"] == wl and r["subject"] == s for r in results):
+                        results.append({"workload": wl, "shape": shape, "rate": rate, "subject": s,
+                                        "error": err})
+                        progress.step(f"latency {wl:13s} {s:6s} FAILED: {err.splitlines()[0]}")
+            finally:
+                if rig is not None:
+                    status = rig.stop()
+                    if rig.module is not None:
+                        for r in results:
+                            if r["shape"] == shape and r["subject"] == s:
+                                r["exit_status"] = status
+    return results
+
+
+def fixed_stage(ctx: dict, mode: Mode, progress: Progress) -> list:
+    results = []
+    for shape, rate, secs in mode.fixed:
+        sh = SHAPES[shape]
+        for s in MODULES:
+            if s not in mode.subjects:
+                continue
+            entry = {"shape": shape, "rate": rate, "subject": s}
+            info = {"ok": True} if s == "relay" else ctx["subjects"].get(s, {"ok": False})
+            if not info.get("ok"):
+                entry["error"] = info.get("error") or "not available"
+                results.append(entry)
+                progress.step(f"fixed   {shape:6s} {rate:5d} Hz {s:6s} not available")
+                continue
+            rig = None
+            try:
+                rig = Rig(ctx, s, sh, rate).start()
+                ticks = int(round((secs + 0.7) * rate))
+                cpu = h.CpuWindow(rig.module.pid)
+                t0 = time.monotonic()
+                run = rig.source.run(ticks, rate)
+                t1 = time.monotonic()
+                entry["cpu_pct"] = cpu.percent()
+                rig.check_alive()
+                recs = rig.sink.dump(Path(mw.tmp_root()) / f"fix_{shape}_{rate}_{s}.bin")
+                start = t0 + 0.5
+                entry.update(h.analyse_rate(recs, start, min(t1 - 0.1, start + secs), rate))
+                entry["source_late_ticks"] = run["late"]
+                progress.step(f"fixed   {shape:6s} {rate:5d} Hz {s:6s} achieved "
+                              f"{fmt_hz(entry.get('achieved_hz'))} ({fmt_signed(entry.get('error_pct'))} %), "
+                              f"missed {entry.get('missed_cycles')}, cpu {fmt_pct(entry['cpu_pct'])}")
+            except (BenchError, OSError) as e:
+                entry["error"] = str(e).strip()
+                progress.step(f"fixed   {shape:6s} {rate:5d} Hz {s:6s} FAILED: "
+                              f"{entry['error'].splitlines()[0]}")
+            finally:
+                if rig is not None:
+                    entry["exit_status"] = rig.stop()
+            results.append(entry)
+    return results
+
+
+def memory_stage(ctx: dict, mode: Mode, progress: Progress) -> list:
+    """Every module at once, each with its own yarpserver (and ROS 2 domain),
+    producer at 1 kHz, and a consumer that stalls STALL_FOR s every
+    STALL_EVERY s. RSS of each module sampled every second."""
+    sh = SHAPES["joints"]
+    rate = 1000
+    subjects = [s for s in MODULES if s in mode.subjects
+                and (s == "relay" or ctx["subjects"].get(s, {}).get("ok"))]
+    results = []
+    for s in MODULES:
+        if s in mode.subjects and s not in subjects:
+            results.append({"subject": s, "error": ctx["subjects"].get(s, {}).get("error")
+                            or "not available"})
+    if not subjects:
+        return results
+    servers, domains, rigs = [], [], {}
+    try:
+        for s in subjects:
+            server = mw.YarpServer().start()
+            servers.append(server)
+            sctx = dict(ctx, yarp_env=server.env, tag=f"_mem_{s}")
+            if s == "ros2":
+                dom = mw.Ros2Domain().start()
+                domains.append(dom)
+                env = dict(dom.env)
+                env.update(server.env)
+                env.update(dom.ros_env)
+                sctx["ros2_env"] = env
+                sctx["ros2_vars"] = dom.ros_env
+            rigs[s] = Rig(sctx, s, sh, None, stall=True, record=False).start()
+        ticks = int(mode.memory_s * rate)
+        say(f"memory: {', '.join(subjects)} at once, {mode.memory_s:.0f} s at {rate} Hz, consumer "
+            f"stalling {STALL_FOR:g} s every {STALL_EVERY:g} s")
+        done = {}
+
+        def drive(s, rig):
+            try:
+                done[s] = rig.source.run(ticks, rate)
+            except BaseException as e:  # reported below
+                done[s] = {"error": str(e)}
+
+        threads = [threading.Thread(target=drive, args=(s, r), daemon=True) for s, r in rigs.items()]
+        t0 = time.monotonic()
+        for t in threads:
+            t.start()
+        samples = {s: [] for s in rigs}
+        next_report = t0 + max(5.0, mode.memory_s / 10)
+        while any(t.is_alive() for t in threads):
+            now = time.monotonic()
+            for s, rig in rigs.items():
+                if rig.module.alive:
+                    samples[s].append((round(now - t0, 2), h.memory_kb(rig.module.pid).get("VmRSS")))
+            if now >= next_report:
+                next_report += max(5.0, mode.memory_s / 10)
+                say(f"  memory {now - t0:5.0f}/{mode.memory_s:.0f} s  " + "  ".join(
+                    f"{s} {samples[s][-1][1] / 1024:.1f} MB" if samples[s] else f"{s} -"
+                    for s in rigs))
+            time.sleep(1.0)
+        for s, rig in rigs.items():
+            series = [(t, kb) for t, kb in samples[s] if kb]
+            entry = {"subject": s, "duration_s": mode.memory_s, "rate": rate,
+                     "stall_every_s": STALL_EVERY, "stall_for_s": STALL_FOR}
+            if "error" in done.get(s, {}) or not series:
+                entry["error"] = done.get(s, {}).get("error") or "no samples"
+                if not rig.module.alive:
+                    entry["error"] += f"; module exited: {rig.module.log_text()[-1500:]}"
+            else:
+                warm = next((kb for t, kb in series if t >= 2.0), series[0][1])
+                entry.update(
+                    rss_start_kb=warm, rss_end_kb=series[-1][1],
+                    rss_peak_kb=max(kb for _, kb in series),
+                    growth_kb=series[-1][1] - warm,
+                    peak_growth_kb=max(kb for _, kb in series) - warm,
+                    samples=downsample(series, 300),
+                    sent=done[s]["ticks"],
+                    received=rig.sink.count()[0],
+                    alive=rig.module.alive)
+            results.append(entry)
+            progress.step(f"memory  {s:6s} " + (
+                f"RSS {entry['rss_start_kb'] / 1024:.1f} -> {entry['rss_end_kb'] / 1024:.1f} MB "
+                f"(peak {entry['rss_peak_kb'] / 1024:.1f} MB), growth "
+                f"{entry['growth_kb'] / 1024:+.2f} MB, delivered {entry['received']}/{entry['sent']}"
+                if "error" not in entry else f"FAILED: {entry['error'].splitlines()[0]}"))
+    finally:
+        for rig in rigs.values():
+            status = rig.stop()
+            for e in results:
+                if e["subject"] == rig.subject:
+                    e["exit_status"] = status
+        for server in servers:
+            server.stop()
+        for dom in domains:
+            dom.stop()
+    return results
+
+
+def downsample(series: list, n: int) -> list:
+    if len(series) <= n:
+        return [list(x) for x in series]
+    step = len(series) / n
+    return [list(series[int(i * step)]) for i in range(n)] + [list(series[-1])]
+
+
+# --------------------------------------------------------------------------
+# formatting helpers (progress lines)
+
+
+def fmt_us(v) -> str:
+    return "-" if v is None else f"{v:7.0f} us"
+
+
+def fmt_pct(v) -> str:
+    return "-" if v is None else f"{v:.0f} %"
+
+
+def fmt_hz(v) -> str:
+    return "-" if v is None else f"{v:.2f} Hz"
+
+
+def fmt_signed(v) -> str:
+    return "-" if v is None else f"{v:+.2f}"
+
+
+def loadavg() -> list:
+    try:
+        return [float(x) for x in Path("/proc/loadavg").read_text().split()[:3]]
+    except OSError:
+        return []
+
+
+def machine() -> str:
+    cpu = ""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    mem = ""
+    try:
+        kb = int(Path("/proc/meminfo").read_text().split()[1])
+        mem = f", {kb / 1024 / 1024:.0f} GiB"
+    except (OSError, ValueError, IndexError):
+        pass
+    return (f"{cpu or platform.machine()}, {os.cpu_count()} cores{mem}; {platform.system()} "
+            f"{platform.release()}; CPython {platform.python_version()}; YARP 3.5 (PyPI build)")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description="Benchmark of the generated bridge modules "
+                                             "(latency, rate, CPU, memory) against the floor.")
+    g = ap.add_mutually_exclusive_group()
+    g.add_argument("--quick", action="store_true", help="short runs (under a minute once built)")
+    g.add_argument("--smoke", action="store_true", help="floors only (direct, relay), a few "
+                   "hundred messages; no report unless --docs is given")
+    ap.add_argument("--subjects", help="comma-separated subset of " + ",".join(SUBJECTS))
+    ap.add_argument("--skip-memory", action="store_true", help="leave out the memory stage")
+    ap.add_argument("--skip-fixed", action="store_true", help="leave out the fixed-rate stage")
+    ap.add_argument("--results", type=Path, help="folder of the JSON results (default "
+                    "bench/results, bench/results/quick with --quick)")
+    ap.add_argument("--docs", type=Path, help="folder of the report and plots (default docs/, "
+                    "bench/results/quick with --quick)")
+    ap.add_argument("--build-dir", type=Path, default=BENCH / "build",
+                    help="where the peers and modules are built (default bench/build)")
+    ap.add_argument("--report-only", action="store_true",
+                    help="write the report from the existing JSON results, run nothing")
+    args = ap.parse_args(argv)
+
+    mode = MODES["smoke" if args.smoke else "quick" if args.quick else "full"]
+    results_dir = args.results or (BENCH / "results" / ("quick" if mode.name == "quick" else ""))
+    results_dir = Path(results_dir)
+    docs_dir = args.docs or (None if mode.name == "smoke" else
+                             BENCH / "results" / "quick" if mode.name == "quick" else ROOT / "docs")
+    json_path = results_dir / ("smoke.json" if mode.name == "smoke" else "bridges.json")
+
+    if args.report_only:
+        import report
+        data = json.loads(json_path.read_text())
+        report.write(data, docs_dir, json_path)
+        say(f"written: {docs_dir / 'benchmarks.md'}")
+        return 0
+
+    subjects = mode.subjects
+    if args.subjects:
+        wanted = [s.strip() for s in args.subjects.split(",") if s.strip()]
+        unknown = [s for s in wanted if s not in SUBJECTS]
+        if unknown:
+            ap.error(f"unknown subjects: {', '.join(unknown)}")
+        subjects = tuple(s for s in SUBJECTS if s in wanted)
+    mode = Mode(mode.name, mode.latency, [] if args.skip_fixed else mode.fixed,
+                0.0 if args.skip_memory else mode.memory_s, subjects, mode.warmup_ticks)
+
+    t_start = time.monotonic()
+    load0 = loadavg()
+    command = "python bench/run.py" + ("" if mode.name == "full" else f" --{mode.name}")
+    say(f"ybgc bridge benchmark, {mode.name} mode; load average {load0}")
+    mw.require_yarp()
+    shapes = sorted({w[1] for w in mode.latency} | {f[0] for f in mode.fixed}
+                    | ({"joints"} if mode.memory_s else set()))
+    built = prepare(args.build_dir, tuple(s for s in subjects if s in ("cpp", "py", "ros2")), shapes)
+    t_built = time.monotonic()
+
+    ros2_ok = any(s in subjects for s in ROS2_OUT)
+    if ros2_ok:
+        err = mw._python_imports(str(mw.VENV_PYTHON), "rclpy, sensor_msgs.msg")
+        if err:
+            say(f"ROS 2 not usable: {err}")
+            ros2_ok = False
+            for s in ROS2_OUT:
+                built["subjects"][s] = {"ok": False, "error": f"rclpy not usable: {err}"}
+
+    n_lat = len(mode.latency) * len(subjects)
+    n_fix = len(mode.fixed) * len([s for s in MODULES if s in subjects])
+    n_mem = len([s for s in MODULES if s in subjects]) if mode.memory_s else 0
+    progress = Progress(n_lat + n_fix + n_mem)
+    data = {
+        "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+        "machine": machine(),
+        "command": command,
+        "mode": mode.name,
+        "load_before": load0,
+        "peers": "C++ producer and consumer against YARP 3.5 (bench/tools/); rclpy source "
+                 "and sink for ROS 2 (bench/peers/)",
+        "shapes": {k: {"label": v.label, "ports": v.ports, "width": v.width, "config": v.config,
+                       "ros2_config": v.ros2_config} for k, v in SHAPES.items() if k in shapes},
+        "subjects": {s: {"description": DESCRIPTION[s],
+                         "available": built["subjects"].get(s, {"ok": True}).get("ok", True),
+                         "error": built["subjects"].get(s, {}).get("error")} for s in subjects},
+        "stall": {"every_s": STALL_EVERY, "for_s": STALL_FOR},
+    }
+    with mw.YarpServer() as server:
+        ctx = {"tools": built["tools"], "subjects": built["subjects"], "yarp_env": server.env}
+        dom = None
+        if ros2_ok:
+            dom = mw.Ros2Domain().start()
+            env = dict(dom.env)
+            env.update(server.env)
+            env.update(dom.ros_env)
+            ctx["ros2_env"] = env
+            ctx["ros2_vars"] = dom.ros_env
+        try:
+            say(f"latency: {len(mode.latency)} workloads x {len(subjects)} subjects")
+            data["latency"] = latency_stage(ctx, mode, progress)
+            t_lat = time.monotonic()
+            data["fixed_rate"] = fixed_stage(ctx, mode, progress) if mode.fixed else []
+            t_fix = time.monotonic()
+        finally:
+            if dom is not None:
+                dom.stop()
+    data["memory"] = memory_stage(ctx, mode, progress) if mode.memory_s else []
+    t_end = time.monotonic()
+    data["load_after"] = loadavg()
+    data["durations_s"] = {"build": round(t_built - t_start, 1), "latency": round(t_lat - t_built, 1),
+                           "fixed_rate": round(t_fix - t_lat, 1), "memory": round(t_end - t_fix, 1),
+                           "total": round(t_end - t_start, 1)}
+    results_dir.mkdir(parents=True, exist_ok=True)
+    json_path.write_text(json.dumps(data, indent=1) + "\n")
+    say(f"written: {json_path} ({t_end - t_start:.0f} s in all, build {t_built - t_start:.0f} s)")
+    if docs_dir is not None:
+        import report
+        report.write(data, docs_dir, json_path)
+        say(f"written: {docs_dir / 'benchmarks.md'} and its plots")
+    failed = [e for e in data["latency"] if "error" in e and data["subjects"].get(
+        e["subject"], {}).get("available", True)]
+    return 1 if mode.name == "smoke" and failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
