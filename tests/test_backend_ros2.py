@@ -177,12 +177,14 @@ class QosSubscriber(Peer):
                          name=f"ros2_sub{topic.replace('/', '_')}")
         self.messages: list = []
         self.publishers = 0
+        self.publisher_qos: list = []
 
     def _on_event(self, ev):
         if ev["ev"] == "msg":
             self.messages.append(SimpleNamespace(t=ev["t"], msg=ev["msg"]))
         elif ev["ev"] == "matched":
             self.publishers = ev["n"]
+            self.publisher_qos = ev.get("qos", [])
 
     def wait_for(self, n, timeout=10.0):
         self.wait(lambda: len(self.messages) >= n, timeout, f"{n} messages")
@@ -621,13 +623,24 @@ def test_lowering_errors():
 def start_yarp_to_ros2(mw, stem, folder, *args):
     program = example(stem)
     path = write_node(program, folder)
-    sub = subscriber_for(mw.env, program).start()
-    node = Node(mw.env, path, *args).start()
-    producers = [YarpProducer(mw.env, port).start() for port in input_values(program)]
-    node.wait_log("publishing")
-    for p in producers:
-        p.wait_outputs(1, timeout=15)
-    wait_matched(node, sub, program)
+    started = []
+    try:
+        sub = subscriber_for(mw.env, program).start()
+        started.append(sub)
+        node = Node(mw.env, path, *args).start()
+        started.append(node)
+        producers = []
+        for port in input_values(program):
+            producers.append(YarpProducer(mw.env, port).start())
+            started.append(producers[-1])
+        node.wait_log("publishing")
+        for p in producers:
+            p.wait_outputs(1, timeout=15)
+        wait_matched(node, sub, program)
+    except BaseException:
+        for proc in started:
+            proc.stop()
+        raise
     return program, node, sub, producers
 
 
@@ -675,6 +688,8 @@ def test_yarp_to_ros2(mw, tmp_path, stem):
     program, node, sub, producers = start_yarp_to_ros2(mw, stem, tmp_path)
     stamped = _uses_envelope(program.message)
     try:
+        qos = program.output.qos or QoS()  # what the node's publisher offers
+        assert sub.publisher_qos == [{"reliability": qos.reliability, "durability": qos.durability}]
         sent, stamps, t_before = write_all(program, producers, stamped=stamped)
         got = sub.wait_after(t_before)
         check_message(got, EXPECTED[stem](sent, stamps), t_before)
@@ -731,6 +746,62 @@ def test_ros2_to_yarp(mw, tmp_path, stem):
         node.stop()
     t = totals(log)
     assert t[inp.name] == (3, 0, 0) or t[inp.name][:2] == (3, 0), t
+
+
+JOINT_RELAY = """\
+[module]
+name = joint_relay
+
+[output]
+port = /joint_relay/out:o
+on_nan = drop
+
+[mux arm]
+topics = /joint_states (sensor_msgs/JointState position)
+via = ros2
+convert = scale(2.0)
+
+[message]
+stamp = timestamp(arm)
+values = [arm]
+first = arm[0]
+"""
+
+
+def test_ros2_array_field_to_yarp(mw, tmp_path):
+    """One numeric array field of a ROS 2 message (any length) as a mux; its
+    header.stamp as the envelope; a message holding NaN dropped and counted."""
+    config = tmp_path / "joint_relay.ini"
+    config.write_text(JOINT_RELAY)
+    program = compiled(str(config))
+    (inp,) = program.muxes[0].inputs
+    assert (inp.kind, inp.fields, inp.layout) == ("ros2", ("position",), None)
+    path = write_node(program, tmp_path)
+    reader = YarpReader(mw.env, "/joint_relay/in:i", source="/joint_relay/out:o").start()
+    node = Node(mw.env, path).start()
+    pub = Ros2Publisher(mw.env, "/joint_states", "sensor_msgs/msg/JointState").start()
+    try:
+        reader.wait_connected(timeout=15)
+        pub.wait_matched(1, timeout=15)
+        node.wait_log("/joint_states: 1 publisher\n")
+        pub.publish({"header": {"stamp": {"sec": 1234, "nanosec": 500000000}},
+                     "position": [1.0, 2.5, -3.0]})
+        (b,) = reader.wait_for(1)
+        assert b.data == [[1234, 500000000], [2.0, 5.0, -6.0], 2.0]
+        pub.publish({"position": [1.0, float("nan")]})
+        time.sleep(0.2)
+        pub.publish({"position": [0.5, 0.25, 0.125, 4.0, -1.0]})
+        bottles = reader.wait_for(2)
+        time.sleep(0.2)
+        assert len(reader.bottles) == 2
+        assert bottles[1].data[1:] == [[1.0, 0.5, 0.25, 8.0, -2.0], 1.0]
+        log = stop_clean(node)
+    finally:
+        pub.stop()
+        reader.stop()
+        node.stop()
+    assert "dropped a Bottle (element 1 is NaN)" in log
+    assert totals(log)["/joint_states"][:2] == (3, 1)
 
 
 # --------------------------------------------------------------------------

@@ -3,7 +3,8 @@
 Config: {"topic": "/imu/data", "type": "sensor_msgs/msg/Imu",
          "node": "ybg_test_qos_sub", "reliability": "reliable" | "best_effort",
          "durability": "volatile" | "transient_local", "depth": 100}
-Events: ready; matched (n, the number of publishers when it changes);
+Events: ready; matched (n, the number of publishers when it changes; qos,
+the reliability and durability each publisher offers);
 msg (t = receive time, msg = nested dicts, Time as {"sec", "nanosec"}).
 """
 import time
@@ -44,7 +45,10 @@ def main():
         n = sub.get_publisher_count()
         if n != matched:
             matched = n
-            peer_io.emit("matched", n=n)
+            peer_io.emit("matched", n=n, qos=[
+                {"reliability": i.qos_profile.reliability.name.lower(),
+                 "durability": i.qos_profile.durability.name.lower()}
+                for i in node.get_publishers_info_by_topic(cfg["topic"])])
 
 
 if __name__ == "__main__":
