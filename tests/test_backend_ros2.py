@@ -934,6 +934,35 @@ def test_signal_exits_cleanly(mw, tmp_path, sig):
     assert totals(log)["published"] >= 3
 
 
+def catches_sigterm(pid: int) -> bool:
+    """Has the process installed a SIGTERM handler (its code has started)?"""
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return False
+    m = re.search(r"^SigCgt:\s*([0-9a-f]+)", status, re.M)
+    return bool(m) and bool(int(m.group(1), 16) & (1 << (signal.SIGTERM - 1)))
+
+
+def test_signal_while_starting(mw, tmp_path):
+    """A signal at any moment of the start, once the node's own code runs
+    (imports, rclpy, YARP ports): exit 0 within 2 s, no traceback."""
+    path = write_node(example("imu_ros2"), tmp_path)
+    for k, delay in enumerate((0.0, 0.1, 0.3, 0.6)):
+        node = Node(mw.env, path, name=f"imu_ros2_start{k}").start()
+        try:
+            end = time.monotonic() + 10
+            while not catches_sigterm(node.pid) and time.monotonic() < end:
+                time.sleep(0.002)
+            time.sleep(delay)
+            rc, took = node.interrupt(signal.SIGINT if k % 2 else signal.SIGTERM)
+            log = node.log_text()
+        finally:
+            node.stop()
+        assert rc == 0 and took < 2.0, (delay, rc, took, log)
+        assert "Traceback" not in log, log
+
+
 # --------------------------------------------------------------------------
 # parameters
 

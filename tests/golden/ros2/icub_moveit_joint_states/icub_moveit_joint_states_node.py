@@ -9,12 +9,18 @@
 #
 # --help prints what this node reads and publishes. Behaviour: docs/runtime.md.
 
+import signal
+import sys
+
+if __name__ == "__main__":
+    # SIGINT or SIGTERM while the node is starting: exit at once, status 0
+    signal.signal(signal.SIGINT, lambda signum, frame: sys.exit(0))
+    signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(0))
+
 import argparse
 import collections
 import operator
 import os
-import signal
-import sys
 import threading
 import time
 import xmlrpc.client
