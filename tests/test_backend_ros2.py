@@ -574,6 +574,30 @@ def test_integers_strings_counter_and_escaping(tmp_path):
     assert msg.data == 2.25
 
 
+def test_bytes_bools_and_float32(tmp_path):
+    """byte fields take bytes, bool fields bools, float32 fields floats."""
+    import rclpy.time
+
+    cases = [
+        ("std_msgs/ByteMultiArray", [Field("data", MuxRef("m", 0, 2, element_type="int32"),
+                                           TypeRef("byte", "sequence"))],
+         lambda msg: list(msg.data) == [b"\x01", b"\xff"]),
+        ("std_msgs/Bool", [Field("data", MuxRef("m", index=2, element_type="int32"), TypeRef("bool"))],
+         lambda msg: msg.data is True),
+        ("std_msgs/Byte", [Field("data", Literal((7,), "byte"), TypeRef("byte"))],
+         lambda msg: msg.data == b"\x07"),
+        ("geometry_msgs/Point32", [Field("x", MuxRef("m", index=0, element_type="int32"), TypeRef("float32")),
+                                   Field("y", Literal((2,), "int32"), TypeRef("float32"))],
+         lambda msg: (msg.x, msg.y, msg.z) == (1.0, 2.0, 0.0)),
+    ]
+    for k, (msg_type, fields, check) in enumerate(cases):
+        program = typed_program((ElementGroup("int32", 3),), msg_type, fields)
+        node = import_node(program, tmp_path / str(k))
+        stamps_at_0 = node.Stamps(rclpy.time.Time(nanoseconds=0), {})
+        msg = node.build_message(node.Context({"m": [1, 255, 1]}, 0, {}), stamps_at_0)
+        assert check(msg), (msg_type, msg)
+
+
 def test_dynamic_width_checks_sizes_at_run_time(tmp_path):
     """An undeclared mux into a fixed-size field: the wrong number of values
     is refused (and counted by the bridge), never sent."""
