@@ -306,12 +306,13 @@ def cdf_points(sorted_values: list, n: int = 1001) -> list:
 
 
 def analyse_latency(records: list, first: int, ticks: int, blocks: int, per_block: bool) -> dict:
-    """Figures of one event-driven run. ``per_block``: each record carries
-    one block (direct subject: the consumer reads the producer's ports);
-    otherwise each record is one bridge output of ``blocks`` blocks, all of
-    the same tick (a record mixing ticks is counted as mismatched)."""
+    """Figures of one event-driven run (see merge_latency for the summary).
+    ``per_block``: each record carries one block (direct subject: the
+    consumer reads the producer's ports); otherwise each record is one bridge
+    output of ``blocks`` blocks, all of the same tick (a record mixing ticks
+    is counted as mismatched)."""
     last = first + ticks - 1
-    lat, recv, seen = [], [], set()  # direct: the consumer cannot tell ports apart; no repeats
+    lat, recv, seen = [], [], set()
     mismatched = bad = foreign = 0
     for r in records:
         n = int(r[1])
@@ -331,21 +332,34 @@ def analyse_latency(records: list, first: int, ticks: int, blocks: int, per_bloc
         lat.append(r[0] - max(times))
         recv.append(r[0])
     expected = ticks * (blocks if per_block else 1)
-    lat.sort()
     span = (max(recv) - min(recv)) if len(recv) > 1 else 0.0
+    return {"sent": expected, "delivered": len(lat), "mismatched": mismatched, "bad": bad,
+            "foreign": foreign, "lat": lat, "span": span,
+            "outputs": (len(recv) - 1) / (blocks if per_block else 1) if len(recv) > 1 else 0}
+
+
+def merge_latency(chunks: list) -> dict:
+    """The summary of several runs of one subject on one workload."""
+    lat = sorted(x for c in chunks for x in c["lat"])
+    sent = sum(c["sent"] for c in chunks)
+    delivered = sum(c["delivered"] for c in chunks)
+    span = sum(c["span"] for c in chunks)
     return {
-        "sent": expected,
-        "delivered": len(lat),
-        "lost": max(0, expected - len(lat)),
-        "mismatched": mismatched,
-        "bad": bad,
-        "foreign": foreign,
+        "runs": len(chunks),
+        "sent": sent,
+        "delivered": delivered,
+        "lost": max(0, sent - delivered),
+        "mismatched": sum(c["mismatched"] for c in chunks),
+        "bad": sum(c["bad"] for c in chunks),
+        "foreign": sum(c["foreign"] for c in chunks),
         "median_us": quantile(lat, 0.5) * 1e6 if lat else None,
         "p99_us": quantile(lat, 0.99) * 1e6 if lat else None,
         "max_us": lat[-1] * 1e6 if lat else None,
         "mean_us": sum(lat) / len(lat) * 1e6 if lat else None,
-        # output messages per second (direct: ticks per second, one Bottle per port each)
-        "rate_hz": (len(recv) - 1) / span / (blocks if per_block else 1) if span > 0 else None,
+        # output messages per second while running (direct: ticks per second)
+        "rate_hz": sum(c["outputs"] for c in chunks) / span if span > 0 else None,
+        "run_medians_us": [quantile(sorted(c["lat"]), 0.5) * 1e6 if c["lat"] else None
+                           for c in chunks],
         "cdf_us": cdf_points(lat),
     }
 
@@ -369,7 +383,7 @@ def analyse_rate(records: list, t_start: float, t_end: float, rate: float) -> di
     out.update(
         achieved_hz=achieved,
         error_pct=100.0 * (achieved - rate) / rate,
-        missed_cycles=sum(int(round(g / period)) - 1 for g in gaps if g > 1.5 * period),
+        gaps=sum(int(round(g / period)) - 1 for g in gaps if g > 1.5 * period),
         jitter_p99_us=quantile(jitter, 0.99) * 1e6,
         jitter_max_us=jitter[-1] * 1e6,
         first_third_hz=first_rate,

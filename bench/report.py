@@ -341,21 +341,25 @@ def write(data: dict, docs: Path, json_path: Path) -> Path:
             "producer at the same rate; the rate is counted on the consumer's receive times over "
             "a window inside the producer's run (from 0.5 s after its start). *first / last "
             "third*: the rate over the first and the last third of the window (drift shows as a "
-            "difference); *missed*: gaps longer than 1.5 periods, in periods; *jitter*: "
-            "|interval − period|, as received (it includes the two YARP hops).")
+            "difference); *skipped*: the cycles the module itself reports skipped at exit (its "
+            "whole run); *gaps*: intervals longer than 1.5 periods between received messages, "
+            "counted in periods (a late delivery makes a gap and a burst, without a lost cycle); "
+            "*jitter*: |interval − period| as received (it includes both hops).")
         add("")
-        add("| workload | subject | achieved Hz | error % | first / last third Hz | missed | "
+        add("| workload | subject | achieved Hz | error % | first / last third Hz | skipped | gaps | "
             "jitter p99 us | CPU % |")
-        add("|---|---|---|---|---|---|---|---|")
+        add("|---|---|---|---|---|---|---|---|---|")
         for e in data["fixed_rate"]:
             wl = f"{e['shape']} {e['rate']} Hz"
             if "error" in e or e.get("achieved_hz") is None:
-                add(f"| {wl} | `{e['subject']}` | {short_err(e.get('error') or 'no data')} | | | | | |")
+                add(f"| {wl} | `{e['subject']}` | {short_err(e.get('error') or 'no data')} | | | | | | |")
                 continue
             thirds = (f"{e['first_third_hz']:.2f} / {e['last_third_hz']:.2f}"
                       if e.get("first_third_hz") else "–")
+            skipped = e.get("module_skipped_cycles")
             add(f"| {wl} | `{e['subject']}` | {e['achieved_hz']:.2f} | {e['error_pct']:+.2f} | "
-                f"{thirds} | {e['missed_cycles']} | {us(e['jitter_p99_us'])} | {pct(e.get('cpu_pct'))} |")
+                f"{thirds} | {'–' if skipped is None else skipped} | {e['gaps']} | "
+                f"{us(e['jitter_p99_us'])} | {pct(e.get('cpu_pct'))} |")
         add("")
 
     # --- memory

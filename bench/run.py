@@ -29,6 +29,7 @@ import argparse
 import json
 import os
 import platform
+import re
 import shutil
 import sys
 import threading
@@ -85,6 +86,7 @@ class Mode:
     memory_s: float
     subjects: tuple
     warmup_ticks: int
+    rounds: int            # latency runs are split in rounds, subjects in turn
 
 
 MODES = {
@@ -92,12 +94,12 @@ MODES = {
                  [("joints_100hz", "joints", 100, 10.0), ("joints_1khz", "joints", 1000, 10.0),
                   ("wide_1khz", "wide", 1000, 10.0)],
                  [("joints", 100, 10.0), ("joints", 1000, 10.0), ("wide", 1000, 10.0)],
-                 600.0, SUBJECTS, 200),
+                 600.0, SUBJECTS, 200, 5),
     "quick": Mode("quick",
                   [("joints_1khz", "joints", 1000, 1.0), ("wide_1khz", "wide", 1000, 0.5)],
                   [("joints", 1000, 1.0)],
-                  20.0, SUBJECTS, 50),
-    "smoke": Mode("smoke", [("joints_500hz", "joints", 500, 0.6)], [], 0.0, ("direct", "relay"), 20),
+                  20.0, SUBJECTS, 50, 2),
+    "smoke": Mode("smoke", [("joints_500hz", "joints", 500, 0.6)], [], 0.0, ("direct", "relay"), 20, 1),
 }
 STALL_EVERY, STALL_FOR = 3.0, 2.0   # the stalling consumer of the memory stage
 
@@ -168,7 +170,7 @@ class Rig:
     def start(self) -> "Rig":
         ctx, s, sh = self.ctx, self.subject, self.shape
         tools = ctx["tools"]
-        yenv = ctx["yarp_env"]
+        yenv = ctx.get("yarp_env")
         renv = dict(ctx["ros2_env"]) if ctx.get("ros2_env") else None
         stall = (["--stall-every", str(STALL_EVERY), "--stall-for", str(STALL_FOR)]
                  if self.stall else [])
@@ -250,14 +252,117 @@ class Rig:
             self.sink.quit()
         return status
 
+    def totals(self) -> dict:
+        """The totals a generated module prints at exit (docs/runtime.md):
+        published messages and skipped cycles (after stop())."""
+        text = self.module.log_text() if self.module is not None else ""
+        out = {}
+        m = re.search(r"published (\d+) messages, skipped (\d+) cycles", text)
+        if m:
+            out = {"module_published": int(m.group(1)), "module_skipped_cycles": int(m.group(2))}
+        return out
+
 
 # --------------------------------------------------------------------------
 # stages
 
 
+class Isolated:
+    """A name server and/or a ROS 2 domain of one rig's own, so that several
+    rigs (whose configs use the same port and topic names) can be up at once."""
+
+    def __init__(self, ctx: dict, subject: str, tag: str = ""):
+        self.base, self.subject, self.tag = ctx, subject, tag
+        self.server: Optional[mw.YarpServer] = None
+        self.domain: Optional[mw.Ros2Domain] = None
+
+    def start(self) -> dict:
+        ctx = dict(self.base, tag=self.tag)
+        try:
+            if self.subject != "rclpy":
+                self.server = mw.YarpServer().start()
+                ctx["yarp_env"] = self.server.env
+            if self.subject in ROS2_OUT:
+                self.domain = mw.Ros2Domain().start()
+                env = dict(self.domain.env)
+                if self.server is not None:
+                    env.update(self.server.env)
+                env.update(self.domain.ros_env)
+                ctx["ros2_env"] = env
+                ctx["ros2_vars"] = self.domain.ros_env
+        except BaseException:
+            self.stop()
+            raise
+        return ctx
+
+    def stop(self) -> None:
+        if self.server is not None:
+            self.server.stop()
+        if self.domain is not None:
+            self.domain.stop()
+
+
+def start_rigs(ctx: dict, subjects: list, shape: Shape, stall: bool = False,
+               record: bool = True, tag: str = "") -> dict:
+    """Starts the rigs of ``subjects`` at once (threads: each mostly waits
+    for its processes), each isolated; {subject: (Isolated, Rig) or error}."""
+    out: dict = {}
+    lock = threading.Lock()
+
+    def one(s):
+        iso = Isolated(ctx, s, tag=f"{tag}_{s}")
+        try:
+            rig = Rig(iso.start(), s, shape, None, stall=stall, record=record).start()
+            got = (iso, rig)
+        except (BenchError, OSError, RuntimeError, TimeoutError) as e:
+            iso.stop()
+            got = str(e).strip() or type(e).__name__
+        with lock:
+            out[s] = got
+
+    threads = [threading.Thread(target=one, args=(s,), daemon=True) for s in subjects]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    return {s: out[s] for s in subjects}
+
+
+def stop_rigs(rigs: dict) -> dict:
+    """Stops the rigs at once; {subject: the module's exit status}."""
+    out: dict = {}
+
+    def one(s, rig):
+        try:
+            out[s] = rig.stop()
+        except Exception as e:  # noqa: BLE001 (reported as the status)
+            out[s] = f"stop failed: {e}"
+
+    threads = [threading.Thread(target=one, args=(s, r), daemon=True) for s, r in rigs.items()]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    return out
+
+
+def available(ctx: dict, subject: str) -> Optional[str]:
+    """None when the subject can run, else why not."""
+    if subject in ROS2_OUT and not ctx.get("ros2_ok"):
+        return ctx.get("ros2_error") or "ROS 2 not available"
+    if subject in ("direct", "relay", "rclpy"):
+        return None
+    info = ctx["subjects"].get(subject, {})
+    return None if info.get("ok") else (info.get("error") or "not available")
+
+
 def latency_stage(ctx: dict, mode: Mode, progress: Progress) -> list:
-    """Event-driven runs: every subject, every latency workload. A subject's
-    processes are started once per shape and serve every rate of that shape."""
+    """Event-driven runs: every subject, every latency workload. Per shape,
+    every subject's rig is started once, each with its own name server (and
+    ROS 2 domain), and all stay up; each workload is then run in
+    ``mode.rounds`` rounds, every subject in turn (the order rotates from
+    round to round), so that a change in the machine's load during the stage
+    falls on every subject alike."""
     results = []
     by_shape: dict = {}
     for wl, shape, rate, secs in mode.latency:
@@ -265,65 +370,96 @@ def latency_stage(ctx: dict, mode: Mode, progress: Progress) -> list:
     tmp = Path(mw.tmp_root())
     for shape, runs in by_shape.items():
         sh = SHAPES[shape]
+        rigs: dict = {}
+        isos: list = []
+        errors: dict = {}
         for s in mode.subjects:
-            info = ctx["subjects"].get(s, {"ok": s in ("direct", "rclpy")})
-            if s in ("direct", "rclpy") or s == "relay":
-                info = {"ok": True}
-            if s == "rclpy" and not ctx.get("ros2_env"):
-                info = {"ok": False, "error": "ROS 2 not available"}
-            if not info.get("ok", False):
-                for wl, rate, secs in runs:
-                    results.append({"workload": wl, "shape": shape, "rate": rate, "subject": s,
-                                    "error": info.get("error") or "not available"})
-                    progress.step(f"latency {wl:13s} {s:6s} not available")
-                continue
-            rig = None
-            try:
-                rig = Rig(ctx, s, sh, None).start()
-                for wl, rate, secs in runs:
-                    entry = {"workload": wl, "shape": shape, "rate": rate, "subject": s}
+            why = available(ctx, s)
+            if why:
+                errors[s] = why
+        say(f"latency, {sh.label}: starting {', '.join(s for s in mode.subjects if s not in errors)}")
+        try:
+            started = start_rigs(ctx, [s for s in mode.subjects if s not in errors], sh,
+                                 tag=f"_{shape}")
+            for s, got in started.items():
+                if isinstance(got, tuple):
+                    isos.append(got[0])
+                    rigs[s] = got[1]
+                else:
+                    errors[s] = got
+                    say(f"  {s}: cannot start: {got.splitlines()[0]}")
+            for wl, rate, secs in runs:
+                chunks = {s: [] for s in rigs}
+                cpu = {s: [0.0, 0.0] for s in rigs}    # CPU s, wall s of the module
+                late = {s: 0 for s in rigs}
+                failed: dict = {}
+                per_round = max(1, int(round(secs * rate / mode.rounds)))
+                for s, rig in rigs.items():
+                    if s in errors:
+                        continue
                     try:
                         warm = rig.source.run(min(mode.warmup_ticks, max(10, rate // 4)), rate)
                         rig.sink.settle(warm["ticks"] * (sh.ports if rig.per_block else 1))
-                        rig.sink.reset()
-                        ticks = max(1, int(round(secs * rate)))
-                        cpu = h.CpuWindow(rig.module.pid if rig.module else None)
-                        run = rig.source.run(ticks, rate)
-                        expected = ticks * (sh.ports if rig.per_block else 1)
-                        rig.sink.settle(expected)
-                        entry["cpu_pct"] = cpu.percent()
-                        if rig.module is not None:
-                            mem = h.memory_kb(rig.module.pid)
-                            entry["rss_kb"] = mem.get("VmRSS")
-                            entry["rss_peak_kb"] = mem.get("VmHWM")
-                        rig.check_alive()
-                        recs = rig.sink.dump(tmp / f"lat_{wl}_{s}.bin")
-                        entry.update(h.analyse_latency(recs, run["first"], run["ticks"], sh.ports,
-                                                       rig.per_block))
-                        entry["source_late_ticks"] = run["late"]
-                        entry["source_rate_hz"] = run["ticks"] / run["elapsed"] if run["elapsed"] else None
-                        progress.step(f"latency {wl:13s} {s:6s} median {fmt_us(entry['median_us'])} "
-                                      f"p99 {fmt_us(entry['p99_us'])} max {fmt_us(entry['max_us'])} "
-                                      f"delivered {entry['delivered']}/{entry['sent']} "
-                                      f"cpu {fmt_pct(entry.get('cpu_pct'))}")
                     except (BenchError, OSError) as e:
-                        entry["error"] = str(e).strip()
-                        progress.step(f"latency {wl:13s} {s:6s} FAILED: {entry['error'].splitlines()[0]}")
-                    results.append(entry)
-            except (BenchError, OSError) as e:
-                err = str(e).strip()
-                for wl, rate, secs in runs:
-                    if not any(r["workload"] == wl and r["subject"] == s for r in results):
-                        results.append({"workload": wl, "shape": shape, "rate": rate, "subject": s,
-                                        "error": err})
-                        progress.step(f"latency {wl:13s} {s:6s} FAILED: {err.splitlines()[0]}")
-            finally:
-                if rig is not None:
-                    status = rig.stop()
+                        failed[s] = str(e).strip()
+                order = list(rigs)
+                for r in range(mode.rounds):
+                    turn = order[r % len(order):] + order[:r % len(order)] if order else []
+                    for s in turn:
+                        if s in failed or s in errors:
+                            continue
+                        rig = rigs[s]
+                        try:
+                            rig.sink.reset()
+                            pid = rig.module.pid if rig.module else None
+                            c0, t0 = (h.cpu_seconds(pid) if pid else None), time.monotonic()
+                            run = rig.source.run(per_round, rate)
+                            expected = run["ticks"] * (sh.ports if rig.per_block else 1)
+                            rig.sink.settle(expected)
+                            if pid and c0 is not None:
+                                cpu[s][0] += (h.cpu_seconds(pid) or c0) - c0
+                                cpu[s][1] += time.monotonic() - t0
+                            rig.check_alive()
+                            recs = rig.sink.dump(tmp / f"lat_{wl}_{s}.bin")
+                            chunks[s].append(h.analyse_latency(recs, run["first"], run["ticks"],
+                                                               sh.ports, rig.per_block))
+                            late[s] += run["late"]
+                        except (BenchError, OSError) as e:
+                            failed[s] = str(e).strip()
+                    if mode.rounds > 1:
+                        say(f"  {wl}: round {r + 1}/{mode.rounds} done")
+                for s in mode.subjects:
+                    entry = {"workload": wl, "shape": shape, "rate": rate, "subject": s}
+                    err = errors.get(s) or failed.get(s)
+                    if err or not chunks.get(s):
+                        entry["error"] = err or "no data"
+                        progress.step(f"latency {wl:13s} {s:6s} "
+                                      f"{'not available' if s in errors else 'FAILED'}: "
+                                      f"{entry['error'].splitlines()[0][:100]}")
+                        results.append(entry)
+                        continue
+                    rig = rigs[s]
+                    entry.update(h.merge_latency(chunks[s]))
+                    entry["cpu_pct"] = 100.0 * cpu[s][0] / cpu[s][1] if cpu[s][1] else None
                     if rig.module is not None:
-                        for r in results:
-                            if r["shape"] == shape and r["subject"] == s:
-                                r["exit_status"] = status
+                        mem = h.memory_kb(rig.module.pid)
+                        entry["rss_kb"] = mem.get("VmRSS")
+                        entry["rss_peak_kb"] = mem.get("VmHWM")
+                    entry["source_late_ticks"] = late[s]
+                    results.append(entry)
+                    progress.step(f"latency {wl:13s} {s:6s} median {fmt_us(entry['median_us'])} "
+                                  f"p99 {fmt_us(entry['p99_us'])} max {fmt_us(entry['max_us'])} "
+                                  f"delivered {entry['delivered']}/{entry['sent']} "
+                                  f"cpu {fmt_pct(entry.get('cpu_pct'))}")
+        finally:
+            statuses = stop_rigs(rigs)
+            for s, rig in rigs.items():
+                if rig.module is not None:
+                    for e in results:
+                        if e["shape"] == shape and e["subject"] == s:
+                            e["exit_status"] = statuses[s]
+            for iso in isos:
+                iso.stop()
     return results
 
 
@@ -335,15 +471,16 @@ def fixed_stage(ctx: dict, mode: Mode, progress: Progress) -> list:
             if s not in mode.subjects:
                 continue
             entry = {"shape": shape, "rate": rate, "subject": s}
-            info = {"ok": True} if s == "relay" else ctx["subjects"].get(s, {"ok": False})
-            if not info.get("ok"):
-                entry["error"] = info.get("error") or "not available"
+            why = available(ctx, s)
+            if why:
+                entry["error"] = why
                 results.append(entry)
                 progress.step(f"fixed   {shape:6s} {rate:5d} Hz {s:6s} not available")
                 continue
             rig = None
+            iso = Isolated(ctx, s, tag=f"_fixed_{s}")
             try:
-                rig = Rig(ctx, s, sh, rate).start()
+                rig = Rig(iso.start(), s, sh, rate).start()
                 ticks = int(round((secs + 0.7) * rate))
                 cpu = h.CpuWindow(rig.module.pid)
                 t0 = time.monotonic()
@@ -357,14 +494,16 @@ def fixed_stage(ctx: dict, mode: Mode, progress: Progress) -> list:
                 entry["source_late_ticks"] = run["late"]
                 progress.step(f"fixed   {shape:6s} {rate:5d} Hz {s:6s} achieved "
                               f"{fmt_hz(entry.get('achieved_hz'))} ({fmt_signed(entry.get('error_pct'))} %), "
-                              f"missed {entry.get('missed_cycles')}, cpu {fmt_pct(entry['cpu_pct'])}")
-            except (BenchError, OSError) as e:
+                              f"gaps {entry.get('gaps')}, cpu {fmt_pct(entry['cpu_pct'])}")
+            except (BenchError, OSError, RuntimeError, TimeoutError) as e:
                 entry["error"] = str(e).strip()
                 progress.step(f"fixed   {shape:6s} {rate:5d} Hz {s:6s} FAILED: "
                               f"{entry['error'].splitlines()[0]}")
             finally:
                 if rig is not None:
                     entry["exit_status"] = rig.stop()
+                    entry.update(rig.totals())
+                iso.stop()
             results.append(entry)
     return results
 
@@ -375,30 +514,21 @@ def memory_stage(ctx: dict, mode: Mode, progress: Progress) -> list:
     STALL_EVERY s. RSS of each module sampled every second."""
     sh = SHAPES["joints"]
     rate = 1000
-    subjects = [s for s in MODULES if s in mode.subjects
-                and (s == "relay" or ctx["subjects"].get(s, {}).get("ok"))]
+    subjects = [s for s in MODULES if s in mode.subjects and not available(ctx, s)]
     results = []
     for s in MODULES:
         if s in mode.subjects and s not in subjects:
-            results.append({"subject": s, "error": ctx["subjects"].get(s, {}).get("error")
-                            or "not available"})
+            results.append({"subject": s, "error": available(ctx, s)})
     if not subjects:
         return results
-    servers, domains, rigs = [], [], {}
+    isos, rigs = [], {}
     try:
-        for s in subjects:
-            server = mw.YarpServer().start()
-            servers.append(server)
-            sctx = dict(ctx, yarp_env=server.env, tag=f"_mem_{s}")
-            if s == "ros2":
-                dom = mw.Ros2Domain().start()
-                domains.append(dom)
-                env = dict(dom.env)
-                env.update(server.env)
-                env.update(dom.ros_env)
-                sctx["ros2_env"] = env
-                sctx["ros2_vars"] = dom.ros_env
-            rigs[s] = Rig(sctx, s, sh, None, stall=True, record=False).start()
+        for s, got in start_rigs(ctx, subjects, sh, stall=True, record=False, tag="_mem").items():
+            if isinstance(got, tuple):
+                isos.append(got[0])
+                rigs[s] = got[1]
+            else:
+                results.append({"subject": s, "error": got})
         ticks = int(mode.memory_s * rate)
         say(f"memory: {', '.join(subjects)} at once, {mode.memory_s:.0f} s at {rate} Hz, consumer "
             f"stalling {STALL_FOR:g} s every {STALL_EVERY:g} s")
@@ -453,15 +583,14 @@ def memory_stage(ctx: dict, mode: Mode, progress: Progress) -> list:
                 f"{entry['growth_kb'] / 1024:+.2f} MB, delivered {entry['received']}/{entry['sent']}"
                 if "error" not in entry else f"FAILED: {entry['error'].splitlines()[0]}"))
     finally:
-        for rig in rigs.values():
-            status = rig.stop()
+        statuses = stop_rigs(rigs)
+        for s, rig in rigs.items():
             for e in results:
-                if e["subject"] == rig.subject:
-                    e["exit_status"] = status
-        for server in servers:
-            server.stop()
-        for dom in domains:
-            dom.stop()
+                if e["subject"] == s:
+                    e["exit_status"] = statuses[s]
+                    e.update(rig.totals())
+        for iso in isos:
+            iso.stop()
     return results
 
 
@@ -528,6 +657,7 @@ def main(argv=None) -> int:
     ap.add_argument("--subjects", help="comma-separated subset of " + ",".join(SUBJECTS))
     ap.add_argument("--skip-memory", action="store_true", help="leave out the memory stage")
     ap.add_argument("--skip-fixed", action="store_true", help="leave out the fixed-rate stage")
+    ap.add_argument("--skip-latency", action="store_true", help="leave out the latency stage")
     ap.add_argument("--results", type=Path, help="folder of the JSON results (default "
                     "bench/results, bench/results/quick with --quick)")
     ap.add_argument("--docs", type=Path, help="folder of the report and plots (default docs/, "
@@ -559,8 +689,9 @@ def main(argv=None) -> int:
         if unknown:
             ap.error(f"unknown subjects: {', '.join(unknown)}")
         subjects = tuple(s for s in SUBJECTS if s in wanted)
-    mode = Mode(mode.name, mode.latency, [] if args.skip_fixed else mode.fixed,
-                0.0 if args.skip_memory else mode.memory_s, subjects, mode.warmup_ticks)
+    mode = Mode(mode.name, [] if args.skip_latency else mode.latency,
+                [] if args.skip_fixed else mode.fixed,
+                0.0 if args.skip_memory else mode.memory_s, subjects, mode.warmup_ticks, mode.rounds)
 
     t_start = time.monotonic()
     load0 = loadavg()
@@ -572,14 +703,12 @@ def main(argv=None) -> int:
     built = prepare(args.build_dir, tuple(s for s in subjects if s in ("cpp", "py", "ros2")), shapes)
     t_built = time.monotonic()
 
-    ros2_ok = any(s in subjects for s in ROS2_OUT)
-    if ros2_ok:
+    ros2_error = None
+    if any(s in subjects for s in ROS2_OUT):
         err = mw._python_imports(str(mw.VENV_PYTHON), "rclpy, sensor_msgs.msg")
         if err:
+            ros2_error = f"rclpy not usable: {err}"
             say(f"ROS 2 not usable: {err}")
-            ros2_ok = False
-            for s in ROS2_OUT:
-                built["subjects"][s] = {"ok": False, "error": f"rclpy not usable: {err}"}
 
     n_lat = len(mode.latency) * len(subjects)
     n_fix = len(mode.fixed) * len([s for s in MODULES if s in subjects])
@@ -596,29 +725,20 @@ def main(argv=None) -> int:
         "shapes": {k: {"label": v.label, "ports": v.ports, "width": v.width, "config": v.config,
                        "ros2_config": v.ros2_config} for k, v in SHAPES.items() if k in shapes},
         "subjects": {s: {"description": DESCRIPTION[s],
-                         "available": built["subjects"].get(s, {"ok": True}).get("ok", True),
-                         "error": built["subjects"].get(s, {}).get("error")} for s in subjects},
+                         "available": built["subjects"].get(s, {"ok": True}).get("ok", True)
+                         and not (s in ROS2_OUT and ros2_error),
+                         "error": built["subjects"].get(s, {}).get("error")
+                         or (ros2_error if s in ROS2_OUT else None)} for s in subjects},
         "stall": {"every_s": STALL_EVERY, "for_s": STALL_FOR},
     }
-    with mw.YarpServer() as server:
-        ctx = {"tools": built["tools"], "subjects": built["subjects"], "yarp_env": server.env}
-        dom = None
-        if ros2_ok:
-            dom = mw.Ros2Domain().start()
-            env = dict(dom.env)
-            env.update(server.env)
-            env.update(dom.ros_env)
-            ctx["ros2_env"] = env
-            ctx["ros2_vars"] = dom.ros_env
-        try:
-            say(f"latency: {len(mode.latency)} workloads x {len(subjects)} subjects")
-            data["latency"] = latency_stage(ctx, mode, progress)
-            t_lat = time.monotonic()
-            data["fixed_rate"] = fixed_stage(ctx, mode, progress) if mode.fixed else []
-            t_fix = time.monotonic()
-        finally:
-            if dom is not None:
-                dom.stop()
+    ctx = {"tools": built["tools"], "subjects": built["subjects"], "ros2_ok": ros2_error is None,
+           "ros2_error": ros2_error}
+    say(f"latency: {len(mode.latency)} workloads x {len(subjects)} subjects, "
+        f"{mode.rounds} round(s) each")
+    data["latency"] = latency_stage(ctx, mode, progress)
+    t_lat = time.monotonic()
+    data["fixed_rate"] = fixed_stage(ctx, mode, progress) if mode.fixed else []
+    t_fix = time.monotonic()
     data["memory"] = memory_stage(ctx, mode, progress) if mode.memory_s else []
     t_end = time.monotonic()
     data["load_after"] = loadavg()
