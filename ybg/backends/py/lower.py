@@ -267,8 +267,8 @@ class _Builder:
         if ref.start == 0 and ref.stop is None:
             part = values
         else:
-            stop = "" if ref.stop is None else f"{ref.stop:d}"
-            part = f"{values}[{ref.start:d}:{stop}]"
+            stop = "None" if ref.stop is None else f"{ref.stop:d}"
+            part = f"take({values}, {ref.start:d}, {stop})"
         if ref.into_fields is not None:
             types = ref.into_types or (ref.element_type,) * len(ref.into_fields)
             msg_type = typ.base if typ is not None and typ.is_message else None

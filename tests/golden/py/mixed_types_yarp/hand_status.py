@@ -586,6 +586,15 @@ class Bridge:
         print("\n".join(lines), flush=True)
 
 
+def take(values, start, stop):
+    """values[start:stop], or IndexError when the mux holds fewer elements
+    than the slice names (a slice is never silently shortened)."""
+    n = len(values)
+    if start > n or (stop is not None and stop > n):
+        raise IndexError("slice [%d:%s] of %d elements" % (start, "" if stop is None else stop, n))
+    return values[start:stop]
+
+
 def convert(values, converters):
     """The converters, in order: y = x * scale + offset on [start, stop)."""
     if not converters:
@@ -842,9 +851,9 @@ def build_message(ctx):
     v = ctx.values
     return Msg(None, (
         ('label', Scalar('string', 'left_hand')),
-        ('joints', Array('float64', v['hand'][0:6])),
+        ('joints', Array('float64', take(v['hand'], 0, 6))),
         ('first_flag', Scalar('int32', v['hand'][6])),
-        ('flags', Array('int32', v['hand'][6:9])),
+        ('flags', Array('int32', take(v['hand'], 6, 9))),
     ))
 
 

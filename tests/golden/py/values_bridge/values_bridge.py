@@ -586,6 +586,15 @@ class Bridge:
         print("\n".join(lines), flush=True)
 
 
+def take(values, start, stop):
+    """values[start:stop], or IndexError when the mux holds fewer elements
+    than the slice names (a slice is never silently shortened)."""
+    n = len(values)
+    if start > n or (stop is not None and stop > n):
+        raise IndexError("slice [%d:%s] of %d elements" % (start, "" if stop is None else stop, n))
+    return values[start:stop]
+
+
 def convert(values, converters):
     """The converters, in order: y = x * scale + offset on [start, stop)."""
     if not converters:
