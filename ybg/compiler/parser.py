@@ -102,25 +102,26 @@ class _ToAst:
     def __init__(self, sink: Sink):
         self.sink = sink
         self.rules = {
-            "string": self.string, "word": self.word, "args": self.args, "arg": self.arg,
+            "args": self.args, "arg": self.arg,
             "call": self.call, "at": self.at, "slice": self.slice, "subscript": self.subscript,
             "bracket": self.bracket, "value": self.value, "entry": self.entry,
             "header": self.header, "section": self.section, "start": self.start,
         }
 
     def transform(self, tree: Tree):
-        children = [self.transform(c) if isinstance(c, Tree) else c for c in tree.children]
+        children = [self.transform(c) if isinstance(c, Tree) else self.atom(c) for c in tree.children]
         return self.rules[tree.data](tree.meta, children)
 
-    # atoms
-    def string(self, meta, children):
-        (tok,) = children
-        span = _tok_span(tok)
-        return ast.Str(unescape(str(tok), span, self.sink), span)
-
-    def word(self, meta, children):
-        (tok,) = children
-        return ast.Word(str(tok), _tok_span(tok))
+    def atom(self, tok):
+        """WORD and STRING tokens become AST atoms; other tokens stay tokens."""
+        if tok is None:
+            return None
+        if tok.type == "WORD":
+            return ast.Word(str(tok), _tok_span(tok))
+        if tok.type == "STRING":
+            span = _tok_span(tok)
+            return ast.Str(unescape(str(tok), span, self.sink), span)
+        return tok
 
     def args(self, meta, children):
         return tuple(c for c in children if c is not None)
@@ -161,7 +162,7 @@ class _ToAst:
 
     def header(self, meta, children):
         name, label = children
-        return (str(name), None if label is None else str(label), _meta_span(meta))
+        return (name.text, None if label is None else label.text, _meta_span(meta))
 
     def section(self, meta, children):
         (name, label, span), *entries = children
