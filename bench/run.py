@@ -162,13 +162,15 @@ class Rig:
         self.source: Optional[h.Source] = None
         self.sink: Optional[h.Sink] = None
         self.per_block = subject == "direct"
+        self.kind = subject.split("+")[0]
 
     # names of the YARP ports of the producer
     def src_ports(self) -> list:
         return [f"/bench/src{i}:o" for i in range(self.shape.ports)]
 
     def start(self) -> "Rig":
-        ctx, s, sh = self.ctx, self.subject, self.shape
+        ctx, sh = self.ctx, self.shape
+        s = self.subject.split("+")[0]  # "cpp+variant": a variant's binary, run as cpp
         tools = ctx["tools"]
         yenv = ctx.get("yarp_env")
         renv = dict(ctx["ros2_env"]) if ctx.get("ros2_env") else None
@@ -203,7 +205,7 @@ class Rig:
                     argv += ["--source", src]
                 self.sink = h.Sink(argv, env=yenv, name=f"consumer{tag}").start()
             rate_args = []
-            info = ctx["subjects"].get(s, {})
+            info = ctx["subjects"].get(self.subject, {})
             if s == "relay":
                 argv = [tools["relay"], "--inputs", ",".join(self.src_ports()),
                         "--output", "/bench/relay/out:o", "--prefix", "/bench/relay"]
@@ -279,10 +281,11 @@ class Isolated:
     def start(self) -> dict:
         ctx = dict(self.base, tag=self.tag)
         try:
-            if self.subject != "rclpy":
+            kind = self.subject.split("+")[0]
+            if kind != "rclpy":
                 self.server = mw.YarpServer().start()
                 ctx["yarp_env"] = self.server.env
-            if self.subject in ROS2_OUT:
+            if kind in ROS2_OUT:
                 self.domain = mw.Ros2Domain().start()
                 env = dict(self.domain.env)
                 if self.server is not None:
@@ -348,7 +351,7 @@ def stop_rigs(rigs: dict) -> dict:
 
 def available(ctx: dict, subject: str) -> Optional[str]:
     """None when the subject can run, else why not."""
-    if subject in ROS2_OUT and not ctx.get("ros2_ok"):
+    if subject.split("+")[0] in ROS2_OUT and not ctx.get("ros2_ok"):
         return ctx.get("ros2_error") or "ROS 2 not available"
     if subject in ("direct", "relay", "rclpy"):
         return None
@@ -621,6 +624,17 @@ def fmt_signed(v) -> str:
     return "-" if v is None else f"{v:+.2f}"
 
 
+def source_state() -> dict:
+    """The commit measured, and the backend files that differ from it (the
+    modules are generated from the working tree)."""
+    def git(*args):
+        r = h.run_cmd(["git", *args], cwd=ROOT, timeout=30)
+        return r.stdout.strip() if r.returncode == 0 else None
+    changed = git("status", "--porcelain", "--", "ybg")
+    return {"commit": git("rev-parse", "--short", "HEAD"),
+            "modified": [line[3:] for line in (changed or "").splitlines()]}
+
+
 def loadavg() -> list:
     try:
         return [float(x) for x in Path("/proc/loadavg").read_text().split()[:3]]
@@ -730,6 +744,7 @@ def main(argv=None) -> int:
                          "error": built["subjects"].get(s, {}).get("error")
                          or (ros2_error if s in ROS2_OUT else None)} for s in subjects},
         "stall": {"every_s": STALL_EVERY, "for_s": STALL_FOR},
+        "source": source_state(),
     }
     ctx = {"tools": built["tools"], "subjects": built["subjects"], "ros2_ok": ros2_error is None,
            "ros2_error": ros2_error}
