@@ -913,8 +913,11 @@ def test_producer_killed_and_restarted(mw, tmp_path):
 def test_malformed_bottles_are_dropped_and_counted(mw, tmp_path):
     program, node, sub, (producer,) = start_yarp_to_ros2(mw, "ball_point_stamped", tmp_path)
     try:
-        for bad in (["a", 1.0, 2.0], [1.0, 2.0], [1.0, 2.0, 3.0, 4.0], [[1.0, 2.0, 3.0]]):
+        producer.write(["a", 1.0, 2.0])
+        node.wait_log("dropped a Bottle (element 0 is a string")
+        for bad in ([1.0, 2.0], [1.0, 2.0, 3.0, 4.0], [[1.0, 2.0, 3.0]]):
             producer.write(bad)
+            time.sleep(0.2)  # an input keeps only its newest Bottle: one at a time
         producer.write([10.0, 20.0, 30.0])
         got = sub.wait_for(1)
         time.sleep(0.3)
@@ -927,7 +930,9 @@ def test_malformed_bottles_are_dropped_and_counted(mw, tmp_path):
         node.stop()
     assert log.count("dropped a Bottle") == 1, log
     assert "element 0 is a string" in log
-    assert totals(log)["/pf3dTracker/data:o"][:2] == (5, 4)
+    received, dropped, _ = totals(log)["/pf3dTracker/data:o"]
+    # 5 written; one might be overtaken by the next on a loaded machine (newest only)
+    assert received - dropped == 1 and dropped >= 3, (received, dropped)
     assert totals(log)["published"] == 1
 
 
@@ -1103,16 +1108,16 @@ def test_differential_with_the_py_module(mw, tmp_path, stem):
     """The py module renders the same message tree as a Bottle: every field
     value (and every envelope stamp) is the same as in the ROS 2 message."""
     program = example(stem)
-    py_program = dataclasses.replace(program, module="diff_py",
-                                     output=Output("yarp", "/diff_py/out:o", program.output.msg_type))
+    py_program = dataclasses.replace(program, module="ros2_diff_py",
+                                     output=Output("yarp", "/ros2_diff_py/out:o", program.output.msg_type))
     (py_name, py_text), = PyBackend().render(py_program).items()
     py_path = tmp_path / py_name
     py_path.write_text(py_text, encoding="utf-8")
     path = write_node(program, tmp_path)
     sub = subscriber_for(mw.env, program).start()
-    reader = YarpReader(mw.env, "/diff_py/in:i", source="/diff_py/out:o").start()
+    reader = YarpReader(mw.env, "/ros2_diff_py/in:i", source="/ros2_diff_py/out:o").start()
     node = Node(mw.env, path, "--ros-args", "-p", "rate:=0.0").start()
-    py_module = Node(mw.env, py_path, "--rate", "0", name="diff_py").start()
+    py_module = Node(mw.env, py_path, "--rate", "0", name="ros2_diff_py").start()
     producers = [YarpProducer(mw.env, port).start() for port in input_values(program)]
     stamped = _uses_envelope(program.message)
     try:

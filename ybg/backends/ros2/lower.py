@@ -382,12 +382,13 @@ class _MessageBuilder:
             else:
                 part = f"{values}[{ref.start:d}:{stop:d}]"
             return f"{conv}({part})"
-        # the width is known only at run time: check what the field needs
+        # the width is known only at run time: the runtime's take() refuses a
+        # slice beyond the mux's current width (never shortened), as in every backend
         if ref.stop is not None:
             _check_size(typ, ref.stop - ref.start, f"field {name}")
             part = f"take({values}, {ref.start:d}, {ref.stop:d})"
         elif ref.start:
-            part = f"{values}[{ref.start:d}:]"
+            part = f"take({values}, {ref.start:d}, None)"
         else:
             part = values
         expr = f"{conv}({part})"

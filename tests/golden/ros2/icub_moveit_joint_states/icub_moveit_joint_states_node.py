@@ -605,6 +605,15 @@ class Bridge:
         print("\n".join(lines), flush=True)
 
 
+def take(values, start, stop):
+    """values[start:stop], or IndexError when the mux holds fewer elements
+    than the slice names (a slice is never silently shortened)."""
+    n = len(values)
+    if start > n or (stop is not None and stop > n):
+        raise IndexError("slice [%d:%s] of %d elements" % (start, "" if stop is None else stop, n))
+    return values[start:stop]
+
+
 def convert(values, converters):
     """The converters, in order: y = x * scale + offset on [start, stop)."""
     if not converters:
@@ -699,13 +708,6 @@ def byte(x):
 
 def byte_list(values):
     return [bytes((int(x),)) for x in values]
-
-
-def take(values, start, stop):
-    """Elements [start, stop) of a mux whose width is known at run time only."""
-    if len(values) < stop:
-        raise IndexError("%d elements, %d needed" % (len(values), stop))
-    return values[start:stop]
 
 
 def sized(values, size, field):
