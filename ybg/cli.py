@@ -231,7 +231,7 @@ def cmd_ir(args) -> int:
 
 
 def cmd_generate(args) -> int:
-    from ybg.backends import RenderOptions, get_backend
+    from ybg.backends import LoweringError, RenderOptions, get_backend
     from ybg.compiler.pipeline import compile_path
     from ybg.writer import WriteError, write_files
 
@@ -240,7 +240,11 @@ def cmd_generate(args) -> int:
     if result.program is None:
         return EXIT_USAGE if _io_error(result) else EXIT_PROBLEMS
     backend = get_backend(args.backend)
-    files = backend.render(result.program, RenderOptions(package=args.package))
+    try:
+        files = backend.render(result.program, RenderOptions(package=args.package))
+    except LoweringError as e:
+        sys.stderr.write(f"{args.file}: error: the {args.backend} backend cannot build this config: {e}\n")
+        return EXIT_PROBLEMS
     outdir = Path(args.output) if args.output else Path(result.program.module)
     try:
         rep = write_files(outdir, files, force=args.force)

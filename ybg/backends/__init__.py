@@ -16,6 +16,11 @@ if TYPE_CHECKING:
     from ybg.compiler.ir import Program
 
 
+class LoweringError(ValueError):
+    """A program that a backend cannot build; the message says why. The CLI
+    reports it as an error (exit status 1), never as a traceback."""
+
+
 @dataclass(frozen=True)
 class RenderOptions:
     """Options every backend accepts. ``package``: also emit the packaging

@@ -136,6 +136,11 @@ def check_backend(program: ir.Program, backend: str, sink: Sink, legacy: bool, s
             sink.error("E318", f"the {backend} backend cannot write {kinds[program.output.kind]}", span,
                        "use `--backend ros2` for ROS 2 outputs, `--backend cpp` or `--backend py` for YARP and ROS 1")
         return
+    if program.output.kind == "ros2" and all(i.kind == "ros2" for m in program.muxes for i in m.inputs):
+        sink.error("E318", "nothing to bridge: this config reads ROS 2 topics and publishes a ROS 2 topic, "
+                   "with no YARP side", span,
+                   "read YARP ports (`ports = ...`) or write a YARP port (`port = ...`)")
+        return
     for m in program.muxes:
         for i in m.inputs:
             if i.kind not in b.input_kinds:

@@ -14,6 +14,7 @@ import math
 import os
 from dataclasses import dataclass
 
+from ybg.backends import LoweringError
 from ybg.compiler import ir
 
 #: YARP Bottle wire type of each element type, untyped or YARP output
@@ -41,10 +42,6 @@ WIRE_ROS1: dict[str, str] = {
 }
 
 _TIME_TYPES = ("time", "duration", "builtin_interfaces/Time", "builtin_interfaces/Duration")
-
-
-class LoweringError(ValueError):
-    """The program uses something this backend cannot generate."""
 
 
 # --------------------------------------------------------------------------
