@@ -750,6 +750,9 @@ def test_stalled_consumer_does_not_stall_the_module(builds, yarp_server):
             assert module.alive
             rc, elapsed = module.interrupt()
             assert rc == 0 and elapsed < 2.0
+            # closing waits for the stalled peer at most a deadline, then unregisters the names
+            assert not any(p.startswith("/relay_bridge") for p in yarp_ports(yarp_server))
+            assert "totals:" in module.log_text()
         finally:
             os.kill(stalled.pid, signal.SIGCONT)
             stalled.stop()

@@ -645,7 +645,11 @@ public:
             port_.setReadOnly();
         }
         port_.useCallback(*this);
-        return port_.open(local);
+        if (!port_.open(local)) {
+            return false;
+        }
+        registered = port_.getName();
+        return true;
     }
 
     void interrupt() { port_.interrupt(); }
@@ -702,6 +706,7 @@ public:
     const InputSpec& spec;
     const std::string local;  // this module's own port
     const double timeout;
+    std::string registered;   // its name in the name server (topic-@node for ROS)
 
     // guarded by Shared::mutex
     Latest latest;
@@ -709,9 +714,9 @@ public:
     std::uint64_t generation = 0;  // Bottles accepted
     std::uint64_t used = 0;        // generation of the last message published
     std::uint64_t copied = 0;      // generation last copied by the loop
-    std::uint64_t received = 0;
-    std::uint64_t dropped = 0;
-    std::uint64_t stalePeriods = 0;
+    std::atomic<std::uint64_t> received{0};      // atomic: the totals are read without the lock
+    std::atomic<std::uint64_t> dropped{0};
+    std::atomic<std::uint64_t> stalePeriods{0};
     Freshness state = Freshness::Waiting;
     bool reportedWaiting = false;
     bool reportedDrop = false;
@@ -726,81 +731,100 @@ private:
 
 /// Every 0.5 s, connects each (source, destination) pair whose ports both
 /// exist and are not connected, so that a source that starts late or is
-/// restarted is picked up. Its own thread: the loop never waits for it.
+/// restarted is picked up. Its own thread: the loop never waits for it. Its
+/// state is shared with the thread, so that a thread held up by a peer that
+/// does not answer can be left behind at exit.
 class Watcher
 {
 public:
-    explicit Watcher(std::vector<std::pair<std::string, std::string>> pairs) :
-            pairs_(std::move(pairs)), connected_(pairs_.size(), false)
+    explicit Watcher(std::vector<std::pair<std::string, std::string>> pairs) : state_(std::make_shared<State>())
     {
+        state_->connected.assign(pairs.size(), false);
+        state_->pairs = std::move(pairs);
     }
 
     void start()
     {
-        thread_ = std::thread([this] { run(); });
+        std::shared_ptr<State> state = state_;
+        thread_ = std::thread([state] { run(*state); });
     }
 
-    void stop()
+    /// Stops the thread; false if it did not end within `limit`.
+    bool stop(std::chrono::milliseconds limit)
     {
-        {
-            std::lock_guard<std::mutex> lock(mutex_);
-            done_ = true;
+        if (!thread_.joinable()) {
+            return true;
         }
-        wake_.notify_all();
-        if (thread_.joinable()) {
+        std::unique_lock<std::mutex> lock(state_->mutex);
+        state_->done = true;
+        state_->wake.notify_all();
+        const bool ended = state_->wake.wait_for(lock, limit, [this] { return state_->finished; });
+        lock.unlock();
+        if (ended) {
             thread_.join();
+        } else {
+            thread_.detach();
         }
+        return ended;
     }
 
 private:
-    void run()
+    struct State
     {
-        std::unique_lock<std::mutex> lock(mutex_);
-        while (!done_) {
+        std::vector<std::pair<std::string, std::string>> pairs;
+        std::vector<bool> connected;
+        std::mutex mutex;
+        std::condition_variable wake;
+        bool done = false;
+        bool finished = false;
+    };
+
+    static void run(State& s)
+    {
+        std::unique_lock<std::mutex> lock(s.mutex);
+        while (!s.done) {
             lock.unlock();
-            for (std::size_t k = 0; k < pairs_.size(); ++k) {
-                check(k);
-                std::lock_guard<std::mutex> again(mutex_);
-                if (done_) {
+            for (std::size_t k = 0; k < s.pairs.size(); ++k) {
+                check(s, k);
+                std::lock_guard<std::mutex> again(s.mutex);
+                if (s.done) {
                     break;
                 }
             }
             lock.lock();
-            wake_.wait_for(lock, std::chrono::milliseconds(500), [this] { return done_; });
+            s.wake.wait_for(lock, std::chrono::milliseconds(500), [&s] { return s.done; });
         }
+        s.finished = true;
+        s.wake.notify_all();
     }
 
-    void check(std::size_t k)
+    static void check(State& s, std::size_t k)
     {
-        const std::string& src = pairs_[k].first;
-        const std::string& dst = pairs_[k].second;
+        const std::string& src = s.pairs[k].first;
+        const std::string& dst = s.pairs[k].second;
         const bool up = yarp::os::Network::exists(src, true) && yarp::os::Network::exists(dst, true);
         if (up && yarp::os::Network::isConnected(src, dst, true)) {
             return;
         }
         if (up && yarp::os::Network::connect(src, dst, "", true)) {
             say("connected " + src + " -> " + dst);
-            connected_[k] = true;
-        } else if (connected_[k]) {
+            s.connected[k] = true;
+        } else if (s.connected[k]) {
             say("lost " + src + " -> " + dst + "; reconnecting when it is back");
-            connected_[k] = false;
+            s.connected[k] = false;
         }
     }
 
-    std::vector<std::pair<std::string, std::string>> pairs_;
-    std::vector<bool> connected_;
+    std::shared_ptr<State> state_;
     std::thread thread_;
-    std::mutex mutex_;
-    std::condition_variable wake_;
-    bool done_ = false;
 };
 
 // --- SIGINT and SIGTERM ----------------------------------------------------------------
 
 /// Blocks SIGINT and SIGTERM in every thread (construct it before any
 /// thread starts) and waits for them in a thread of its own: the first one
-/// asks the loop to stop; if closing takes more than 1.7 s, or a second
-/// signal comes, the process exits at once.
+/// asks the loop to stop; if the module is not closed 1.8 s later, or a
+/// second signal comes, the process exits at once.
 class SignalWatch
 {
 public:
@@ -838,7 +862,7 @@ private:
             return;
         }
         onStop();
-        const timespec limit = {1, 700000000};
+        const timespec limit = {1, 800000000};
         while (true) {
             const int r = sigtimedwait(&set_, nullptr, &limit);
             if (finished_) {
@@ -873,8 +897,15 @@ public:
         if (spec_.kind == OutputKind::Ros1 && spec_.msgType[0] != '\0') {
             port_.promiseType(yarp::os::Type::byNameOnWire(spec_.msgType));
         }
-        return port_.open(spec_.port);
+        if (!port_.open(spec_.port)) {
+            return false;
+        }
+        registered_ = port_.getName();
+        return true;
     }
+
+    /// Its name in the name server (topic+@node for ROS).
+    const std::string& registered() const { return registered_; }
 
     yarp::os::Bottle& prepare()
     {
@@ -899,6 +930,7 @@ public:
 private:
     const OutputSpec& spec_;
     yarp::os::BufferedPort<yarp::os::Bottle> port_;
+    std::string registered_;
 };
 
 // --- the loop ---------------------------------------------------------------------------------
@@ -1031,17 +1063,19 @@ public:
                 loopFixedRate();
             }
         }
-        watcher.stop();
-        for (std::size_t k = 0; k < opened; ++k) {
-            inputs_[k]->interrupt();
-        }
-        for (std::size_t k = 0; k < opened; ++k) {
-            inputs_[k]->close();
-        }
-        if (outputOpen) {
-            output_.close();
-        }
+        // Closing waits for the peers; one that does not answer (a stalled
+        // reader) would hold it: after a deadline the names are unregistered
+        // and the process ends without waiting any longer.
+        const bool watcherStopped = watcher.stop(std::chrono::milliseconds(300));
+        const bool closed = closeAll(opened, outputOpen, std::chrono::milliseconds(1000));
         printTotals();
+        if (!closed || !watcherStopped) {
+            if (!closed) {
+                say("a peer did not answer while the ports closed; their names were unregistered");
+            }
+            std::fflush(stdout);
+            std::_Exit(status);
+        }
         return status;
     }
 
@@ -1061,6 +1095,48 @@ public:
     }
 
 private:
+    /// Closes the ports in a thread of their own; false if that did not end
+    /// within `limit`: the ports' names are then unregistered.
+    bool closeAll(std::size_t opened, bool outputOpen, std::chrono::milliseconds limit)
+    {
+        struct Done
+        {
+            std::mutex mutex;
+            std::condition_variable cv;
+            bool done = false;
+        };
+        auto state = std::make_shared<Done>();
+        std::thread closer([this, opened, outputOpen, state] {
+            for (std::size_t k = 0; k < opened; ++k) {
+                inputs_[k]->interrupt();
+            }
+            for (std::size_t k = 0; k < opened; ++k) {
+                inputs_[k]->close();
+            }
+            if (outputOpen) {
+                output_.close();
+            }
+            std::lock_guard<std::mutex> lock(state->mutex);
+            state->done = true;
+            state->cv.notify_all();
+        });
+        std::unique_lock<std::mutex> lock(state->mutex);
+        if (state->cv.wait_for(lock, limit, [&state] { return state->done; })) {
+            lock.unlock();
+            closer.join();
+            return true;
+        }
+        lock.unlock();
+        closer.detach();  // the process ends without it
+        for (std::size_t k = 0; k < opened; ++k) {
+            yarp::os::Network::unregisterName(inputs_[k]->registered);
+        }
+        if (outputOpen) {
+            yarp::os::Network::unregisterName(output_.registered());
+        }
+        return false;
+    }
+
     /// Says each freshness transition once; returns the next time an input
     /// would go stale (or SteadyClock::time_point::max()).
     SteadyClock::time_point checkFreshness(SteadyClock::time_point now)
@@ -1208,7 +1284,6 @@ private:
 
     void printTotals()
     {
-        std::lock_guard<std::mutex> lock(shared_.mutex);
         std::string out = "totals:\n";
         for (const auto& in : inputs_) {
             out += "  input " + std::string(in->spec.source) + ": received " + std::to_string(in->received)
@@ -1230,9 +1305,9 @@ private:
     const bool eventDriven_;
     bool publishing_ = false;  // guarded by Shared::mutex
     Snapshot snapshot_;        // taken and used with Shared::mutex held (event-driven) or by the loop
-    std::uint64_t published_ = 0;
-    std::uint64_t skippedCycles_ = 0;
-    std::uint64_t buildFailures_ = 0;
+    std::atomic<std::uint64_t> published_{0};
+    std::atomic<std::uint64_t> skippedCycles_{0};
+    std::atomic<std::uint64_t> buildFailures_{0};
 };
 
 // --- the command line ----------------------------------------------------------------------
