@@ -15,7 +15,6 @@ Everything runs on 127.0.0.1 and is stopped at the end. Run it through
 from __future__ import annotations
 
 import math
-import os
 import subprocess
 import sys
 import tempfile

@@ -12,10 +12,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-import pytest
 import yaml
 
-from ybg.cli import main
 from ybg.compiler.pipeline import compile_path
 from ybg.report import report_text
 

@@ -132,7 +132,7 @@ def modules(tmp_path_factory):
 @given(st.lists(STEP, min_size=5, max_size=25))
 def test_cpp_and_python_modules_give_identical_bottles(modules, steps):
     arm, hand, readers, procs, pending = modules
-    for tag, r in readers.items():
+    for r in readers.values():
         r.clear()
     expected = 0
     for arm_data, hand_data, kind in steps:

@@ -113,7 +113,7 @@ def format_document(doc: ast.Document) -> str:
 
     for e in doc.loose:
         emit_entry(e)
-    for k, sec in enumerate(doc.sections):
+    for sec in doc.sections:
         if out:
             if out[-1] != "":
                 out.append("")
