@@ -412,8 +412,18 @@ struct Latest
     double envelope = 0.0;  // envelope time stamp, seconds
 };
 
-/// The newest values of every input, in BridgeSpec::inputs order.
-using Snapshot = std::vector<Latest>;
+/// The newest values of every input, in BridgeSpec::inputs order; read
+/// while the inputs are locked (a message is built with the lock held).
+class Inputs
+{
+public:
+    const Latest& operator[](std::size_t k) const { return *latest_[k]; }
+    std::size_t size() const { return latest_.size(); }
+    void add(const Latest& latest) { latest_.push_back(&latest); }
+
+private:
+    std::vector<const Latest*> latest_;
+};
 
 /// Appends the newest values of one input to a mux.
 void append(Mux& mux, const Latest& input)
@@ -523,10 +533,10 @@ Expect expectOf(const std::string& type)
 }
 
 /// Checks an input Bottle against the input's layout. On success `out`
-/// holds its values; else `why` says what is wrong.
-bool parseBottle(const yarp::os::Bottle& b, const InputSpec& spec, bool dropNan, Mux& out, std::string& why)
+/// holds its values; else `why` says what is wrong. `in` is scratch space.
+bool parseBottle(const yarp::os::Bottle& b, const InputSpec& spec, bool dropNan, Mux& out, std::string& why,
+                 std::vector<const yarp::os::Value*>& in)
 {
-    std::vector<const yarp::os::Value*> in;
     if (!items(b, spec, in, why)) {
         return false;
     }
@@ -668,7 +678,7 @@ public:
         yarp::os::Stamp stamp;
         const bool hasEnvelope = port_.getEnvelope(stamp) && stamp.isValid();
         std::string why;
-        const bool ok = parseBottle(bottle, spec, shared_.dropNan, scratch_, why);
+        const bool ok = parseBottle(bottle, spec, shared_.dropNan, scratch_, why, items_);
         {
             std::lock_guard<std::mutex> lock(shared_.mutex);
             ++received;
@@ -713,7 +723,6 @@ public:
     SteadyClock::time_point arrival;
     std::uint64_t generation = 0;  // Bottles accepted
     std::uint64_t used = 0;        // generation of the last message published
-    std::uint64_t copied = 0;      // generation last copied by the loop
     std::atomic<std::uint64_t> received{0};      // atomic: the totals are read without the lock
     std::atomic<std::uint64_t> dropped{0};
     std::atomic<std::uint64_t> stalePeriods{0};
@@ -725,6 +734,7 @@ private:
     Shared& shared_;
     yarp::os::BufferedPort<yarp::os::Bottle> port_;
     Mux scratch_;  // only touched by the callback thread
+    std::vector<const yarp::os::Value*> items_;
 };
 
 // --- connections --------------------------------------------------------------------
@@ -942,7 +952,7 @@ struct Context
     std::int64_t wallNs = 0;      // wall clock, nanoseconds since the epoch
     double seconds = 0.0;         // the same, in seconds
     bool verbose = false;         // --verbose: print every mux
-    const Snapshot* inputs = nullptr;
+    const Inputs* inputs = nullptr;
 
     /// The newest envelope stamp of the given inputs, in nanoseconds (the
     /// wall clock if none of them has one).
@@ -963,7 +973,7 @@ struct Context
 
 /// Builds one message into `msg` from the newest input values; false (with
 /// the mux sizes in `failure`) when a mux is too short for the message.
-using MakeMessage = std::function<bool(const Snapshot&, const Context&, yarp::os::Bottle& msg, std::string& failure)>;
+using MakeMessage = std::function<bool(const Inputs&, const Context&, yarp::os::Bottle& msg, std::string& failure)>;
 
 struct Options
 {
@@ -1011,7 +1021,9 @@ public:
                 needed_.push_back(inputs_[k].get());
             }
         }
-        snapshot_.resize(inputs_.size());
+        for (const auto& in : inputs_) {
+            latest_.add(in->latest);
+        }
     }
 
     void requestStop()
@@ -1089,7 +1101,6 @@ public:
             return;
         }
         if (ready(SteadyClock::now(), true)) {
-            takeSnapshot();
             publish();
         }
     }
@@ -1188,33 +1199,23 @@ private:
         return spec_.triggerAll ? updated == needed_.size() : updated > 0;
     }
 
-    /// Shared::mutex held: copies the values that changed since the last copy.
-    void takeSnapshot()
+    /// Builds and writes one message from the newest values; Shared::mutex
+    /// held, so no input changes meanwhile (and nothing is copied).
+    void publish()
     {
-        for (std::size_t k = 0; k < inputs_.size(); ++k) {
-            Input& in = *inputs_[k];
-            if (in.copied != in.generation) {
-                snapshot_[k] = in.latest;
-                in.copied = in.generation;
-            }
-        }
         for (Input* in : needed_) {
             in->used = in->generation;
         }
-    }
-
-    void publish()
-    {
         Context ctx;
         ctx.counter = published_;
         ctx.wallNs = std::chrono::duration_cast<std::chrono::nanoseconds>(
                          std::chrono::system_clock::now().time_since_epoch()).count();
         ctx.seconds = static_cast<double>(ctx.wallNs) / 1e9;
         ctx.verbose = options_.verbose;
-        ctx.inputs = &snapshot_;
+        ctx.inputs = &latest_;
         yarp::os::Bottle& msg = output_.prepare();
         std::string failure;
-        if (!make_(snapshot_, ctx, msg, failure)) {
+        if (!make_(latest_, ctx, msg, failure)) {
             output_.unprepare();
             if (++buildFailures_ == 1) {
                 say("cannot build the message: a mux has fewer elements than the message needs ("
@@ -1232,7 +1233,6 @@ private:
         publishing_ = true;
         // Bottles that came before the output was open
         if (ready(SteadyClock::now(), true)) {
-            takeSnapshot();
             publish();
         }
         while (!shared_.stopping) {
@@ -1275,10 +1275,7 @@ private:
             if (!ready(now, false)) {
                 continue;
             }
-            takeSnapshot();
-            lock.unlock();
             publish();
-            lock.lock();
         }
     }
 
@@ -1304,7 +1301,7 @@ private:
     Output output_;
     const bool eventDriven_;
     bool publishing_ = false;  // guarded by Shared::mutex
-    Snapshot snapshot_;        // taken and used with Shared::mutex held (event-driven) or by the loop
+    Inputs latest_;            // every input's newest values
     std::atomic<std::uint64_t> published_{0};
     std::atomic<std::uint64_t> skippedCycles_{0};
     std::atomic<std::uint64_t> buildFailures_{0};
@@ -1475,7 +1472,7 @@ struct Muxes
 
 /// Gathers the newest values of each mux's inputs, in order, and applies
 /// the mux's converters (y = x * scale + offset on [start, stop)).
-void gather([[maybe_unused]] Muxes& mux, [[maybe_unused]] const ybgc::Snapshot& in)
+void gather([[maybe_unused]] Muxes& mux, [[maybe_unused]] const ybgc::Inputs& in)
 {
     mux.data.clear();
     ybgc::append(mux.data, in[0]);  // /t/src:o
@@ -1522,7 +1519,7 @@ std::string sizes([[maybe_unused]] const Muxes& mux)
 }
 
 /// One message: gather and convert, compute, print, build.
-bool makeMessage(const ybgc::Snapshot& in, const ybgc::Context& ctx, yarp::os::Bottle& msg, std::string& failure)
+bool makeMessage(const ybgc::Inputs& in, const ybgc::Context& ctx, yarp::os::Bottle& msg, std::string& failure)
 {
     static Muxes mux;  // kept from one message to the next
     gather(mux, in);
