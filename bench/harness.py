@@ -150,7 +150,8 @@ class LinePeer(mw.Proc):
 
     def ask(self, cmd: str, timeout: float = 30.0) -> str:
         if not self.alive:
-            raise BenchError(f"{self.name} is not running; log:\n{self.log_text()[-2000:]}")
+            raise BenchError(f"{self.name} is not running (exit status {self.returncode}); log:\n"
+                             f"{self.log_text()[-2000:]}")
         self.popen.stdin.write((cmd + "\n").encode())
         self.popen.stdin.flush()
         return self._next(timeout, cmd)

@@ -69,8 +69,9 @@ def targets(data: dict) -> list:
                      "limit": limit, "ratio": ratio, "met": met, "note": note})
 
     def missing(*names):
-        return ", ".join(n for n in names) + " not measured"
+        return ", ".join(n for n in names if not get.get(n)) + " not measured"
 
+    get: dict = {}
     for wl in workloads:
         get = {s: one(data, "latency", workload=wl, subject=s) for s in ORDER}
         relay, cpp, py, ros2 = get["relay"], get["cpp"], get["py"], get["ros2"]
@@ -121,9 +122,14 @@ def targets(data: dict) -> list:
             row(name, wl, "–", "1 %", None, None, (e.get("error") or "no data").splitlines()[0][:80])
             continue
         relay = one(data, "fixed_rate", shape=e["shape"], rate=e["rate"], subject="relay")
-        note = f"relay {relay['error_pct']:+.2f} %" if relay and relay.get("error_pct") is not None else ""
-        row(name, wl, f"{e['achieved_hz']:.2f} Hz", "1 %", abs(e["error_pct"]),
-            abs(e["error_pct"]) <= 1.0, note)
+        notes = []
+        if e.get("module_skipped_cycles") is not None:
+            notes.append(f"module: {e['module_published']} published, "
+                         f"{e['module_skipped_cycles']} cycles skipped")
+        if relay and relay.get("error_pct") is not None:
+            notes.append(f"relay {relay['error_pct']:+.2f} %")
+        row(name, wl, f"{e['achieved_hz']:.2f} Hz received", "1 %", abs(e["error_pct"]),
+            abs(e["error_pct"]) <= 1.0, "; ".join(notes))
     for e in data.get("memory", []):
         if e["subject"] == "relay":
             continue
@@ -310,13 +316,13 @@ def write(data: dict, docs: Path, json_path: Path) -> Path:
     for wl in unique(e["workload"] for e in data.get("latency", [])):
         add(f"### {WORKLOAD_TEXT.get(wl, wl)}")
         add("")
-        add("| subject | median us | p99 us | max us | delivered / sent | output rate Hz | "
-            "CPU % | RSS MB (peak) |")
-        add("|---|---|---|---|---|---|---|---|")
+        add("| subject | median us | rounds' medians us | p99 us | max us | delivered / sent | "
+            "output rate Hz | CPU % | RSS MB (peak) | source / sink CPU % |")
+        add("|---|---|---|---|---|---|---|---|---|---|")
         for s in ORDER:
             for e in entries(data, "latency", workload=wl, subject=s):
                 if "error" in e:
-                    add(f"| `{s}` | {short_err(e['error'])} | | | | | | |")
+                    add(f"| `{s}` | {short_err(e['error'])} | | | | | | | | |")
                     continue
                 extra = []
                 if e.get("mismatched"):
@@ -325,8 +331,11 @@ def write(data: dict, docs: Path, json_path: Path) -> Path:
                     extra.append(f"{e['bad']} bad")
                 deliv = f"{e['delivered']} / {e['sent']}" + (f" ({', '.join(extra)})" if extra else "")
                 rate = "–" if e.get("rate_hz") is None else f"{e['rate_hz']:.1f}"
-                add(f"| `{s}` | {us(e['median_us'])} | {us(e['p99_us'])} | {us(e['max_us'])} | "
-                    f"{deliv} | {rate} | {pct(e.get('cpu_pct'))} | {mb(e.get('rss_peak_kb'))} |")
+                rm = [x for x in e.get("run_medians_us") or [] if x is not None]
+                spread = f"{us(min(rm))}–{us(max(rm))}" if len(rm) > 1 else "–"
+                add(f"| `{s}` | {us(e['median_us'])} | {spread} | {us(e['p99_us'])} | {us(e['max_us'])} | "
+                    f"{deliv} | {rate} | {pct(e.get('cpu_pct'))} | {mb(e.get('rss_peak_kb'))} | "
+                    f"{pct(e.get('source_cpu_pct'))} / {pct(e.get('sink_cpu_pct'))} |")
         png = docs / f"bench_latency_{wl}.png"
         if plot_cdf(data, wl, png):
             add("")

@@ -394,6 +394,7 @@ def latency_stage(ctx: dict, mode: Mode, progress: Progress) -> list:
             for wl, rate, secs in runs:
                 chunks = {s: [] for s in rigs}
                 cpu = {s: [0.0, 0.0] for s in rigs}    # CPU s, wall s of the module
+                peer_cpu = {s: [0.0, 0.0] for s in rigs}  # CPU s of the source, of the sink
                 late = {s: 0 for s in rigs}
                 failed: dict = {}
                 per_round = max(1, int(round(secs * rate / mode.rounds)))
@@ -416,12 +417,17 @@ def latency_stage(ctx: dict, mode: Mode, progress: Progress) -> list:
                             rig.sink.reset()
                             pid = rig.module.pid if rig.module else None
                             c0, t0 = (h.cpu_seconds(pid) if pid else None), time.monotonic()
+                            p0 = (h.cpu_seconds(rig.source.pid), h.cpu_seconds(rig.sink.pid))
                             run = rig.source.run(per_round, rate)
                             expected = run["ticks"] * (sh.ports if rig.per_block else 1)
                             rig.sink.settle(expected)
                             if pid and c0 is not None:
                                 cpu[s][0] += (h.cpu_seconds(pid) or c0) - c0
-                                cpu[s][1] += time.monotonic() - t0
+                            cpu[s][1] += time.monotonic() - t0
+                            p1 = (h.cpu_seconds(rig.source.pid), h.cpu_seconds(rig.sink.pid))
+                            for k in (0, 1):
+                                if p0[k] is not None and p1[k] is not None:
+                                    peer_cpu[s][k] += p1[k] - p0[k]
                             rig.check_alive()
                             recs = rig.sink.dump(tmp / f"lat_{wl}_{s}.bin")
                             chunks[s].append(h.analyse_latency(recs, run["first"], run["ticks"],
@@ -443,7 +449,10 @@ def latency_stage(ctx: dict, mode: Mode, progress: Progress) -> list:
                         continue
                     rig = rigs[s]
                     entry.update(h.merge_latency(chunks[s]))
-                    entry["cpu_pct"] = 100.0 * cpu[s][0] / cpu[s][1] if cpu[s][1] else None
+                    wall = cpu[s][1]
+                    entry["cpu_pct"] = 100.0 * cpu[s][0] / wall if wall and rig.module else None
+                    entry["source_cpu_pct"] = 100.0 * peer_cpu[s][0] / wall if wall else None
+                    entry["sink_cpu_pct"] = 100.0 * peer_cpu[s][1] / wall if wall else None
                     if rig.module is not None:
                         mem = h.memory_kb(rig.module.pid)
                         entry["rss_kb"] = mem.get("VmRSS")
@@ -629,7 +638,7 @@ def source_state() -> dict:
     modules are generated from the working tree)."""
     def git(*args):
         r = h.run_cmd(["git", *args], cwd=ROOT, timeout=30)
-        return r.stdout.strip() if r.returncode == 0 else None
+        return r.stdout.rstrip("\n") if r.returncode == 0 else None
     changed = git("status", "--porcelain", "--", "ybg")
     return {"commit": git("rev-parse", "--short", "HEAD"),
             "modified": [line[3:] for line in (changed or "").splitlines()]}

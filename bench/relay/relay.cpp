@@ -144,6 +144,7 @@ int main(int argc, char* argv[])
     }
     std::signal(SIGINT, onSignal);
     std::signal(SIGTERM, onSignal);
+    std::signal(SIGPIPE, SIG_IGN);  // a peer that goes away must not kill this process
     yarp::os::Network yarp;
     if (!yarp::os::Network::checkNetwork(5.0)) {
         std::fprintf(stderr, "relay: no YARP name server\n");

@@ -28,6 +28,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
@@ -164,6 +165,7 @@ int main(int argc, char* argv[])
         return 2;
     }
     recorder.data.reserve(static_cast<std::size_t>(kFields) * 200000);
+    std::signal(SIGPIPE, SIG_IGN);  // a peer that goes away must not kill this process
     yarp::os::Network yarp;
     if (!yarp::os::Network::checkNetwork(5.0)) {
         std::fprintf(stderr, "bench_consumer: no YARP name server\n");

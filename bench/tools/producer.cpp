@@ -20,6 +20,7 @@
 #include <time.h>
 
 #include <algorithm>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
@@ -97,6 +98,7 @@ int main(int argc, char* argv[])
         std::fprintf(stderr, "usage: bench_producer --ports A,B,... --width W (W >= 3)\n");
         return 2;
     }
+    std::signal(SIGPIPE, SIG_IGN);  // a peer that goes away must not kill this process
     yarp::os::Network yarp;
     if (!yarp::os::Network::checkNetwork(5.0)) {
         std::fprintf(stderr, "bench_producer: no YARP name server\n");
