@@ -142,10 +142,23 @@ def hypothesis_strings(n: int = 50) -> list[str]:
     return unique[:n]
 
 
+def ros1_input_program() -> Program:
+    """A typed ROS 1 topic read through YARP: the point of a
+    geometry_msgs/PointStamped (its header is not part of the mux)."""
+    return Program(
+        module="typed_ros_input", source="typed_ros_input.ini",
+        muxes=(Mux("g", (Input("/ybg_goal", kind="ros1", layout=(ElementGroup("float64", 3),),
+                               ros_type="geometry_msgs/PointStamped",
+                               fields=("point.x", "point.y", "point.z")),)),),
+        message=Struct((Field("label", Literal(("xyz",), "string")), Field("p", MuxRef("g", splice=True)))),
+        output=Output("yarp", "/typed_ros_input/out:o"), ros="ros1", distro="noetic")
+
+
 HAND_PROGRAMS = {
     "values_bridge": values_program,
     "relay_bridge": relay_program,
     "escape_bridge": escape_program,
+    "typed_ros_input": ros1_input_program,
 }
 
 
@@ -261,6 +274,7 @@ def builds(tmp_path_factory) -> Builds:
     b.add("values_bridge", values_program(), optimize=True)
     b.add("relay_bridge", relay_program(), optimize=True)
     b.add("escape_hypothesis", escape_program(FIXED_STRINGS + tuple(hypothesis_strings()), "escape_hypothesis"))
+    b.add("typed_ros_input", ros1_input_program())
     for path in SUPPORTED:
         b.add(path.stem, config_program(path), optimize=path.stem == "thesis_figure5_rviz")
     return b
@@ -512,14 +526,7 @@ def test_unsupported_programs_are_refused():
 
 
 def test_ros1_input_fields_are_found_by_path():
-    program = Program(
-        module="goal", source="goal.ini",
-        muxes=(Mux("g", (Input("/goal", kind="ros1", layout=(ElementGroup("float64", 3),),
-                               ros_type="geometry_msgs/PointStamped",
-                               fields=("point.x", "point.y", "point.z")),)),),
-        message=Struct((Field("p", MuxRef("g", splice=True)),)),
-        output=Output("yarp", "/goal/out:o"), ros="ros1", distro="noetic")
-    cpp = render(program)["goal.cpp"]
+    cpp = render(ros1_input_program())["typed_ros_input.cpp"]
     assert '{{"point.x", {1, 0}}, {"point.y", {1, 1}}, {"point.z", {1, 2}}}' in cpp
 
 
@@ -527,7 +534,8 @@ def test_ros1_input_fields_are_found_by_path():
 # building
 
 
-@pytest.mark.parametrize("key", ["values_bridge", "relay_bridge", "escape_hypothesis"] + [p.stem for p in SUPPORTED])
+@pytest.mark.parametrize("key", ["values_bridge", "relay_bridge", "escape_hypothesis", "typed_ros_input"]
+                         + [p.stem for p in SUPPORTED])
 def test_builds_with_werror(builds, key):
     exe = builds.exe(key)
     assert os.access(exe, os.X_OK)
@@ -638,13 +646,17 @@ def test_malformed_bottles_and_nan_are_dropped_and_counted(builds, yarp_server):
         module.wait_log(r"connected /t/sens:o")
         module.wait_log(r"connected /t/arm:o")
         reader.wait_connected()
-        p_sens.write([1, 2, 3.0, "a"])                 # 4 elements, expected 5
-        p_sens.write([1, "two", 3.0, "a", 1])          # a string where an int32 goes
-        p_sens.write([1, 2, 3.0, "a", 2])              # 2 is not a bool
-        p_arm.write([1.0, float("nan")])               # on_nan = drop
-        p_arm.write([1.0, "x"])                        # not a number
-        p_arm.write([1.0, [2.0]])                      # a list is not a number
-        time.sleep(0.5)
+        # spaced out: an input keeps only its newest Bottle, so a burst could
+        # reach the checks as its last Bottle only
+        for producer, data in ((p_sens, [1, 2, 3.0, "a"]),          # 4 elements, expected 5
+                               (p_sens, [1, "two", 3.0, "a", 1]),   # a string where an int32 goes
+                               (p_sens, [1, 2, 3.0, "a", 2]),       # 2 is not a bool
+                               (p_arm, [1.0, float("nan")]),        # on_nan = drop
+                               (p_arm, [1.0, "x"]),                 # not a number
+                               (p_arm, [1.0, [2.0]])):              # a list is not a number
+            producer.write(data)
+            time.sleep(0.15)
+        time.sleep(0.3)
         assert reader.bottles == []
         p_arm.write([10.0, 20.0, 30.0])
         p_sens.write([4, 5, 6.0, "ok", 1])
@@ -1042,3 +1054,24 @@ def test_thesis_rviz_scenario_through_ros1(builds, yarp_ros_server):
     stamps = [x.msg["header"]["stamp"]["secs"] + x.msg["header"]["stamp"]["nsecs"] / 1e9 for x in msgs]
     assert stamps == sorted(stamps) and abs(stamps[-1] - msgs[-1].t) < 2.0
     assert "[mux1] 7: " in module.log_text()  # verbose = true in the config
+
+
+def test_typed_ros1_topic_input(builds, yarp_ros_server):
+    """A ROS 1 topic of a known type: the fields named by the config are taken
+    from the message YARP reads (header.seq, stamp and frame_id are not)."""
+    env = yarp_ros_server.env
+    fields = {"header": {"frame_id": "cam"}, "point": {"x": 1.5, "y": -2.0, "z": 1e-3}}
+    script = ROSPY_PUBLISHER.replace("msg = cls(**cfg[\"fields\"])", (
+        "from std_msgs.msg import Header\nfrom geometry_msgs.msg import Point\n"
+        "msg = cls(header=Header(frame_id=cfg['fields']['header']['frame_id']), "
+        "point=Point(**cfg['fields']['point']))"))
+    assert script != ROSPY_PUBLISHER
+    with Module(env, builds.exe("typed_ros_input")) as module, \
+            YarpReader(env, "/test/typed:i", source="/typed_ros_input/out:o") as reader, \
+            Proc([ROS1_PYTHON, "-c", script, json.dumps({"topic": "/ybg_goal", "type": "geometry_msgs/PointStamped",
+                                                         "fields": fields, "rate": 20})], env=env, name="rospy_pub_goal"):
+        got = reader.wait_for(3, timeout=30)
+        rc, elapsed = module.interrupt()
+    assert rc == 0 and elapsed < 2.0
+    assert got[-1].data == ["xyz", 1.5, -2.0, 1e-3]
+    assert "dropped" not in module.log_text().split("totals:")[0]

@@ -57,7 +57,7 @@ _TIME_TYPES = ("time", "duration", "builtin_interfaces/Time", "builtin_interface
 _CMAKE_RESERVED = frozenset({"all", "clean", "help", "install", "test", "package", "package_source",
                              "edit_cache", "rebuild_cache", "list_install_components", "depend",
                              "preinstall", "install_strip", "install_local"})
-_SAFE_TEXT = re.compile(r"[A-Za-z0-9_/.:@+\-\[\]<=>]*\Z")
+_SAFE_TEXT = re.compile(r"[A-Za-z0-9_/.:@+\-\[\]<=>, ]*\Z")
 
 
 class LoweringError(ValueError):
@@ -67,7 +67,7 @@ class LoweringError(ValueError):
 def comment(text: str) -> str:
     """Config text for a ``//`` comment: as it is when made only of safe
     characters (names, ports, types), else quoted and escaped."""
-    if _SAFE_TEXT.match(text) and text:
+    if _SAFE_TEXT.match(text) and text.strip() == text and text:
         return text
     return cpp_comment(text)
 
@@ -542,6 +542,7 @@ def lower(program: ir.Program) -> ModuleView:
         where += f", connected to {comment(out.connect_to)}"
         plain_where += f", connected to {out.connect_to}"
     what = out.msg_type or "untyped Bottles"
+    what_comment = comment(out.msg_type) if out.msg_type else "untyped Bottles"
     output = (f"{{{kind}, {cpp_string(port)}, {cpp_string(out.msg_type or '')}, "
               f"{cpp_string(out.connect_to or '')}}}")
 
@@ -559,7 +560,7 @@ def lower(program: ir.Program) -> ModuleView:
     )
     header = (
         f"Module {comment(program.module)}: {n_in} input(s) in {len(program.muxes)} mux(es), "
-        f"publishing {comment(what)} on {where},",
+        f"publishing {what_comment} on {where},",
         f"{timing}, {policy}.",
     )
     config_name = os.path.basename(program.source) if program.source else program.module
@@ -580,13 +581,14 @@ def lower(program: ir.Program) -> ModuleView:
         inputs=tuple(inputs),
         needed="{" + ", ".join(str(k) for k in needed) + "}",
         output=output,
-        output_comment=f"{comment(what)} on {where}",
+        output_comment=f"{what_comment} on {where}",
         rate=cpp_float(float(rate)) if rate is not None else "0.0",
         rate_comment="Hz" if rate is not None else "event-driven",
         trigger_all="true" if program.timing.trigger == "all" else "false",
         hold="true" if program.policy.on_stale == "hold" else "false",
         drop_nan="true" if program.policy.on_nan == "drop" else "false",
-        msg_comment=comment(program.message.msg_type or out.msg_type or "untyped Bottle"),
+        msg_comment=(comment(program.message.msg_type or out.msg_type)
+                     if program.message.msg_type or out.msg_type else "an untyped Bottle"),
         builder=builder,
         sizes=sizes,
     )

@@ -2,7 +2,7 @@
 // the user blocks (between their user-begin and user-end marker lines), which are kept
 // when the file is generated again.
 //
-// Module escape_bridge: 4 input(s) in 4 mux(es), publishing "untyped Bottles" on the YARP port /escape_bridge/out:o,
+// Module escape_bridge: 4 input(s) in 4 mux(es), publishing untyped Bottles on the YARP port /escape_bridge/out:o,
 // event-driven (publishes when every needed input has new data), on_stale=skip, on_nan=pass.
 //
 // Build it with the CMakeLists.txt next to it (YARP 3.5 or later, C++17):
@@ -11,6 +11,11 @@
 // Run it with the YARP name server up:
 //     ./build/escape_bridge [--prefix P] [--rate HZ] [--timeout S] [--verbose]
 // --help prints what it reads and publishes. Behaviour: docs/runtime.md of ybgc.
+//
+// The file holds the runtime shared by every generated module (namespace ybgc)
+// and, at its end, this bridge (namespace bridge): its inputs and muxes, the
+// message builder and the places for custom code (compute(), the state and
+// message blocks).
 
 #include <algorithm>
 #include <atomic>
@@ -1465,7 +1470,7 @@ const ybgc::BridgeSpec kSpec = {
         {3, 0, "/t/upper:o", ybgc::InputKind::Yarp, 1.0, false, {}, {}},
     },
     {0},  // muxes the message reads
-    // "untyped Bottles" on the YARP port /escape_bridge/out:o
+    // untyped Bottles on the YARP port /escape_bridge/out:o
     {ybgc::OutputKind::Yarp, "/escape_bridge/out:o", "", ""},
     0.0,  // rate: event-driven
     true,  // trigger = all (else any)
@@ -1499,14 +1504,10 @@ void gather([[maybe_unused]] Muxes& mux, [[maybe_unused]] const ybgc::Inputs& in
 /// Prints the values of the verbose muxes (of every mux with --verbose).
 void printVerbose([[maybe_unused]] const Muxes& mux, [[maybe_unused]] bool all)
 {
-    if (all) {
-        ybgc::printMux("tick", mux.tick);
-    }
     ybgc::printMux("class", mux.mux_class);
     if (all) {
+        ybgc::printMux("tick", mux.tick);
         ybgc::printMux("a__b", mux.mux_a_b);
-    }
-    if (all) {
         ybgc::printMux("_Upper", mux.mux_Upper);
     }
 }
@@ -1515,14 +1516,15 @@ void printVerbose([[maybe_unused]] const Muxes& mux, [[maybe_unused]] bool all)
 // ybgc:user-end state
 
 /// Custom computation, once per message, after the converters: read or
-/// change the mux values in place before the message is built.
+/// change the mux values in place before the message is built. Each value
+/// is a ybgc::Element: .real (a number), .integer, .text, or .asReal().
 void compute([[maybe_unused]] Muxes& mux)
 {
     // ybgc:user-begin compute
     // ybgc:user-end compute
 }
 
-/// The output message ("untyped Bottle"): the top-level fields are the
+/// The output message (an untyped Bottle): the top-level fields are the
 /// items of the Bottle, a nested message is a nested list. False when a mux
 /// holds fewer elements than the message reads.
 bool buildMessage(yarp::os::Bottle& msg, [[maybe_unused]] const Muxes& mux,

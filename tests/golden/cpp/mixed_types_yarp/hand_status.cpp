@@ -2,7 +2,7 @@
 // the user blocks (between their user-begin and user-end marker lines), which are kept
 // when the file is generated again.
 //
-// Module hand_status: 2 input(s) in 1 mux(es), publishing "untyped Bottles" on the YARP port /hand_status/out:o,
+// Module hand_status: 2 input(s) in 1 mux(es), publishing untyped Bottles on the YARP port /hand_status/out:o,
 // event-driven (publishes when any needed input has new data), on_stale=hold, on_nan=pass.
 //
 // Build it with the CMakeLists.txt next to it (YARP 3.5 or later, C++17):
@@ -11,6 +11,11 @@
 // Run it with the YARP name server up:
 //     ./build/hand_status [--prefix P] [--rate HZ] [--timeout S] [--verbose]
 // --help prints what it reads and publishes. Behaviour: docs/runtime.md of ybgc.
+//
+// The file holds the runtime shared by every generated module (namespace ybgc)
+// and, at its end, this bridge (namespace bridge): its inputs and muxes, the
+// message builder and the places for custom code (compute(), the state and
+// message blocks).
 
 #include <algorithm>
 #include <atomic>
@@ -1458,7 +1463,7 @@ const ybgc::BridgeSpec kSpec = {
         {0, 1, "/icub/left_hand/status:o", ybgc::InputKind::Yarp, 1.0, true, {{"int32", 3}}, {}},
     },
     {0},  // muxes the message reads
-    // "untyped Bottles" on the YARP port /hand_status/out:o
+    // untyped Bottles on the YARP port /hand_status/out:o
     {ybgc::OutputKind::Yarp, "/hand_status/out:o", "", ""},
     0.0,  // rate: event-driven
     false,  // trigger = all (else any)
@@ -1494,14 +1499,15 @@ void printVerbose([[maybe_unused]] const Muxes& mux, [[maybe_unused]] bool all)
 // ybgc:user-end state
 
 /// Custom computation, once per message, after the converters: read or
-/// change the mux values in place before the message is built.
+/// change the mux values in place before the message is built. Each value
+/// is a ybgc::Element: .real (a number), .integer, .text, or .asReal().
 void compute([[maybe_unused]] Muxes& mux)
 {
     // ybgc:user-begin compute
     // ybgc:user-end compute
 }
 
-/// The output message ("untyped Bottle"): the top-level fields are the
+/// The output message (an untyped Bottle): the top-level fields are the
 /// items of the Bottle, a nested message is a nested list. False when a mux
 /// holds fewer elements than the message reads.
 bool buildMessage(yarp::os::Bottle& msg, [[maybe_unused]] const Muxes& mux,

@@ -2,7 +2,7 @@
 // the user blocks (between their user-begin and user-end marker lines), which are kept
 // when the file is generated again.
 //
-// Module tutorial_example_ros_yarp: 1 input(s) in 1 mux(es), publishing "untyped Bottles" on the YARP port /tutorial_example_ros_yarp/out:o, connected to /fakebot/motor/rpc:i,
+// Module tutorial_example_ros_yarp: 1 input(s) in 1 mux(es), publishing untyped Bottles on the YARP port /tutorial_example_ros_yarp/out:o, connected to /fakebot/motor/rpc:i,
 // at 60 Hz, on_stale=skip, on_nan=pass.
 //
 // Build it with the CMakeLists.txt next to it (YARP 3.5 or later, C++17):
@@ -11,6 +11,11 @@
 // Run it with the YARP name server up:
 //     ./build/tutorial_example_ros_yarp [--prefix P] [--rate HZ] [--timeout S] [--verbose]
 // --help prints what it reads and publishes. Behaviour: docs/runtime.md of ybgc.
+//
+// The file holds the runtime shared by every generated module (namespace ybgc)
+// and, at its end, this bridge (namespace bridge): its inputs and muxes, the
+// message builder and the places for custom code (compute(), the state and
+// message blocks).
 
 #include <algorithm>
 #include <atomic>
@@ -1456,7 +1461,7 @@ const ybgc::BridgeSpec kSpec = {
         {0, 0, "/fakebot_motor_control_ros", ybgc::InputKind::Ros1, 1.0, false, {}, {}},
     },
     {0},  // muxes the message reads
-    // "untyped Bottles" on the YARP port /tutorial_example_ros_yarp/out:o, connected to /fakebot/motor/rpc:i
+    // untyped Bottles on the YARP port /tutorial_example_ros_yarp/out:o, connected to /fakebot/motor/rpc:i
     {ybgc::OutputKind::Yarp, "/tutorial_example_ros_yarp/out:o", "", "/fakebot/motor/rpc:i"},
     60.0,  // rate: Hz
     true,  // trigger = all (else any)
@@ -1488,14 +1493,15 @@ void printVerbose([[maybe_unused]] const Muxes& mux, [[maybe_unused]] bool all)
 // ybgc:user-end state
 
 /// Custom computation, once per message, after the converters: read or
-/// change the mux values in place before the message is built.
+/// change the mux values in place before the message is built. Each value
+/// is a ybgc::Element: .real (a number), .integer, .text, or .asReal().
 void compute([[maybe_unused]] Muxes& mux)
 {
     // ybgc:user-begin compute
     // ybgc:user-end compute
 }
 
-/// The output message ("untyped Bottle"): the top-level fields are the
+/// The output message (an untyped Bottle): the top-level fields are the
 /// items of the Bottle, a nested message is a nested list. False when a mux
 /// holds fewer elements than the message reads.
 bool buildMessage(yarp::os::Bottle& msg, [[maybe_unused]] const Muxes& mux,

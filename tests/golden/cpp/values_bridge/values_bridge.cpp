@@ -2,7 +2,7 @@
 // the user blocks (between their user-begin and user-end marker lines), which are kept
 // when the file is generated again.
 //
-// Module values_bridge: 2 input(s) in 2 mux(es), publishing "untyped Bottles" on the YARP port /values_bridge/out:o,
+// Module values_bridge: 2 input(s) in 2 mux(es), publishing untyped Bottles on the YARP port /values_bridge/out:o,
 // event-driven (publishes when every needed input has new data), on_stale=skip, on_nan=drop.
 //
 // Build it with the CMakeLists.txt next to it (YARP 3.5 or later, C++17):
@@ -11,6 +11,11 @@
 // Run it with the YARP name server up:
 //     ./build/values_bridge [--prefix P] [--rate HZ] [--timeout S] [--verbose]
 // --help prints what it reads and publishes. Behaviour: docs/runtime.md of ybgc.
+//
+// The file holds the runtime shared by every generated module (namespace ybgc)
+// and, at its end, this bridge (namespace bridge): its inputs and muxes, the
+// message builder and the places for custom code (compute(), the state and
+// message blocks).
 
 #include <algorithm>
 #include <atomic>
@@ -1459,7 +1464,7 @@ const ybgc::BridgeSpec kSpec = {
         {1, 0, "/t/sens:o", ybgc::InputKind::Yarp, 1.0, true, {{"int32", 2}, {"float64", 1}, {"string", 1}, {"bool", 1}}, {}},
     },
     {1, 0},  // muxes the message reads
-    // "untyped Bottles" on the YARP port /values_bridge/out:o
+    // untyped Bottles on the YARP port /values_bridge/out:o
     {ybgc::OutputKind::Yarp, "/values_bridge/out:o", "", ""},
     0.0,  // rate: event-driven
     true,  // trigger = all (else any)
@@ -1492,8 +1497,6 @@ void printVerbose([[maybe_unused]] const Muxes& mux, [[maybe_unused]] bool all)
 {
     if (all) {
         ybgc::printMux("arm", mux.arm);
-    }
-    if (all) {
         ybgc::printMux("sens", mux.sens);
     }
 }
@@ -1502,14 +1505,15 @@ void printVerbose([[maybe_unused]] const Muxes& mux, [[maybe_unused]] bool all)
 // ybgc:user-end state
 
 /// Custom computation, once per message, after the converters: read or
-/// change the mux values in place before the message is built.
+/// change the mux values in place before the message is built. Each value
+/// is a ybgc::Element: .real (a number), .integer, .text, or .asReal().
 void compute([[maybe_unused]] Muxes& mux)
 {
     // ybgc:user-begin compute
     // ybgc:user-end compute
 }
 
-/// The output message ("untyped Bottle"): the top-level fields are the
+/// The output message (an untyped Bottle): the top-level fields are the
 /// items of the Bottle, a nested message is a nested list. False when a mux
 /// holds fewer elements than the message reads.
 bool buildMessage(yarp::os::Bottle& msg, [[maybe_unused]] const Muxes& mux,

@@ -11,6 +11,11 @@
 // Run it with the YARP name server up:
 //     ./build/vizzy_upper_body [--prefix P] [--rate HZ] [--timeout S] [--verbose]
 // --help prints what it reads and publishes. Behaviour: docs/runtime.md of ybgc.
+//
+// The file holds the runtime shared by every generated module (namespace ybgc)
+// and, at its end, this bridge (namespace bridge): its inputs and muxes, the
+// message builder and the places for custom code (compute(), the state and
+// message blocks).
 
 #include <algorithm>
 #include <atomic>
@@ -1500,7 +1505,8 @@ void printVerbose([[maybe_unused]] const Muxes& mux, [[maybe_unused]] bool all)
 // ybgc:user-end state
 
 /// Custom computation, once per message, after the converters: read or
-/// change the mux values in place before the message is built.
+/// change the mux values in place before the message is built. Each value
+/// is a ybgc::Element: .real (a number), .integer, .text, or .asReal().
 void compute([[maybe_unused]] Muxes& mux)
 {
     // ybgc:user-begin compute
