@@ -1088,3 +1088,32 @@ def test_no_name_server(builds, tmp_path):
     assert r.returncode == 1
     assert "cannot reach the YARP name server" in r.stdout
     assert time.monotonic() - t0 < 10
+
+
+def test_hold_policy_and_trigger_any(builds, yarp_server):
+    """examples/mixed_types_yarp.ini (on_stale = hold, trigger = any):
+    nothing before every input delivered once; then a message for each new
+    Bottle of any input, with the last values of a stale one (said once)."""
+    path = ROOT / "examples" / "mixed_types_yarp.ini"
+    program = config_program(path)
+    assert program.policy.on_stale == "hold" and program.timing.trigger == "any"
+    env = yarp_server.env
+    joints = [10.0, 20.0, 30.0, 40.0, 50.0, 60.0]
+    with Module(env, builds.exe(path.stem), "--timeout", "0.5") as module, \
+            YarpReader(env, "/test/hold:i", source="/hand_status/out:o") as reader, \
+            YarpProducer(env, "/icub/left_hand/status:o") as status, \
+            YarpProducer(env, "/icub/left_hand/joints:o", bottles=[joints], rate=20):
+        module.wait_log(r"connected /icub/left_hand/status:o")
+        time.sleep(1.0)
+        assert reader.bottles == []  # hold: not before every input delivered once
+        status.write([1, 0, 1])
+        reader.wait_for(5)
+        module.wait_log(r"input /icub/left_hand/status:o is stale \(no data for 0\.5 s\)")
+        reader.clear()
+        time.sleep(1.5)
+        got = list(reader.bottles)
+        rc, _ = module.interrupt()
+    assert rc == 0
+    assert 20 <= len(got) <= 40  # one per joints Bottle (20/s), the status being stale
+    assert got[-1].data == ["left_hand", [x * DEG for x in joints], 1, [1, 0, 1]]
+    assert module.count(r"is stale") == 1
