@@ -234,15 +234,23 @@ def write(data: dict, docs: Path, json_path: Path) -> Path:
         "from `bench/findings.md`. Run it again with")
     add("")
     add("```")
-    add(".venv/bin/python bench/run.py            # full run (about 17 minutes): this page")
+    add(".venv/bin/python bench/run.py            # full run (about 16 minutes): this page")
     add(".venv/bin/python bench/run.py --quick    # under a minute once built: bench/results/quick/")
+    add(".venv/bin/python bench/run.py --smoke    # the floors only, a few seconds (tests/test_bench.py)")
     add("```")
     add("")
-    add("The first run also builds the C++ peers, the reference relay and the generated C++ "
-        "modules (about 30 s, under `bench/build/`). `--subjects cpp,relay`, `--skip-memory`, "
-        "`--skip-fixed` run a part; `--report-only` rewrites this page from the JSON. The "
-        "Python packages it needs are the `bench` extra: `pip install -e '.[bench]'` "
-        "(matplotlib for the plots, py-spy for profiling).")
+    add("The full run: latency (3 workloads x 6 subjects, 5 interleaved rounds, about 3 "
+        "minutes), fixed rate (3 workloads x 4 modules, 10 s each, about 2 minutes), memory "
+        "(10 minutes). `--quick` runs 2 x 15 at 1 kHz only (2 rounds of 0.5 s), one fixed-rate "
+        "workload for 1 s and the memory stage for 20 s; its figures are for development, not "
+        "for this page. The first run also builds the C++ peers, the reference relay and the "
+        "generated C++ modules (about 30 s, under `bench/build/`); every run regenerates the "
+        "modules from `bench/configs/` with the working tree's ybgc. `--subjects cpp,relay`, "
+        "`--skip-latency`, `--skip-fixed`, `--skip-memory` run a part; `--report-only` rewrites "
+        "this page from the JSON; `bench/profile.py SUBJECT` profiles one module while it works. "
+        "The Python packages it needs are the `bench` extra (`pip install -e '.[bench]'`, "
+        "installed by `scripts/setup.sh`): matplotlib for the plots, py-spy for profiling; "
+        "CPU and memory are read from /proc.")
     add("")
     add("| run | |")
     add("|---|---|")
@@ -256,6 +264,10 @@ def write(data: dict, docs: Path, json_path: Path) -> Path:
     add(f"| load average (1, 5, 15 min) | before {fmt_load(data.get('load_before'))}, after "
         f"{fmt_load(data.get('load_after'))} |")
     add(f"| peers | {data.get('peers', '')} |")
+    src = data.get("source") or {}
+    if src:
+        mod = ", ".join(src.get("modified") or []) or "none"
+        add(f"| measured | commit {src.get('commit')}; files of ybg/ modified in the working tree: {mod} |")
     add("")
     add("The machine has 2 cores, shared with other work: every process of a subject (producer, "
         "module, consumer, name server) competes for them, so the tails (p99, max) move from run "
