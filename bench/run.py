@@ -31,11 +31,9 @@ import json
 import os
 import platform
 import re
-import shutil
 import sys
 import threading
 import time
-import traceback
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
