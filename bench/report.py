@@ -55,6 +55,18 @@ def one(data: dict, stage: str, **match) -> Optional[dict]:
 # targets
 
 
+def life(e: dict) -> str:
+    """Where the module lost ticks over its whole life (every workload of the
+    shape, warm-ups included): at its inputs, or between output and consumer."""
+    t = e.get("life_totals") or {}
+    if "module_published" not in t:
+        return ""
+    rec = t.get("module_inputs_received") or []
+    return (f"over all its runs: {t['ticks_sent']} ticks sent, inputs received "
+            f"{'/'.join(str(r) for r in rec)}, published {t['module_published']}, "
+            f"consumer got {t['consumer_received']}")
+
+
 def targets(data: dict) -> list:
     """Rows: target, workload, measured, limit, ratio (or value), met (True,
     False, None when not measurable), note."""
@@ -87,9 +99,10 @@ def targets(data: dict) -> list:
             row("C++ median <= 1.15 x relay", wl, "–", "1.15", None, None, missing("cpp", "relay"))
         if "1khz" in wl:
             if cpp:
+                notes = [f"relay: {relay['lost']} lost"] if relay else []
+                notes.append(life(cpp))
                 row("C++ no loss at 1 kHz", wl, f"{cpp['delivered']}/{cpp['sent']} delivered",
-                    "0 lost", cpp["lost"], cpp["lost"] == 0,
-                    f"relay: {relay['lost']} lost" if relay else "")
+                    "0 lost", cpp["lost"], cpp["lost"] == 0, "; ".join(n for n in notes if n))
             else:
                 row("C++ no loss at 1 kHz", wl, "–", "0 lost", None, None, missing("cpp"))
         if cpp and py:
@@ -101,7 +114,7 @@ def targets(data: dict) -> list:
         if wl == "joints_1khz":
             if py:
                 row("Python no loss at 1 kHz (2 x 15)", wl, f"{py['delivered']}/{py['sent']} delivered",
-                    "0 lost", py["lost"], py["lost"] == 0)
+                    "0 lost", py["lost"], py["lost"] == 0, life(py))
             else:
                 row("Python no loss at 1 kHz (2 x 15)", wl, "–", "0 lost", None, None, missing("py"))
         if ros2 and direct and rclpy:
