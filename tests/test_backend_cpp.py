@@ -40,7 +40,7 @@ from ybg.backends.cpp.escape import (CPP_KEYWORDS, cpp_comment, cpp_float, cpp_i
 from ybg.backends.cpp.lower import WIRE_ROS1, WIRE_YARP, LoweringError
 from ybg.compiler import ir
 from ybg.compiler.ir import (Converter, Counter, Default, ElementGroup, Field, Input, Literal, Mux,
-                             MuxRef, Output, Policy, Program, Seconds, Struct, Timestamp, Timing,
+                             MuxRef, Output, Policy, Program, Seconds, Struct, Timestamp,
                              TypeRef)
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -240,7 +240,7 @@ class _Builder:
     # -- values
     def add_value(self, var: str, value, element_type: str) -> str:
         """A statement appending one literal value to ``var``."""
-        wire = self.wire[element_type] if element_type in self.wire else None
+        wire = self.wire.get(element_type)
         if wire is None:
             raise LoweringError(f"no Bottle tag for element type {element_type!r}")
         value = _coerce(value, element_type)
@@ -559,8 +559,8 @@ def lower(program: ir.Program) -> ModuleView:
         f"publishing {timing}, {policy}",
     )
     header = (
-        f"Module {comment(program.module)}: {n_in} input(s) in {len(program.muxes)} mux(es), "
-        f"publishing {what_comment} on {where},",
+        (f"Module {comment(program.module)}: {n_in} input(s) in {len(program.muxes)} mux(es), "
+         f"publishing {what_comment} on {where},"),
         f"{timing}, {policy}.",
     )
     config_name = os.path.basename(program.source) if program.source else program.module
@@ -594,4 +594,4 @@ def lower(program: ir.Program) -> ModuleView:
     )
 
 
-__all__ = ["lower", "LoweringError", "ModuleView", "WIRE_YARP", "WIRE_ROS1", "comment"]
+__all__ = ["WIRE_ROS1", "WIRE_YARP", "LoweringError", "ModuleView", "comment", "lower"]
