@@ -1314,9 +1314,13 @@ private:
 
 // --- the command line ----------------------------------------------------------------------
 
-void usage(const BridgeSpec& spec, const char* prog, std::FILE* out)
+void usage(const BridgeSpec& spec, const std::string& prog, std::FILE* out, bool full)
 {
-    std::fprintf(out, "usage: %s [--prefix P] [--rate HZ] [--timeout S] [--verbose] [--help]\n\n", prog);
+    std::fprintf(out, "usage: %s [--prefix P] [--rate HZ] [--timeout S] [--verbose] [--help]\n", prog.c_str());
+    if (!full) {
+        return;
+    }
+    std::fprintf(out, "\n");
     for (const char* line : spec.description) {
         std::fprintf(out, "%s\n", line);
     }
@@ -1345,12 +1349,13 @@ bool parseNumber(const std::string& text, double& out)
 /// Parses argv into `opt`: -1 to go on, else the exit status (0 after --help).
 int parseOptions(const BridgeSpec& spec, int argc, char* argv[], Options& opt)
 {
-    const char* prog = argc > 0 ? argv[0] : spec.module;
+    std::string prog = argc > 0 && argv[0][0] != '\0' ? argv[0] : spec.module;
+    prog = prog.substr(prog.rfind('/') + 1);
     opt.prefix = spec.defaultPrefix;
     opt.rate = spec.rate;
     auto fail = [&](const std::string& text) {
-        std::fprintf(stderr, "%s: error: %s\n", prog, text.c_str());
-        usage(spec, prog, stderr);
+        usage(spec, prog, stderr, false);
+        std::fprintf(stderr, "%s: error: %s\n", prog.c_str(), text.c_str());
         return 2;
     };
     for (int k = 1; k < argc; ++k) {
@@ -1364,7 +1369,7 @@ int parseOptions(const BridgeSpec& spec, int argc, char* argv[], Options& opt)
             inlineValue = true;
         }
         if (arg == "--help" || arg == "-h") {
-            usage(spec, prog, stdout);
+            usage(spec, prog, stdout, true);
             return 0;
         }
         if (arg == "--verbose") {
