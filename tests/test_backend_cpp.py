@@ -319,6 +319,15 @@ class Module(Proc):
         return rc, elapsed
 
 
+def ros_master_nodes(stack, topic: str) -> tuple[list, list]:
+    """(publishers, subscribers) of ``topic`` that the ROS master knows."""
+    import xmlrpc.client
+    code, _, (pubs, subs, _) = xmlrpc.client.ServerProxy(stack.uri).getSystemState("/ybg_test")
+    assert code == 1
+    find = lambda rows: next((nodes for name, nodes in rows if name == topic), [])  # noqa: E731
+    return find(pubs), find(subs)
+
+
 def yarp_ports(server) -> set[str]:
     out = server.yarp("name", "list").stdout
     return set(re.findall(r"registration name (\S+)", out))
@@ -1040,8 +1049,11 @@ def test_thesis_rviz_scenario_through_ros1(builds, yarp_ros_server):
             RospySubscriber(env, "/yarp/joint_states") as sub, \
             YarpProducer(env, "/vizzySim/left_shoulder_arm/state:o", bottles=[degrees], rate=30):
         msgs = sub.wait_for(10, timeout=30)
+        assert "/yarp/thesis_figure5_rviz" in ros_master_nodes(yarp_ros_server, "/yarp/joint_states")[0]
         rc, elapsed = module.interrupt()
     assert rc == 0 and elapsed < 2.0
+    # closed: withdrawn from the ROS master too (YARP 3.5 leaves it registered)
+    assert "/yarp/thesis_figure5_rviz" not in ros_master_nodes(yarp_ros_server, "/yarp/joint_states")[0]
     m = msgs[-1].msg
     assert m["name"] == ["l_shoulder_scapula_joint", "l_shoulder_flection_joint", "l_shoulder_abduction_joint",
                          "l_shoulder_rotation_joint", "l_elbow_flection_joint", "l_forearm_pronation_joint",
@@ -1072,7 +1084,9 @@ def test_typed_ros1_topic_input(builds, yarp_ros_server):
             Proc([ROS1_PYTHON, "-c", script, json.dumps({"topic": "/ybg_goal", "type": "geometry_msgs/PointStamped",
                                                          "fields": fields, "rate": 20})], env=env, name="rospy_pub_goal"):
         got = reader.wait_for(3, timeout=30)
+        assert "/typed_ros_input/g_in0" in ros_master_nodes(yarp_ros_server, "/ybg_goal")[1]
         rc, elapsed = module.interrupt()
+        assert "/typed_ros_input/g_in0" not in ros_master_nodes(yarp_ros_server, "/ybg_goal")[1]
     assert rc == 0 and elapsed < 2.0
     assert got[-1].data == ["xyz", 1.5, -2.0, 1e-3]
     assert "dropped" not in module.log_text().split("totals:")[0]

@@ -369,7 +369,8 @@ class _Builder:
                 for k, (name, t) in enumerate(zip(ref.into_fields, types))
             ])
             return
-        values = self.mux(ref.mux)
+        # a slice needs its end (or, open-ended, its start) within the mux: never shortened
+        values = self.mux(ref.mux, ref.start if ref.stop is None else ref.stop)
         mux = self.program.mux(ref.mux)
         et = mux.element_types
         sliced: tuple[str, ...] = ()

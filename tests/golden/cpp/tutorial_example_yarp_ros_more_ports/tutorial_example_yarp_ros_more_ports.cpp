@@ -43,6 +43,8 @@
 
 #include <yarp/os/Bottle.h>
 #include <yarp/os/BufferedPort.h>
+#include <yarp/os/Contact.h>
+#include <yarp/os/ContactStyle.h>
 #include <yarp/os/Network.h>
 #include <yarp/os/Stamp.h>
 #include <yarp/os/Type.h>
@@ -675,6 +677,9 @@ public:
         port_.close();
     }
 
+    /// Connections coming into its port.
+    int connections() { return port_.getInputCount(); }
+
     using yarp::os::TypedReaderCallback<yarp::os::Bottle>::onRead;
 
     void onRead(yarp::os::Bottle& bottle) override
@@ -744,18 +749,28 @@ private:
 
 // --- connections --------------------------------------------------------------------
 
-/// Every 0.5 s, connects each (source, destination) pair whose ports both
-/// exist and are not connected, so that a source that starts late or is
-/// restarted is picked up. Its own thread: the loop never waits for it. Its
-/// state is shared with the thread, so that a thread held up by a peer that
-/// does not answer can be left behind at exit.
+/// A connection the watcher keeps up. `linked`, when set, tells from the
+/// module's own port, without asking the network, that it has a connection.
+struct Link
+{
+    std::string source;
+    std::string destination;
+    std::function<bool()> linked;
+};
+
+/// Every 0.5 s, connects each link whose source exists and that is not
+/// connected, so that a source that starts late or is restarted is picked
+/// up. An input port that has a connection is left alone (no network
+/// traffic); the network is asked only about a missing one. Its own thread:
+/// the loop never waits for it. Its state is shared with the thread, so that
+/// a thread held up by a peer that does not answer can be left behind at exit.
 class Watcher
 {
 public:
-    explicit Watcher(std::vector<std::pair<std::string, std::string>> pairs) : state_(std::make_shared<State>())
+    explicit Watcher(std::vector<Link> links) : state_(std::make_shared<State>())
     {
-        state_->connected.assign(pairs.size(), false);
-        state_->pairs = std::move(pairs);
+        state_->connected.assign(links.size(), false);
+        state_->links = std::move(links);
     }
 
     void start()
@@ -786,7 +801,7 @@ public:
 private:
     struct State
     {
-        std::vector<std::pair<std::string, std::string>> pairs;
+        std::vector<Link> links;
         std::vector<bool> connected;
         std::mutex mutex;
         std::condition_variable wake;
@@ -799,7 +814,7 @@ private:
         std::unique_lock<std::mutex> lock(s.mutex);
         while (!s.done) {
             lock.unlock();
-            for (std::size_t k = 0; k < s.pairs.size(); ++k) {
+            for (std::size_t k = 0; k < s.links.size(); ++k) {
                 check(s, k);
                 std::lock_guard<std::mutex> again(s.mutex);
                 if (s.done) {
@@ -815,17 +830,23 @@ private:
 
     static void check(State& s, std::size_t k)
     {
-        const std::string& src = s.pairs[k].first;
-        const std::string& dst = s.pairs[k].second;
-        const bool up = yarp::os::Network::exists(src, true) && yarp::os::Network::exists(dst, true);
-        if (up && yarp::os::Network::isConnected(src, dst, true)) {
+        const Link& link = s.links[k];
+        if (link.linked) {
+            if (link.linked()) {
+                s.connected[k] = true;
+                return;
+            }
+        } else if (yarp::os::Network::exists(link.destination, true)
+                   && yarp::os::Network::isConnected(link.source, link.destination, true)) {
+            s.connected[k] = true;
             return;
         }
-        if (up && yarp::os::Network::connect(src, dst, "", true)) {
-            say("connected " + src + " -> " + dst);
+        if (yarp::os::Network::exists(link.source, true) && yarp::os::Network::exists(link.destination, true)
+            && yarp::os::Network::connect(link.source, link.destination, "", true)) {
+            say("connected " + link.source + " -> " + link.destination);
             s.connected[k] = true;
         } else if (s.connected[k]) {
-            say("lost " + src + " -> " + dst + "; reconnecting when it is back");
+            say("lost " + link.source + " -> " + link.destination + "; reconnecting when it is back");
             s.connected[k] = false;
         }
     }
@@ -838,7 +859,7 @@ private:
 
 /// Blocks SIGINT and SIGTERM in every thread (construct it before any
 /// thread starts) and waits for them in a thread of its own: the first one
-/// asks the loop to stop; if the module is not closed 1.8 s later, or a
+/// asks the loop to stop; if the module is not closed 1.9 s later, or a
 /// second signal comes, the process exits at once.
 class SignalWatch
 {
@@ -877,7 +898,7 @@ private:
             return;
         }
         onStop();
-        const timespec limit = {1, 800000000};
+        const timespec limit = {1, 900000000};
         while (true) {
             const int r = sigtimedwait(&set_, nullptr, &limit);
             if (finished_) {
@@ -896,6 +917,44 @@ private:
     std::thread thread_;
     std::atomic<bool> finished_{false};
 };
+
+// --- ROS 1 -------------------------------------------------------------------------------
+
+/// YARP 3.5 leaves a closed topic@node port registered with the ROS master:
+/// withdraw it (as a publisher or a subscriber), with short timeouts.
+void withdrawFromRosMaster(const std::string& port, bool publisher)
+{
+    const std::size_t at = port.find('@');
+    if (at == std::string::npos) {
+        return;
+    }
+    const std::string topic = port.substr(0, at);
+    const std::string node = port.substr(at + 1);
+    yarp::os::Contact master = yarp::os::Network::queryName("/ros");
+    if (!master.isValid()) {
+        return;
+    }
+    yarp::os::ContactStyle style;
+    style.quiet = true;
+    style.timeout = 0.25;
+    style.carrier = "xmlrpc";
+    yarp::os::Bottle cmd;
+    yarp::os::Bottle reply;
+    cmd.addString("lookupNode");
+    cmd.addString(node);
+    cmd.addString(node);
+    if (!yarp::os::Network::write(master, cmd, reply, style) || reply.get(0).asInt32() != 1) {
+        return;
+    }
+    const std::string api = reply.get(2).asString();
+    cmd.clear();
+    reply.clear();
+    cmd.addString(publisher ? "unregisterPublisher" : "unregisterSubscriber");
+    cmd.addString(node);
+    cmd.addString(topic);
+    cmd.addString(api);
+    yarp::os::Network::write(master, cmd, reply, style);
+}
 
 // --- the output ---------------------------------------------------------------------------
 
@@ -929,7 +988,26 @@ public:
         return b;
     }
     void unprepare() { port_.unprepare(); }
-    void write() { port_.write(); }
+
+    /// Writes the prepared message. A message written while the previous one
+    /// is still being sent is dropped for the connections that are still
+    /// busy; so it waits for them a little (50 ms at most), unless a reader
+    /// has already shown that it stalls.
+    void write()
+    {
+        if (port_.isWriting()) {
+            if (patient_) {
+                const SteadyClock::time_point deadline = SteadyClock::now() + std::chrono::milliseconds(50);
+                while (port_.isWriting() && SteadyClock::now() < deadline) {
+                    std::this_thread::sleep_for(std::chrono::microseconds(50));
+                }
+                patient_ = !port_.isWriting();
+            }
+        } else {
+            patient_ = true;
+        }
+        port_.write();
+    }
 
     void close()
     {
@@ -946,6 +1024,7 @@ private:
     const OutputSpec& spec_;
     yarp::os::BufferedPort<yarp::os::Bottle> port_;
     std::string registered_;
+    bool patient_ = true;
 };
 
 // --- the loop ---------------------------------------------------------------------------------
@@ -1060,16 +1139,17 @@ public:
                 status = 1;
             }
         }
-        std::vector<std::pair<std::string, std::string>> pairs;
+        std::vector<Link> links;
         for (const auto& in : inputs_) {
             if (in->spec.kind == InputKind::Yarp) {
-                pairs.emplace_back(in->spec.source, in->local);
+                Input* input = in.get();
+                links.push_back({in->spec.source, in->local, [input] { return input->connections() > 0; }});
             }
         }
         if (spec_.output.connectTo[0] != '\0') {
-            pairs.emplace_back(spec_.output.port, spec_.output.connectTo);
+            links.push_back({spec_.output.port, spec_.output.connectTo, nullptr});
         }
-        Watcher watcher(pairs);
+        Watcher watcher(std::move(links));
         if (status == 0) {
             say("publishing " + output_.describe() + ", "
                 + (eventDriven_ ? std::string("event-driven") : formatNumber(options_.rate) + " Hz"));
@@ -1084,7 +1164,7 @@ public:
         // reader) would hold it: after a deadline the names are unregistered
         // and the process ends without waiting any longer.
         const bool watcherStopped = watcher.stop(std::chrono::milliseconds(300));
-        const bool closed = closeAll(opened, outputOpen, std::chrono::milliseconds(1000));
+        const bool closed = closeAll(opened, outputOpen, std::chrono::milliseconds(800));
         printTotals();
         if (!closed || !watcherStopped) {
             if (!closed) {
@@ -1132,6 +1212,7 @@ private:
             if (outputOpen) {
                 output_.close();
             }
+            withdrawRos(opened, outputOpen);
             std::lock_guard<std::mutex> lock(state->mutex);
             state->done = true;
             state->cv.notify_all();
@@ -1150,7 +1231,21 @@ private:
         if (outputOpen) {
             yarp::os::Network::unregisterName(output_.registered());
         }
+        withdrawRos(opened, outputOpen);
         return false;
+    }
+
+    /// The ROS 1 ports, withdrawn from the ROS master.
+    void withdrawRos(std::size_t opened, bool outputOpen)
+    {
+        for (std::size_t k = 0; k < opened; ++k) {
+            if (inputs_[k]->spec.kind == InputKind::Ros1) {
+                withdrawFromRosMaster(inputs_[k]->local, false);
+            }
+        }
+        if (outputOpen && spec_.output.kind == OutputKind::Ros1) {
+            withdrawFromRosMaster(spec_.output.port, true);
+        }
     }
 
     /// Says each freshness transition once; returns the next time an input
