@@ -96,6 +96,9 @@ def values_program() -> Program:
             Field("big", Literal((2 ** 40,), "int64")),
             Field("u32", Literal((4000000000,), "uint32")),
             Field("f32", Literal((0.1,), "float32")),
+            Field("none_seq", Default(), TypeRef("float64", "sequence")),
+            Field("none_time", Default(), TypeRef("time")),
+            Field("none_fixed", Default(), TypeRef("int32", "fixed", 3)),
         )),
         output=Output("yarp", "/values_bridge/out:o"),
         policy=Policy(on_nan="drop"))
@@ -612,9 +615,11 @@ def test_values_order_nesting_counter_and_stamps(builds, yarp_server):
         assert exactly(d[12], [1.5, [1, 2, 3], [], rad[0:3]])
         assert d[13:15] == [2 ** 40, 4000000000]
         assert exactly(d[15], 0.1)  # a float32 goes as a float64 on a YARP output
+        assert d[16:] == [[], [0, 0], [0, 0, 0]]  # defaults of float64[], time, int32[3]
         assert types == ["string", "int32", "float64", ["int64", "int64"], ["int64", "int64"],
                          ["float64"] * 6, "float64", "int32", "int32", "float64", "string", "int32",
-                         ["float64", ["int64"] * 3, [], ["float64"] * 3], "int64", "int64", "float64"]
+                         ["float64", ["int64"] * 3, [], ["float64"] * 3], "int64", "int64", "float64",
+                         [], ["int64", "int64"], ["int32"] * 3]
         # the next message only when both inputs have new data; the counter counts messages
         p_arm.write([1.0] * 3)
         time.sleep(0.3)

@@ -1675,6 +1675,17 @@ bool buildMessage(yarp::os::Bottle& msg, [[maybe_unused]] const Muxes& mux,
     msg.addInt64(4000000000);
     // f32
     msg.addFloat64(0.1);
+    // none_seq (float64[]): default
+    msg.addList();
+    // none_time (time): default
+    ybgc::putTime(msg, 0, Wire::Int64, Wire::Int64);
+    // none_fixed (int32[3]): default
+    {
+        yarp::os::Bottle& b1 = msg.addList();
+        b1.addInt32(0);
+        b1.addInt32(0);
+        b1.addInt32(0);
+    }
     // ybgc:user-begin message
     // ybgc:user-end message
     return true;
