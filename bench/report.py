@@ -326,9 +326,12 @@ def write(data: dict, docs: Path, json_path: Path) -> Path:
         "arrival completes the set). `direct` measures each Bottle of each port. The consumer is a "
         "`yarp::os::Port` whose reader runs in the connection thread (nothing queued); the ROS 2 "
         "consumer is an rclpy subscription (reliable, depth 100) whose callback appends one tuple.")
-    add("- **Delivered / sent**: outputs whose blocks all carry the same tick, counted once; a "
-        "tick that never comes out (its input was overwritten by a newer one before use: inputs "
-        "keep only the newest Bottle) is lost. The consumer also checks every value.")
+    add("- **Delivered / sent**: distinct ticks that came out (a tick is identified by its first "
+        "port's sequence number); a tick that never comes out is lost: one of its Bottles was "
+        "overwritten by a newer one before the module read it (inputs keep only the newest "
+        "Bottle), or the module's write was dropped. *mixed*: outputs combining Bottles of "
+        "different ticks (after a loss on one input, the inputs can stay a tick apart until the "
+        "next loss); they count as delivered. The consumer checks every value of every output.")
     add("- **CPU %** of the module process over the measured run (user + system, all threads, "
         "100 % = one core); **RSS** from /proc (VmRSS; peak = VmHWM).")
     add("- Before each measured run a warm-up run (discarded) lets connections and buffers "
