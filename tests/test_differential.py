@@ -86,6 +86,69 @@ def _key(value):
     return value
 
 
+class Driver:
+    """Feeds both modules and keeps the model of their state: which input
+    delivered a valid Bottle since the last message (trigger = all). The state
+    carries over from one hypothesis example to the next, as the modules' does."""
+
+    def __init__(self, arm, hand, readers, procs):
+        self.arm, self.hand, self.readers, self.procs = arm, hand, readers, procs
+        self.pending = {"arm": False, "hand": False, "hand_short": False}
+        self.expected = 0
+
+    def start(self):
+        for r in self.readers.values():
+            r.clear()
+        self.expected = 0
+
+    def wait(self, r, n):
+        try:
+            return r.wait_for(n, timeout=10)
+        except TimeoutError as e:
+            logs = "\n".join(f"--- {p.name} (alive: {p.alive})\n{p.log_text()[-2500:]}" for p in self.procs)
+            raise AssertionError(f"{e}\n{logs}") from None
+
+    def _complete(self) -> bool:
+        """Both inputs new: a message is built and the data used up; True when
+        it is published (a hand too short for `hand[0:2]` makes it unbuildable)."""
+        p = self.pending
+        if not (p["arm"] and p["hand"]):
+            return False
+        p["arm"] = p["hand"] = False
+        return not p["hand_short"]
+
+    def _settle(self) -> bool:
+        """After one write: wait for the message it completes, or make sure
+        that none comes. True when one came."""
+        publishes = self._complete()
+        if publishes:
+            self.expected += 1
+            for r in self.readers.values():
+                self.wait(r, self.expected)
+        else:
+            time.sleep(0.1)
+        for tag, r in self.readers.items():
+            assert len(r.bottles) == self.expected, f"{tag}: {len(r.bottles)} messages, expected {self.expected}"
+        return publishes
+
+    def write_arm(self, data, ok: bool) -> bool:
+        self.arm.write(data)
+        self.pending["arm"] |= ok
+        return self._settle()
+
+    def write_hand(self, data, kind: str) -> bool:
+        self.hand.write(data)
+        if kind != "bad":  # a short Bottle is a valid input; only the message fails
+            self.pending["hand"] = True
+            self.pending["hand_short"] = kind == "short"
+        return self._settle()
+
+    def step(self, arm_data, arm_ok: bool, hand_data, hand_kind: str) -> None:
+        """Write on arm, then on hand: the module sees them one after the other."""
+        self.write_arm(arm_data, arm_ok)
+        self.write_hand(hand_data, hand_kind)
+
+
 @pytest.fixture(scope="module")
 def modules(tmp_path_factory):
     require_yarp()
@@ -117,10 +180,7 @@ def modules(tmp_path_factory):
             hand.wait_outputs(2, timeout=20)
             for r in readers.values():
                 r.wait_connected(timeout=20)
-            # which input delivered a valid Bottle since the last publish
-            # (trigger = all), carried across hypothesis examples like the modules' own state
-            pending = {"arm": False, "hand": False, "hand_short": False}
-            yield arm, hand, readers, procs, pending
+            yield Driver(arm, hand, readers, procs)
         finally:
             for p in procs:
                 p.stop(sig=2)
@@ -134,56 +194,31 @@ def modules(tmp_path_factory):
           phases=[Phase.explicit, Phase.reuse, Phase.generate], report_multiple_bugs=False)
 @given(st.lists(STEP, min_size=5, max_size=25))
 def test_cpp_and_python_modules_give_identical_bottles(modules, steps):
-    arm, hand, readers, procs, pending = modules
-    for r in readers.values():
-        r.clear()
-    expected = 0
-    for arm_data, hand_data, kind in steps:
-        arm_ok, hand_kind = kind
-        arm.write(arm_data)
-        hand.write(hand_data)
-        pending["arm"] |= arm_ok
-        if hand_kind != "bad":  # a short Bottle is a valid input; only the message fails
-            pending["hand"] = True
-            pending["hand_short"] = hand_kind == "short"
-        if pending["arm"] and pending["hand"] and not pending["hand_short"]:
-            pending["arm"] = pending["hand"] = False
-            expected += 1
-            for r in readers.values():
-                r.wait_for(expected, timeout=10)
-        else:
-            if pending["arm"] and pending["hand"]:  # built and failed: the data is used up
-                pending["arm"] = pending["hand"] = False
-            time.sleep(0.15)
-            for tag, r in readers.items():
-                assert len(r.bottles) == expected, \
-                    f"{tag} published without new valid data on every input, or from a short mux"
-    got = {tag: r.wait_for(expected, timeout=10) for tag, r in readers.items()}
-    assert len(got["cpp"]) == len(got["py"]) == expected
+    d = modules
+    d.start()
+    for arm_data, hand_data, (arm_ok, hand_kind) in steps:
+        d.step(arm_data, arm_ok, hand_data, hand_kind)
+    got = {tag: d.wait(r, d.expected) for tag, r in d.readers.items()}
+    assert len(got["cpp"]) == len(got["py"]) == d.expected
     for c, p in zip(got["cpp"], got["py"]):
         assert _key(c.data) == _key(p.data), (c.data, p.data)
         assert c.types == p.types
-    for proc in procs:
+    for proc in d.procs:
         assert proc.alive, proc.log_text()[-2000:]
 
 
 def test_reference_values(modules):
-    """One step checked against numbers computed here, so that the two modules
-    cannot agree on a wrong answer."""
-    arm, hand, readers, _, pending = modules
-    for r in readers.values():
-        r.clear()
-    if pending["arm"] or pending["hand"]:  # complete any pending message first
-        arm.write([0.0, 0.0, 0.0, 0, 0])
-        hand.write([0.0, 0.0])
-        for r in readers.values():
-            r.wait_for(1, timeout=10)
-            r.clear()
-        pending["arm"] = pending["hand"] = pending["hand_short"] = False
-    arm.write([180.0, -90.0, 0.5, 7, -3])
-    hand.write([math.pi, -math.pi / 2, 1.0])
-    for tag, r in readers.items():
-        (b,) = r.wait_for(1, timeout=10)
+    """One message checked against numbers computed here, so that the two
+    modules cannot agree on a wrong answer."""
+    d = modules
+    d.start()
+    arm_ref = [180.0, -90.0, 0.5, 7, -3]
+    if d.pending["hand"]:  # a hand left pending by the previous test: use it up
+        d.write_arm(arm_ref, True)
+    assert not d.write_arm(arm_ref, True)
+    assert d.write_hand([math.pi, -math.pi / 2, 1.0], "ok")
+    for tag, r in d.readers.items():
+        b = r.bottles[-1]
         label, seq, *arm_vals = b.data[:7]
         assert label == 'diff "q" ; #'
         assert isinstance(seq, int)
