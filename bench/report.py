@@ -357,6 +357,9 @@ def write(data: dict, docs: Path, json_path: Path) -> Path:
                     extra.append(f"{e['mismatched']} mixed")
                 if e.get("bad"):
                     extra.append(f"{e['bad']} bad")
+                if e.get("restarted_after"):
+                    extra.append("restarted once after: "
+                                 + e["restarted_after"].splitlines()[0].replace("|", "/")[:80])
                 deliv = f"{e['delivered']} / {e['sent']}" + (f" ({', '.join(extra)})" if extra else "")
                 rate = "–" if e.get("rate_hz") is None else f"{e['rate_hz']:.1f}"
                 rm = [x for x in e.get("run_medians_us") or [] if x is not None]

@@ -378,7 +378,8 @@ def latency_stage(ctx: dict, mode: Mode, progress: Progress) -> list:
     for shape, runs in by_shape.items():
         sh = SHAPES[shape]
         rigs: dict = {}
-        isos: list = []
+        isos: dict = {}
+        crashes: dict = {}   # subject -> the error that made its rig restart
         errors: dict = {}
         for s in mode.subjects:
             why = available(ctx, s)
@@ -390,11 +391,36 @@ def latency_stage(ctx: dict, mode: Mode, progress: Progress) -> list:
                                  tag=f"_{shape}")
             for s, got in started.items():
                 if isinstance(got, tuple):
-                    isos.append(got[0])
+                    isos[s] = got[0]
                     rigs[s] = got[1]
                 else:
                     errors[s] = got
                     say(f"  {s}: cannot start: {got.splitlines()[0]}")
+
+            def restart(s: str, err: str) -> bool:
+                """A process of the rig died: note why, start the rig again
+                (once per subject and shape); False if it cannot be."""
+                if s in crashes:
+                    return False
+                crashes[s] = err
+                say(f"  {s}: {err.splitlines()[0][:150]}; restarting its processes")
+                old = rigs[s]
+                stop_rigs({s: old})
+                isos.pop(s).stop()
+                got = start_rigs(ctx, [s], sh, tag=f"_{shape}_again")[s]
+                if not isinstance(got, tuple):
+                    crashes[s] += f"; restart failed: {got.splitlines()[0]}"
+                    return False
+                isos[s], rigs[s] = got
+                rigs[s].ticks_total, rigs[s].received_total = old.ticks_total, old.received_total
+                return True
+
+            def warm_up(s: str, rate: int) -> None:
+                rig = rigs[s]
+                warm = rig.source.run(min(mode.warmup_ticks, max(10, rate // 4)), rate)
+                rig.ticks_total += warm["ticks"]
+                rig.sink.settle(warm["ticks"] * (sh.ports if rig.per_block else 1))
+
             for wl, rate, secs in runs:
                 chunks = {s: [] for s in rigs}
                 cpu = {s: [0.0, 0.0] for s in rigs}    # CPU s, wall s of the module
@@ -402,50 +428,68 @@ def latency_stage(ctx: dict, mode: Mode, progress: Progress) -> list:
                 late = {s: 0 for s in rigs}
                 failed: dict = {}
                 per_round = max(1, int(round(secs * rate / mode.rounds)))
-                for s, rig in rigs.items():
+                for s in list(rigs):
                     if s in errors:
                         continue
                     try:
-                        warm = rig.source.run(min(mode.warmup_ticks, max(10, rate // 4)), rate)
-                        rig.ticks_total += warm["ticks"]
-                        rig.sink.settle(warm["ticks"] * (sh.ports if rig.per_block else 1))
+                        warm_up(s, rate)
                     except (BenchError, OSError) as e:
-                        failed[s] = str(e).strip()
+                        try:
+                            if not restart(s, str(e).strip()):
+                                raise
+                            warm_up(s, rate)
+                        except (BenchError, OSError) as e2:
+                            failed[s] = str(e2).strip()
+
+                def measure_round(s: str, rig: Rig) -> None:
+                    rig.received_total += rig.sink.count()[0]
+                    rig.sink.reset()
+                    pid = rig.module.pid if rig.module else None
+                    c0, t0 = (h.cpu_seconds(pid) if pid else None), time.monotonic()
+                    p0 = (h.cpu_seconds(rig.source.pid), h.cpu_seconds(rig.sink.pid))
+                    run = rig.source.run(per_round, rate)
+                    rig.ticks_total += run["ticks"]
+                    expected = run["ticks"] * (sh.ports if rig.per_block else 1)
+                    rig.sink.settle(expected)
+                    if pid and c0 is not None:
+                        cpu[s][0] += (h.cpu_seconds(pid) or c0) - c0
+                    cpu[s][1] += time.monotonic() - t0
+                    p1 = (h.cpu_seconds(rig.source.pid), h.cpu_seconds(rig.sink.pid))
+                    for k in (0, 1):
+                        if p0[k] is not None and p1[k] is not None:
+                            peer_cpu[s][k] += p1[k] - p0[k]
+                    rig.check_alive()
+                    recs = rig.sink.dump(tmp / f"lat_{wl}_{s}.bin")
+                    chunks[s].append(h.analyse_latency(recs, run["first"], run["ticks"],
+                                                       sh.ports, rig.per_block))
+                    late[s] += run["late"]
+
                 order = list(rigs)
                 for r in range(mode.rounds):
                     turn = order[r % len(order):] + order[:r % len(order)] if order else []
                     for s in turn:
-                        if s in failed or s in errors:
-                            continue
-                        rig = rigs[s]
-                        try:
-                            rig.received_total += rig.sink.count()[0]
-                            rig.sink.reset()
-                            pid = rig.module.pid if rig.module else None
-                            c0, t0 = (h.cpu_seconds(pid) if pid else None), time.monotonic()
-                            p0 = (h.cpu_seconds(rig.source.pid), h.cpu_seconds(rig.sink.pid))
-                            run = rig.source.run(per_round, rate)
-                            rig.ticks_total += run["ticks"]
-                            expected = run["ticks"] * (sh.ports if rig.per_block else 1)
-                            rig.sink.settle(expected)
-                            if pid and c0 is not None:
-                                cpu[s][0] += (h.cpu_seconds(pid) or c0) - c0
-                            cpu[s][1] += time.monotonic() - t0
-                            p1 = (h.cpu_seconds(rig.source.pid), h.cpu_seconds(rig.sink.pid))
-                            for k in (0, 1):
-                                if p0[k] is not None and p1[k] is not None:
-                                    peer_cpu[s][k] += p1[k] - p0[k]
-                            rig.check_alive()
-                            recs = rig.sink.dump(tmp / f"lat_{wl}_{s}.bin")
-                            chunks[s].append(h.analyse_latency(recs, run["first"], run["ticks"],
-                                                               sh.ports, rig.per_block))
-                            late[s] += run["late"]
-                        except (BenchError, OSError) as e:
-                            failed[s] = str(e).strip()
+                        for attempt in (1, 2):
+                            if s in failed or s in errors:
+                                break
+                            rig = rigs[s]
+                            try:
+                                measure_round(s, rig)
+                                break
+                            except (BenchError, OSError) as e:
+                                err = str(e).strip()
+                                try:
+                                    if attempt == 2 or not restart(s, err):
+                                        failed[s] = err
+                                    else:
+                                        warm_up(s, rate)
+                                except (BenchError, OSError) as e2:
+                                    failed[s] = str(e2).strip()
                     if mode.rounds > 1:
                         say(f"  {wl}: round {r + 1}/{mode.rounds} done")
                 for s in mode.subjects:
                     entry = {"workload": wl, "shape": shape, "rate": rate, "subject": s}
+                    if s in crashes:
+                        entry["restarted_after"] = crashes[s]
                     err = errors.get(s) or failed.get(s)
                     if err or not chunks.get(s):
                         entry["error"] = err or "no data"
@@ -489,7 +533,7 @@ def latency_stage(ctx: dict, mode: Mode, progress: Progress) -> list:
                         if e["shape"] == shape and e["subject"] == s:
                             e["exit_status"] = statuses[s]
                             e["life_totals"] = account
-            for iso in isos:
+            for iso in isos.values():
                 iso.stop()
     return results
 

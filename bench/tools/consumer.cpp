@@ -24,7 +24,9 @@
 // Sources given with --source are connected (retried until they exist);
 // "connected" is printed once all are.
 
+#include <execinfo.h>
 #include <time.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <cmath>
@@ -54,6 +56,20 @@ double monotonicNow()
     timespec ts{};
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) * 1e-9;
+}
+
+/// On a crash, the stack on stderr (the harness shows the log), then the
+/// default action.
+void onCrash(int sig)
+{
+    void* frames[64];
+    const int n = backtrace(frames, 64);
+    const char text[] = "bench_consumer: crashed, stack:\n";
+    ssize_t ignored = write(2, text, sizeof text - 1);
+    (void)ignored;
+    backtrace_symbols_fd(frames, n, 2);
+    std::signal(sig, SIG_DFL);
+    raise(sig);
 }
 
 void answer(const std::string& line)
@@ -166,6 +182,8 @@ int main(int argc, char* argv[])
     }
     recorder.data.reserve(static_cast<std::size_t>(kFields) * 200000);
     std::signal(SIGPIPE, SIG_IGN);  // a peer that goes away must not kill this process
+    std::signal(SIGSEGV, onCrash);
+    std::signal(SIGABRT, onCrash);
     yarp::os::Network yarp;
     if (!yarp::os::Network::checkNetwork(5.0)) {
         std::fprintf(stderr, "bench_consumer: no YARP name server\n");
