@@ -153,7 +153,8 @@ def ros1_input_program() -> Program:
         module="typed_ros_input", source="typed_ros_input.ini",
         muxes=(Mux("g", (Input("/ybg_goal", kind="ros1", layout=(ElementGroup("float64", 3),),
                                ros_type="geometry_msgs/PointStamped",
-                               fields=("point.x", "point.y", "point.z")),)),),
+                               fields=("point.x", "point.y", "point.z"),
+                               positions=((1, 0), (1, 1), (1, 2))),)),),
         message=Struct((Field("label", Literal(("xyz",), "string")), Field("p", MuxRef("g", splice=True)))),
         output=Output("yarp", "/typed_ros_input/out:o"), ros="ros1", distro="noetic")
 

@@ -8,6 +8,7 @@ reader peer (or a rospy subscriber) receives, and what the module prints.
 from __future__ import annotations
 
 import ast
+import json
 import importlib.util
 import math
 import os
@@ -20,7 +21,7 @@ from pathlib import Path
 
 import pytest
 
-from middleware import (VENV_PYTHON, Proc, RospySubscriber, YarpProducer, YarpReader,
+from middleware import (ROS1_PYTHON, VENV_PYTHON, Proc, RospySubscriber, YarpProducer, YarpReader,
                         require_yarp)
 from ybg.backends import get_backend
 from ybg.backends.py import PyBackend
@@ -944,3 +945,58 @@ def test_counter_wraps_like_its_ros_type(tmp_path):
         assert header.get(0).isInt32() and header.get(0).asInt32() == seq
         assert header.get(1).asList().get(0).isInt32()  # time (secs nsecs): uint32 -> int32
         assert bottle.size() == 5 and bottle.get(3).asList().size() == 0
+
+
+TYPED_ROS1_INPUT = """\
+[module]
+name = typed_ros_input_py
+
+[output]
+port = /typed_ros_input_py/out:o
+
+[mux g]
+topics = /ybg_goal_py (geometry_msgs/PointStamped point)
+via = ros1
+
+[message]
+label = "xyz"
+p = g
+"""
+
+ROSPY_POINT_STAMPED = r"""
+import json, sys, time
+import rospy
+from geometry_msgs.msg import Point, PointStamped
+from std_msgs.msg import Header
+cfg = json.loads(sys.argv[1])
+rospy.init_node("ybg_py_test_pub", anonymous=True, disable_signals=True)
+pub = rospy.Publisher(cfg["topic"], PointStamped, queue_size=10)
+msg = PointStamped(header=Header(frame_id="cam"), point=Point(*cfg["point"]))
+while True:
+    pub.publish(msg)
+    time.sleep(0.05)
+"""
+
+
+def test_typed_ros1_topic_input(yarp_ros_server, tmp_path):
+    """A ROS 1 topic of a known type, from a real config: the module takes the
+    fields the config names, at the Bottle positions the checker computed
+    (the header's seq, stamp and frame_id are not part of the mux)."""
+    cfg = tmp_path / "typed_ros_input_py.ini"
+    cfg.write_text(TYPED_ROS1_INPUT)
+    from ybg.compiler.pipeline import compile_path
+
+    result = compile_path(cfg, backend="py")
+    assert result.ok, result.diagnostics
+    (inp,) = result.program.muxes[0].inputs
+    assert inp.positions == ((1, 0), (1, 1), (1, 2))
+    env = yarp_ros_server.env
+    with Bridge(env, result.program, tmp_path) as bridge, \
+            YarpReader(env, "/test/typed_py:i", source="/typed_ros_input_py/out:o") as reader, \
+            Proc([ROS1_PYTHON, "-c", ROSPY_POINT_STAMPED,
+                  json.dumps({"topic": "/ybg_goal_py", "point": [1.5, -2.0, 1e-3]})], env=env, name="rospy_pub"):
+        got = reader.wait_for(3, timeout=30)
+        rc, elapsed = bridge.interrupt()
+    assert rc == 0 and elapsed < 2.0
+    assert got[-1].data == ["xyz", 1.5, -2.0, 1e-3]
+    assert "dropped" not in bridge.log_text().split("totals:")[0]

@@ -501,16 +501,19 @@ class _Checker:
             ros_type = None
             fields = None
             layout = None
+            positions = None
             if decl:
                 ros_type, fields, layout = self.topic_decl(name, decl, item.span, via)
                 if ros_type is None:
                     return None
+                if via == "ros1" and fields:
+                    positions = bottle_positions(self.stores.get("ros1", None), ros_type, fields)
             elif via == "ros2":
                 s.error("E319", f"ROS 2 topic `{name}` needs its message type", head.span,
                         f"write `{name} (geometry_msgs/Point)`, or `{name} (sensor_msgs/JointState position)` "
                         "to take one numeric field")
                 return None
-            return ir.Input(name, via, layout, ros_type, fields, timeout)
+            return ir.Input(name, via, layout, ros_type, fields, timeout, positions)
         problem = port_problem(name)
         if problem:
             s.error("E401", f"invalid YARP port name `{name}`: {problem}", head.span,
@@ -1162,6 +1165,29 @@ class _Checker:
         if isinstance(n, float):
             return n, "float64"
         return n, "int32" if -2**31 <= n < 2**31 else "int64"
+
+
+def bottle_positions(store: TypeStore, msg_type: str, fields) -> tuple[tuple[int, ...], ...]:
+    """Index path of each field (``point.x``, ``position``, ``covariance[3]``)
+    in the Bottle of a ROS 1 message: YARP's wire mapping, a message is a list
+    of its fields in order."""
+    out = []
+    for path in fields:
+        cur = store.resolve(msg_type)
+        at: list[int] = []
+        for part in path.split("."):
+            name, _, rest = part.partition("[")
+            assert cur is not None, (msg_type, path)
+            names = [f.name for f in cur.fields]
+            k = names.index(name)
+            at.append(k)
+            t = cur.fields[k].type
+            if rest:
+                at.append(int(rest.rstrip("]")))
+                t = t.element()
+            cur = store.resolve(t.base) if t.is_message and t.array is None else None
+        out.append(tuple(at))
+    return tuple(out)
 
 
 def _looks_number(text: str) -> bool:

@@ -62,6 +62,10 @@ class Input:
     then every element is taken as ``float64`` and the width is dynamic.
     ``fields`` (ROS inputs with a known type) names the numeric leaves of the
     message, in order, that make up the elements (``"x"``, ``"pose.position.x"``).
+    ``positions`` (ROS 1 inputs with ``fields``): where each field sits in the
+    Bottle YARP reads from the topic, as an index path (``point.x`` of
+    ``geometry_msgs/PointStamped`` is ``(1, 0)``; a one-field array input is
+    the path of the array).
     """
 
     name: str
@@ -70,6 +74,7 @@ class Input:
     ros_type: str | None = None
     fields: tuple[str, ...] | None = None
     timeout: float = 1.0
+    positions: tuple[tuple[int, ...], ...] | None = None
 
     @property
     def width(self) -> int | None:
@@ -425,7 +430,8 @@ def from_dict(d: dict[str, Any]) -> Program:
     def inp(x):
         layout = None if x["layout"] is None else _tuple(x["layout"], lambda g: ElementGroup(**g))
         fields_ = None if x["fields"] is None else tuple(x["fields"])
-        return Input(x["name"], x["kind"], layout, x["ros_type"], fields_, x["timeout"])
+        positions = None if x.get("positions") is None else tuple(tuple(p) for p in x["positions"])
+        return Input(x["name"], x["kind"], layout, x["ros_type"], fields_, x["timeout"], positions)
 
     muxes = _tuple(
         d["muxes"],

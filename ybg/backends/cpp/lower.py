@@ -168,37 +168,6 @@ def _size(n: int | None) -> str:
     return str(int(n))
 
 
-def _ros1_field_paths(inp: ir.Input, distro: str | None) -> list[tuple[str, list[int]]]:
-    """Index path, in the Bottle YARP reads from a ROS 1 topic, of each field
-    the input takes (``point.x`` of geometry_msgs/PointStamped -> [1, 0])."""
-    from ybg.compiler.msgtypes import DISTROS, load_store
-
-    store = load_store("ros1", distro if distro and DISTROS.get(distro) == "ros1" else None)
-    msgdef = store.resolve(inp.ros_type) if inp.ros_type else None
-    if msgdef is None:
-        raise LoweringError(f"unknown ROS 1 message type {inp.ros_type!r} of input {inp.name}")
-    out = []
-    for path in inp.fields or ():
-        cur = msgdef
-        at: list[int] = []
-        for part in path.split("."):
-            m = re.fullmatch(r"([A-Za-z_][A-Za-z0-9_]*)(?:\[(\d+)\])?", part)
-            if m is None or cur is None:
-                raise LoweringError(f"cannot find field {path!r} of {inp.ros_type}")
-            names = [f.name for f in cur.fields]
-            if m.group(1) not in names:
-                raise LoweringError(f"{cur.name} has no field {m.group(1)!r} ({path})")
-            k = names.index(m.group(1))
-            at.append(k)
-            ftype = cur.fields[k].type
-            if m.group(2) is not None:
-                at.append(int(m.group(2)))
-                ftype = ftype.element()
-            cur = store.resolve(ftype.base) if ftype.is_message and ftype.array is None else None
-        out.append((path, at))
-    return out
-
-
 # --------------------------------------------------------------------------
 # the message builder
 
@@ -447,8 +416,10 @@ def _layout(inp: ir.Input) -> str:
 def _fields(inp: ir.Input, distro: str | None) -> str:
     if inp.kind != "ros1" or not inp.fields:
         return "{}"
-    paths = _ros1_field_paths(inp, distro)
-    items = ", ".join(f"{{{cpp_string(name)}, {{{', '.join(str(i) for i in at)}}}}}" for name, at in paths)
+    if inp.positions is None or len(inp.positions) != len(inp.fields):
+        raise LoweringError(f"input {inp.name}: no Bottle positions for its fields")
+    paths = zip(inp.fields, inp.positions)
+    items = ", ".join(f"{{{cpp_string(name)}, {{{', '.join(str(int(i)) for i in at)}}}}}" for name, at in paths)
     return f"{{{items}}}"
 
 

@@ -116,6 +116,7 @@ class InputView:
     types: str
     timeout: str
     description: str
+    positions: str = "None"
 
 
 @dataclass(frozen=True)
@@ -353,6 +354,7 @@ def lower(program: ir.Program) -> ModuleView:
                 types=py_types(types),
                 timeout=py_literal(float(i.timeout)),
                 description=py_literal(f"{i.kind} {i.name}: {width}"),
+                positions=py_literal(i.positions),
             ))
         convs = tuple(
             ConverterView(

@@ -23,7 +23,7 @@ import os
 import re
 from dataclasses import dataclass
 
-from ybg.backends.py.lower import (WIRE_YARP, ConverterView, Line, LoweringError, OutputView,
+from ybg.backends.py.lower import (WIRE_YARP, ConverterView, InputView, Line, LoweringError, OutputView,
                                    py_literal)
 from ybg.backends.py.lower import _Builder as BottleBuilder
 from ybg.compiler import ir
@@ -65,19 +65,6 @@ class MsgImport:
     module: str
     name: str
     alias: str
-
-
-@dataclass(frozen=True)
-class InputView:
-    """One input as the runtime's ``InputSpec`` (all values are literals)."""
-
-    mux: str
-    index: int
-    source: str
-    kind: str
-    types: str
-    timeout: str
-    description: str
 
 
 @dataclass(frozen=True)

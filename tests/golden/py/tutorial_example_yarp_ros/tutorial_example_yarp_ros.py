@@ -41,7 +41,8 @@ _INT_TYPES = frozenset(("int8", "uint8", "int16", "uint16", "int32", "uint32",
 _INT_BITS = {"int8": 8, "uint8": 8, "byte": 8, "char": 8, "int16": 16, "uint16": 16,
              "int32": 32, "uint32": 32, "int64": 64, "uint64": 64}
 
-InputSpec = collections.namedtuple("InputSpec", "mux index source kind types timeout")
+InputSpec = collections.namedtuple("InputSpec", "mux index source kind types timeout positions",
+                                   defaults=(None,))
 ConverterSpec = collections.namedtuple("ConverterSpec", "name scale offset to_float start stop")
 MuxSpec = collections.namedtuple("MuxSpec", "name inputs converters verbose types")
 BridgeSpec = collections.namedtuple(
@@ -144,10 +145,41 @@ def _number(value):
     return None
 
 
-def parse_bottle(bottle, types, flatten, drop_nan):
+def _at(bottle, path):
+    """The value at an index path of nested lists, or None."""
+    value = None
+    for k in path:
+        if bottle is None or not 0 <= k < bottle.size():
+            return None
+        value = bottle.get(k)
+        bottle = value.asList() if value.isList() else None
+    return value
+
+
+def _picked(bottle, positions):
+    """The values at ``positions`` (a one-field array input: its elements)."""
+    items = []
+    for path in positions:
+        value = _at(bottle, path)
+        if value is None:
+            return None
+        if value.isList():
+            items.extend(value.asList().get(k) for k in range(value.asList().size()))
+        else:
+            items.append(value)
+    return items
+
+
+def parse_bottle(bottle, types, flatten, drop_nan, positions=None):
     """(values, None) for a Bottle that matches the input's layout, else
-    (None, reason). ``types`` None: any number of numbers, each as a float."""
-    if flatten:
+    (None, reason). ``types`` None: any number of numbers, each as a float.
+    ``positions``: take the values at these index paths (typed ROS 1 topics);
+    ``flatten``: nested lists flattened depth-first (untyped ROS 1 topics)."""
+    if positions is not None:
+        items = _picked(bottle, positions)
+        if items is None:
+            return None, "not laid out as its message type (a field is missing)"
+    elif flatten:
         items = _leaves(bottle, [])
     else:
         items = [bottle.get(k) for k in range(bottle.size())]
@@ -239,7 +271,7 @@ class Input:
             envelope = None
             if self.port.getEnvelope(stamp) and stamp.isValid():
                 envelope = stamp.getTime()
-            values, reason = parse_bottle(bottle, self.spec.types, flatten, drop_nan)
+            values, reason = parse_bottle(bottle, self.spec.types, flatten, drop_nan, self.spec.positions)
             self.bridge.on_bottle(self, values, reason, now, envelope)
 
     def interrupt(self):
