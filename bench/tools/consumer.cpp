@@ -4,8 +4,8 @@
 //   bench_consumer --port /bench/sink:i --width 15 [--scale deg]
 //                  [--source /a:o]... [--stall-every S --stall-for D] [--no-record]
 //
-// The port is a plain yarp::os::Port whose reader runs in the connection's
-// own thread, so nothing is buffered or dropped here: a Bottle is recorded as
+// The port is a plain yarp::os::Port (one per source when there are several)
+// whose reader runs in the connection's own thread, so nothing is buffered or dropped here: a Bottle is recorded as
 // soon as it is read off the socket. With --stall-every/--stall-for the reader
 // sleeps D seconds every S seconds, which stops reading the socket (the
 // sender sees a consumer that stalls).
@@ -28,12 +28,14 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
+#include <memory>
 #include <mutex>
 #include <sstream>
 #include <string>
@@ -189,11 +191,27 @@ int main(int argc, char* argv[])
         std::fprintf(stderr, "bench_consumer: no YARP name server\n");
         return 1;
     }
-    yarp::os::Port port;
-    port.setReader(recorder);
-    if (!port.open(portName)) {
-        std::fprintf(stderr, "bench_consumer: cannot open %s\n", portName.c_str());
-        return 1;
+    // One Port per source: a Port fed by several connections at once has its
+    // reader called from each connection's thread at the same time, and with
+    // enveloped Bottles arriving on two connections together YARP 3.5 crashed
+    // in it (heap corruption, in the benchmark's long runs). With several
+    // sources: <port>/0, <port>/1, ...
+    std::vector<std::string> names;
+    if (sources.size() <= 1) {
+        names.push_back(portName);
+    } else {
+        for (std::size_t i = 0; i < sources.size(); ++i) {
+            names.push_back(portName + "/" + std::to_string(i));
+        }
+    }
+    std::vector<std::unique_ptr<yarp::os::Port>> ports;
+    for (const auto& name : names) {
+        ports.emplace_back(new yarp::os::Port());
+        ports.back()->setReader(recorder);
+        if (!ports.back()->open(name)) {
+            std::fprintf(stderr, "bench_consumer: cannot open %s\n", name.c_str());
+            return 1;
+        }
     }
     answer("ready");
 
@@ -204,7 +222,8 @@ int main(int argc, char* argv[])
         while (left > 0 && !quitting) {
             for (std::size_t i = 0; i < sources.size(); ++i) {
                 if (!done[i] && yarp::os::Network::exists(sources[i], true)
-                    && yarp::os::Network::connect(sources[i], portName, "tcp", true)) {
+                    && yarp::os::Network::connect(sources[i], names[std::min(i, names.size() - 1)], "tcp",
+                                                  true)) {
                     done[i] = true;
                     --left;
                 }
@@ -256,7 +275,9 @@ int main(int argc, char* argv[])
     }
     quitting = true;
     connector.join();
-    port.interrupt();
-    port.close();
+    for (auto& port : ports) {
+        port->interrupt();
+        port->close();
+    }
     return 0;
 }
