@@ -17,7 +17,7 @@ from pathlib import Path
 
 import jinja2
 
-from ybg.backends import Backend, RenderOptions
+from ybg.backends import Backend, RenderOptions, template_environment
 from ybg.backends.cpp.lower import Line, LoweringError, lower
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
@@ -40,17 +40,10 @@ def _indent_line(line: Line) -> str:
 
 @functools.lru_cache(maxsize=None)
 def environment() -> jinja2.Environment:
-    env = jinja2.Environment(
-        loader=jinja2.FileSystemLoader(str(TEMPLATE_DIR)),
-        autoescape=False,
-        undefined=jinja2.StrictUndefined,
-        trim_blocks=True,
-        lstrip_blocks=True,
-        keep_trailing_newline=True,
-    )
-    env.filters["code"] = _code
-    env.filters["indent_line"] = _indent_line
-    return env
+    return template_environment([TEMPLATE_DIR], {
+        "code": _code,
+        "indent_line": _indent_line,
+    })
 
 
 class CppBackend(Backend):

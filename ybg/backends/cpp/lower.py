@@ -17,31 +17,15 @@ from dataclasses import dataclass
 
 from ybg.backends.cpp.escape import (cpp_comment, cpp_float, cpp_identifier, cpp_int,
                                      cpp_std_string, cpp_string, mangle)
+from ybg.backends import LoweringError
+from ybg.backends import WIRE_ROS1 as _WIRE_ROS1
+from ybg.backends import WIRE_YARP as _WIRE_YARP
 from ybg.compiler import ir
 
-#: Bottle tag of each element type on an untyped or YARP output
-#: (docs/runtime.md, "Value types on the wire").
-WIRE_YARP: dict[str, str] = {
-    "float32": "Float64", "float64": "Float64",
-    "int64": "Int64", "uint32": "Int64", "uint64": "Int64",
-    "int8": "Int32", "uint8": "Int32", "int16": "Int32", "uint16": "Int32",
-    "int32": "Int32", "byte": "Int32", "char": "Int32", "bool": "Int32",
-    "string": "String",
-}
-
-#: Bottle tag of each element type on a ROS 1 output. YARP's tcpros carrier
-#: turns the Bottle into the ROS message by a fixed layout (WireTwiddler)
-#: that compares the tags byte for byte: a uint32 must be an int32 (an int64
-#: is refused, "Structure of message is unexpected"), a float32 a float32 (a
-#: float64 in a float32 field arrives as garbage), a bool an int8.
-WIRE_ROS1: dict[str, str] = {
-    "float32": "Float32", "float64": "Float64",
-    "int64": "Int64", "uint64": "Int64",
-    "int32": "Int32", "uint32": "Int32",
-    "int16": "Int16", "uint16": "Int16",
-    "int8": "Int8", "uint8": "Int8", "byte": "Int8", "char": "Int8", "bool": "Int8",
-    "string": "String",
-}
+#: The runtime's `Wire` enumerator of each element type (the shared tables of
+#: ybg.backends, in C++ spelling: "float64" -> "Float64").
+WIRE_YARP: dict[str, str] = {k: v.capitalize() for k, v in _WIRE_YARP.items()}
+WIRE_ROS1: dict[str, str] = {k: v.capitalize() for k, v in _WIRE_ROS1.items()}
 
 #: C++ type a counter is cast to before it is written (it wraps like the ROS type)
 CPP_INT_TYPES: dict[str, str] = {
@@ -58,10 +42,6 @@ _CMAKE_RESERVED = frozenset({"all", "clean", "help", "install", "test", "package
                              "edit_cache", "rebuild_cache", "list_install_components", "depend",
                              "preinstall", "install_strip", "install_local"})
 _SAFE_TEXT = re.compile(r"[A-Za-z0-9_/.:@+\-\[\]<=>, ]*\Z")
-
-
-class LoweringError(ValueError):
-    """The program uses something this backend cannot generate."""
 
 
 def comment(text: str) -> str:

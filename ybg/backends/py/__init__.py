@@ -16,7 +16,7 @@ from pathlib import Path
 
 import jinja2
 
-from ybg.backends import Backend, RenderOptions
+from ybg.backends import Backend, RenderOptions, template_environment
 from ybg.backends.py.lower import Line, LoweringError, lower, py_literal
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
@@ -45,19 +45,12 @@ def _indent_line(line: Line) -> str:
 
 @functools.lru_cache(maxsize=None)
 def environment() -> jinja2.Environment:
-    env = jinja2.Environment(
-        loader=jinja2.FileSystemLoader(str(TEMPLATE_DIR)),
-        autoescape=False,
-        undefined=jinja2.StrictUndefined,
-        trim_blocks=True,
-        lstrip_blocks=True,
-        keep_trailing_newline=True,
-    )
-    env.filters["code"] = _code
-    env.filters["int_literal"] = _int_literal
-    env.filters["indent_line"] = _indent_line
-    env.filters["pyliteral"] = py_literal
-    return env
+    return template_environment([TEMPLATE_DIR], {
+        "code": _code,
+        "int_literal": _int_literal,
+        "indent_line": _indent_line,
+        "pyliteral": py_literal,
+    })
 
 
 class PyBackend(Backend):

@@ -14,32 +14,9 @@ import math
 import os
 from dataclasses import dataclass
 
-from ybg.backends import LoweringError
+from ybg.backends import WIRE_ROS1, WIRE_YARP, LoweringError
 from ybg.compiler import ir
 
-#: YARP Bottle wire type of each element type, untyped or YARP output
-#: (docs/runtime.md, "Value types on the wire").
-WIRE_YARP: dict[str, str] = {
-    "float32": "float64", "float64": "float64",
-    "int64": "int64", "uint32": "int64", "uint64": "int64",
-    "int8": "int32", "uint8": "int32", "int16": "int32", "uint16": "int32",
-    "int32": "int32", "byte": "int32", "char": "int32", "bool": "int32",
-    "string": "string",
-}
-
-#: Wire type of each element type for a ROS 1 output through YARP's tcpros
-#: carrier. YARP translates a Bottle into the ROS message by a fixed layout
-#: (WireTwiddler): a field's Bottle tag must be exactly the one of its ROS
-#: type (uint32 -> int32, bool -> int8, float32 -> float32 ...), or the
-#: message is refused with "Structure of message is unexpected".
-WIRE_ROS1: dict[str, str] = {
-    "float32": "float32", "float64": "float64",
-    "int64": "int64", "uint64": "int64",
-    "int32": "int32", "uint32": "int32",
-    "int16": "int16", "uint16": "int16",
-    "int8": "int8", "uint8": "int8", "byte": "int8", "char": "int8", "bool": "int8",
-    "string": "string",
-}
 
 _TIME_TYPES = ("time", "duration", "builtin_interfaces/Time", "builtin_interfaces/Duration")
 

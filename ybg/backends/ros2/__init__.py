@@ -20,7 +20,7 @@ from xml.sax.saxutils import escape as _xml_escape
 
 import jinja2
 
-from ybg.backends import Backend, RenderOptions
+from ybg.backends import Backend, RenderOptions, template_environment
 from ybg.backends.py import TEMPLATE_DIR as PY_TEMPLATE_DIR
 from ybg.backends.py.lower import Line, LoweringError, py_literal
 from ybg.backends.ros2.lower import lower, lower_package
@@ -76,23 +76,16 @@ def _py_comment(text) -> str:
 @functools.lru_cache(maxsize=None)
 def environment() -> jinja2.Environment:
     """Templates of this backend first, then the ``py`` backend's shared ones."""
-    env = jinja2.Environment(
-        loader=jinja2.FileSystemLoader([str(TEMPLATE_DIR), str(PY_TEMPLATE_DIR)]),
-        autoescape=False,
-        undefined=jinja2.StrictUndefined,
-        trim_blocks=True,
-        lstrip_blocks=True,
-        keep_trailing_newline=True,
-    )
-    env.filters["code"] = _code
-    env.filters["int_literal"] = _int_literal
-    env.filters["indent_line"] = _indent_line
-    env.filters["pyliteral"] = py_literal
-    env.filters["xml"] = _xml
-    env.filters["xml_comment"] = _xml_comment
-    env.filters["py_comment"] = _py_comment
-    env.filters["package_name"] = _package_name
-    return env
+    return template_environment([TEMPLATE_DIR, PY_TEMPLATE_DIR], {
+        "code": _code,
+        "int_literal": _int_literal,
+        "indent_line": _indent_line,
+        "pyliteral": py_literal,
+        "xml": _xml,
+        "xml_comment": _xml_comment,
+        "py_comment": _py_comment,
+        "package_name": _package_name,
+    })
 
 
 class Ros2Backend(Backend):
