@@ -48,6 +48,31 @@ WIRE_ROS1: dict[str, str] = {
 }
 
 
+@dataclass(frozen=True)
+class Line:
+    """One line of generated code, already made of escaped parts."""
+
+    indent: int
+    text: str
+
+
+def code_filter(text) -> str:
+    """Template filter: a one-line fragment of code that lowering already built
+    from escaped parts (anything else is a bug, not something to print)."""
+    if not isinstance(text, str):
+        raise TypeError(f"expected lowered code, got {type(text).__name__}")
+    if "\n" in text or "\r" in text:
+        raise ValueError("lowered code must be one line")
+    return text
+
+
+def indent_line_filter(line: Line) -> str:
+    """Template filter: a :class:`Line` at its indentation (4 spaces a level)."""
+    if not isinstance(line, Line):
+        raise TypeError(f"expected a Line, got {type(line).__name__}")
+    return "    " * line.indent + code_filter(line.text)
+
+
 def template_environment(folders, filters: dict) -> "jinja2.Environment":
     """The Jinja environment of a backend: templates only print (autoescape
     off, undefined names are errors, whitespace as written), and every value

@@ -17,32 +17,17 @@ from pathlib import Path
 
 import jinja2
 
-from ybg.backends import Backend, RenderOptions, template_environment
-from ybg.backends.cpp.lower import Line, LoweringError, lower
+from ybg.backends import Backend, RenderOptions, code_filter, indent_line_filter, template_environment
+from ybg.backends.cpp.lower import LoweringError, lower
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
-
-
-def _code(text) -> str:
-    """A fragment of C++ (or CMake) already built from escaped parts by lower.py."""
-    if not isinstance(text, str):
-        raise TypeError(f"expected lowered code, got {type(text).__name__}")
-    if "\n" in text or "\r" in text:
-        raise ValueError("lowered code must be one line")
-    return text
-
-
-def _indent_line(line: Line) -> str:
-    if not isinstance(line, Line):
-        raise TypeError(f"expected a Line, got {type(line).__name__}")
-    return "    " * line.indent + _code(line.text)
 
 
 @functools.lru_cache(maxsize=None)
 def environment() -> jinja2.Environment:
     return template_environment([TEMPLATE_DIR], {
-        "code": _code,
-        "indent_line": _indent_line,
+        "code": code_filter,
+        "indent_line": indent_line_filter,
     })
 
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 from ybg.backends.cpp.escape import (cpp_comment, cpp_float, cpp_identifier, cpp_int,
                                      cpp_std_string, cpp_string, mangle)
-from ybg.backends import LoweringError
+from ybg.backends import Line, LoweringError
 from ybg.backends import WIRE_ROS1 as _WIRE_ROS1
 from ybg.backends import WIRE_YARP as _WIRE_YARP
 from ybg.compiler import ir
@@ -54,14 +54,6 @@ def comment(text: str) -> str:
 
 # --------------------------------------------------------------------------
 # view-model
-
-
-@dataclass(frozen=True)
-class Line:
-    """One line of generated code, already made of escaped parts."""
-
-    indent: int
-    text: str
 
 
 @dataclass(frozen=True)

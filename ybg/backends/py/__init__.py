@@ -16,21 +16,12 @@ from pathlib import Path
 
 import jinja2
 
-from ybg.backends import Backend, RenderOptions, template_environment
-from ybg.backends.py.lower import Line, LoweringError, lower, py_literal
+from ybg.backends import Backend, RenderOptions, code_filter, indent_line_filter, template_environment
+from ybg.backends.py.lower import LoweringError, lower, py_literal
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
 #: the shared runtime, for other Python backends to include
 RUNTIME_TEMPLATE = "_runtime.py.j2"
-
-
-def _code(text) -> str:
-    """A fragment of Python already built from escaped parts by lower.py."""
-    if not isinstance(text, str):
-        raise TypeError(f"expected lowered code, got {type(text).__name__}")
-    if "\n" in text or "\r" in text:
-        raise ValueError("lowered code must be one line")
-    return text
 
 
 def _int_literal(value) -> str:
@@ -39,18 +30,18 @@ def _int_literal(value) -> str:
     return py_literal(value)
 
 
-def _indent_line(line: Line) -> str:
-    return "    " * line.indent + _code(line.text)
+#: the template filters of a Python module (the ros2 backend uses them too)
+FILTERS = {
+    "code": code_filter,
+    "int_literal": _int_literal,
+    "indent_line": indent_line_filter,
+    "pyliteral": py_literal,
+}
 
 
 @functools.lru_cache(maxsize=None)
 def environment() -> jinja2.Environment:
-    return template_environment([TEMPLATE_DIR], {
-        "code": _code,
-        "int_literal": _int_literal,
-        "indent_line": _indent_line,
-        "pyliteral": py_literal,
-    })
+    return template_environment([TEMPLATE_DIR], FILTERS)
 
 
 class PyBackend(Backend):
@@ -65,4 +56,4 @@ class PyBackend(Backend):
         return {view.filename: text}
 
 
-__all__ = ["PyBackend", "LoweringError", "TEMPLATE_DIR", "RUNTIME_TEMPLATE", "environment"]
+__all__ = ["PyBackend", "LoweringError", "TEMPLATE_DIR", "RUNTIME_TEMPLATE", "FILTERS", "environment"]

@@ -14,7 +14,7 @@ import math
 import os
 from dataclasses import dataclass
 
-from ybg.backends import WIRE_ROS1, WIRE_YARP, LoweringError
+from ybg.backends import WIRE_ROS1, WIRE_YARP, Line, LoweringError
 from ybg.compiler import ir
 
 
@@ -74,14 +74,6 @@ def py_types(types) -> str:
 
 # --------------------------------------------------------------------------
 # view-model
-
-
-@dataclass(frozen=True)
-class Line:
-    """One line of generated code, already made of escaped parts."""
-
-    indent: int
-    text: str
 
 
 @dataclass(frozen=True)

@@ -21,30 +21,12 @@ from xml.sax.saxutils import escape as _xml_escape
 import jinja2
 
 from ybg.backends import Backend, RenderOptions, template_environment
+from ybg.backends.py import FILTERS as PY_FILTERS
 from ybg.backends.py import TEMPLATE_DIR as PY_TEMPLATE_DIR
-from ybg.backends.py.lower import Line, LoweringError, py_literal
+from ybg.backends.py.lower import LoweringError
 from ybg.backends.ros2.lower import lower, lower_package
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
-
-
-def _code(text) -> str:
-    """A fragment of Python already built from escaped parts by lower.py."""
-    if not isinstance(text, str):
-        raise TypeError(f"expected lowered code, got {type(text).__name__}")
-    if "\n" in text or "\r" in text:
-        raise ValueError("lowered code must be one line")
-    return text
-
-
-def _int_literal(value) -> str:
-    if not isinstance(value, int) or isinstance(value, bool):
-        raise TypeError(f"expected an int, got {type(value).__name__}")
-    return py_literal(value)
-
-
-def _indent_line(line: Line) -> str:
-    return "    " * line.indent + _code(line.text)
 
 
 def _xml(text) -> str:
@@ -77,10 +59,7 @@ def _py_comment(text) -> str:
 def environment() -> jinja2.Environment:
     """Templates of this backend first, then the ``py`` backend's shared ones."""
     return template_environment([TEMPLATE_DIR, PY_TEMPLATE_DIR], {
-        "code": _code,
-        "int_literal": _int_literal,
-        "indent_line": _indent_line,
-        "pyliteral": py_literal,
+        **PY_FILTERS,
         "xml": _xml,
         "xml_comment": _xml_comment,
         "py_comment": _py_comment,

@@ -23,7 +23,8 @@ import os
 import re
 from dataclasses import dataclass
 
-from ybg.backends.py.lower import (WIRE_YARP, ConverterView, InputView, Line, LoweringError, OutputView,
+from ybg.backends import Line
+from ybg.backends.py.lower import (WIRE_YARP, ConverterView, InputView, LoweringError, MuxView, OutputView,
                                    py_literal)
 from ybg.backends.py.lower import _Builder as BottleBuilder
 from ybg.compiler import ir
@@ -65,15 +66,6 @@ class MsgImport:
     module: str
     name: str
     alias: str
-
-
-@dataclass(frozen=True)
-class MuxView:
-    name: str
-    inputs: tuple[InputView, ...]
-    converters: tuple[ConverterView, ...]
-    verbose: str
-    types: str
 
 
 @dataclass(frozen=True)
