@@ -228,3 +228,53 @@ def test_reference_values(modules):
         assert ints == [17.5, -8.5]
         assert hand_vals == [180.0, -90.0, 180.0 / math.pi]
         assert pair == [180.0, -90.0, [1, 2, 3]]  # hand[0:2] spliced into the nested list
+
+
+def _settled(d):
+    """Use up a Bottle a previous test left waiting on one input, so that both
+    queues are empty."""
+    if d.pending["arm"] and not d.pending["hand"]:
+        d.write_hand([0.0, 0.0], "ok")
+    elif d.pending["hand"] and not d.pending["arm"]:
+        d.write_arm([0.0, 0.0, 0.0, 0, 0], True)
+
+
+def test_stamped_inputs_are_paired_bottle_by_bottle(modules):
+    """trigger = all, inputs with envelope stamps: two Bottles on arm before
+    any on hand (a burst, as when one reader thread was held up) give two
+    messages, each pairing the Bottles of the same stamp; a Bottle whose
+    partner never comes is left out, not paired with the next tick's."""
+    d = modules
+    d.start()
+    _settled(d)
+    base = d.expected
+    t0 = 1000.0
+
+    def arm(k):
+        d.arm.write([k * 180.0, 0.0, 0.0, k, 0], stamp=[k, t0 + k * 0.001])
+
+    def hand(k):
+        d.hand.write([k * math.pi, 0.0], stamp=[k, t0 + k * 0.001])
+
+    arm(1)
+    arm(2)
+    time.sleep(0.2)
+    for tag, r in d.readers.items():
+        assert len(r.bottles) == base, f"{tag}: published before hand delivered"
+    hand(1)
+    hand(2)
+    for r in d.readers.values():
+        d.wait(r, base + 2)
+    # tick 3's hand Bottle is lost: arm 3 has no partner and is left out
+    arm(3)
+    arm(4)
+    hand(4)
+    got = {tag: d.wait(r, base + 3)[base:] for tag, r in d.readers.items()}
+    time.sleep(0.2)
+    d.expected = base + 3
+    for tag, r in d.readers.items():
+        assert len(r.bottles) == d.expected, f"{tag}: {len(r.bottles)} messages"
+    for tag, bottles in got.items():
+        pairs = [(round(b.data[7] / math.pi), round(b.data[9][0] / 180.0)) for b in bottles]
+        assert pairs == [(1, 1), (2, 2), (4, 4)], (tag, [b.data for b in bottles])
+    assert [_key(b.data[2:]) for b in got["cpp"]] == [_key(b.data[2:]) for b in got["py"]]

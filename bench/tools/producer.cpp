@@ -13,8 +13,10 @@
 //
 // Bottle of port p at tick s (width W >= 3), before any conversion:
 //   [s, t, p, f(p,3), ..., f(p,W-1)]   with f(p,i) = p*1000 + i + 0.5
-// where t is CLOCK_MONOTONIC in seconds taken just before the write. The
-// envelope carries the same stamp (s, t), as a robot's state port does.
+// where t is CLOCK_MONOTONIC in seconds taken just before the write (the
+// latency is measured from it). The envelope carries (s, the tick's time):
+// one acquisition stamp for every port of a tick, as a robot's state ports
+// do (the joints sampled in one control cycle), whenever each write happens.
 // Writes are strict (a Bottle is never dropped by the producer).
 
 #include <time.h>
@@ -150,6 +152,8 @@ int main(int argc, char* argv[])
             clock_gettime(CLOCK_MONOTONIC, &next);
             for (long long k = 0; k < count; ++k) {
                 seq += 1.0;
+                // the tick's acquisition time: one stamp for every port
+                const double sampled = monotonicNow();
                 for (std::size_t p = 0; p < ports.size(); ++p) {
                     yarp::os::Bottle& b = ports[p]->prepare();
                     b.clear();
@@ -160,7 +164,7 @@ int main(int argc, char* argv[])
                     for (int i = 3; i < width; ++i) {
                         b.addFloat64(static_cast<double>(p) * 1000.0 + i + 0.5);
                     }
-                    yarp::os::Stamp stamp(static_cast<int>(seq), t);
+                    yarp::os::Stamp stamp(static_cast<int>(seq), sampled);
                     ports[p]->setEnvelope(stamp);
                     ports[p]->writeStrict();
                 }

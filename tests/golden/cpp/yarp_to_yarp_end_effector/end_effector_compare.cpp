@@ -28,6 +28,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <deque>
 #include <functional>
 #include <initializer_list>
 #include <limits>
@@ -411,7 +412,7 @@ struct BridgeSpec
 
 // --- reading and checking input Bottles -------------------------------------------
 
-/// The newest accepted values of one input.
+/// The accepted values of one input that a message uses.
 struct Latest
 {
     Mux values;
@@ -419,8 +420,21 @@ struct Latest
     double envelope = 0.0;  // envelope time stamp, seconds
 };
 
-/// The newest values of every input, in BridgeSpec::inputs order; read
-/// while the inputs are locked (a message is built with the lock held).
+/// An accepted Bottle that no message has used yet.
+struct Pending
+{
+    Latest data;
+    SteadyClock::time_point arrival;
+};
+
+/// Unused Bottles an input keeps (the oldest goes first, counted as unused).
+constexpr std::size_t kQueueDepth = 64;
+/// Unread Bottles a port may hold before the oldest are skipped unread (a
+/// reader that fell this far behind catches up instead of lagging).
+constexpr int kBacklog = 64;
+
+/// The values a message uses, of every input in BridgeSpec::inputs order;
+/// read while the inputs are locked (a message is built with the lock held).
 class Inputs
 {
 public:
@@ -432,7 +446,7 @@ private:
     std::vector<const Latest*> latest_;
 };
 
-/// Appends the newest values of one input to a mux.
+/// Appends the values of one input to a mux.
 void append(Mux& mux, const Latest& input)
 {
     mux.insert(mux.end(), input.values.begin(), input.values.end());
@@ -657,7 +671,7 @@ public:
 
     bool open()
     {
-        port_.setStrict(false);  // newest only
+        port_.setStrict(true);  // every Bottle reaches onRead, in order (kBacklog bounds it)
         if (spec.kind == InputKind::Ros1) {
             port_.setReadOnly();
         }
@@ -685,6 +699,11 @@ public:
     void onRead(yarp::os::Bottle& bottle) override
     {
         const SteadyClock::time_point now = SteadyClock::now();
+        if (port_.getPendingReads() > kBacklog) {
+            ++received;  // far behind: skipped unread, so that the reader catches up
+            ++unused;
+            return;
+        }
         yarp::os::Stamp stamp;
         const bool hasEnvelope = port_.getEnvelope(stamp) && stamp.isValid();
         std::string why;
@@ -701,9 +720,16 @@ public:
                 }
                 return;
             }
-            latest.values.swap(scratch_);
-            latest.hasEnvelope = hasEnvelope;
-            latest.envelope = hasEnvelope ? stamp.getTime() : 0.0;
+            queue.emplace_back();
+            Pending& entry = queue.back();
+            entry.data.values.swap(scratch_);
+            entry.data.hasEnvelope = hasEnvelope;
+            entry.data.envelope = hasEnvelope ? stamp.getTime() : 0.0;
+            entry.arrival = now;
+            if (queue.size() > kQueueDepth) {
+                queue.pop_front();
+                ++unused;
+            }
             arrival = now;
             ++generation;
             const bool wasFresh = state == Freshness::Fresh;
@@ -729,12 +755,14 @@ public:
     std::string registered;   // its name in the name server (topic-@node for ROS)
 
     // guarded by Shared::mutex
-    Latest latest;
-    SteadyClock::time_point arrival;
+    std::deque<Pending> queue;     // accepted, not used yet (oldest first)
+    Latest latest;                 // what messages use (hasLatest: there is one)
+    bool hasLatest = false;
+    SteadyClock::time_point arrival;  // of the newest accepted Bottle
     std::uint64_t generation = 0;  // Bottles accepted
-    std::uint64_t used = 0;        // generation of the last message published
     std::atomic<std::uint64_t> received{0};      // atomic: the totals are read without the lock
     std::atomic<std::uint64_t> dropped{0};
+    std::atomic<std::uint64_t> unused{0};        // accepted (or skipped unread), never in a message
     std::atomic<std::uint64_t> stalePeriods{0};
     Freshness state = Freshness::Waiting;
     bool reportedWaiting = false;
@@ -1185,7 +1213,7 @@ public:
         if (!eventDriven_ || !publishing_ || shared_.stopping) {
             return;
         }
-        if (ready(SteadyClock::now(), true)) {
+        while (!shared_.stopping && ready(SteadyClock::now(), true)) {
             publish();
         }
     }
@@ -1292,20 +1320,110 @@ private:
         if (!eventDriven) {
             return true;
         }
+        if (needed_.empty()) {
+            return false;  // nothing arrives to publish for
+        }
         std::size_t updated = 0;
         for (const Input* in : needed_) {
-            updated += in->generation > in->used ? 1 : 0;
+            updated += in->queue.empty() ? 0 : 1;
         }
         return spec_.triggerAll ? updated == needed_.size() : updated > 0;
     }
 
-    /// Builds and writes one message from the newest values; Shared::mutex
+    /// A queued Bottle's time: its envelope stamp, or its arrival.
+    static double when(const Pending& p, bool byEnvelope)
+    {
+        return byEnvelope ? p.data.envelope : std::chrono::duration<double>(p.arrival.time_since_epoch()).count();
+    }
+
+    /// The index of the input's queued Bottle nearest in time to
+    /// `reference` (the older one on a tie).
+    static std::size_t nearest(const Input& in, double reference, bool byEnvelope)
+    {
+        std::size_t best = 0;
+        double gap = std::fabs(when(in.queue[0], byEnvelope) - reference);
+        for (std::size_t k = 1; k < in.queue.size(); ++k) {
+            const double g = std::fabs(when(in.queue[k], byEnvelope) - reference);
+            if (g < gap) {
+                gap = g;
+                best = k;
+            }
+        }
+        return best;
+    }
+
+    /// Queued Bottle `k` becomes what messages use; the older ones are unused.
+    static void use(Input& in, std::size_t k)
+    {
+        in.unused += k;
+        in.queue.erase(in.queue.begin(), in.queue.begin() + static_cast<std::ptrdiff_t>(k));
+        in.latest = std::move(in.queue.front().data);
+        in.hasLatest = true;
+        in.queue.pop_front();
+    }
+
+    /// The newest queued Bottle becomes what messages use; the older ones
+    /// are unused.
+    static void takeNewest(Input& in)
+    {
+        if (in.queue.empty()) {
+            return;
+        }
+        in.unused += in.queue.size() - 1;
+        in.latest = std::move(in.queue.back().data);
+        in.hasLatest = true;
+        in.queue.clear();
+    }
+
+    /// Moves the Bottles the next message uses from the queues
+    /// (docs/runtime.md, "Which Bottles a message uses").
+    void take()
+    {
+        if (eventDriven_ && spec_.triggerAll) {
+            // one Bottle of every needed input, matched in time to the newest
+            // of the oldest ones: by envelope stamps when all of them have one
+            bool byEnvelope = true;
+            for (const Input* in : needed_) {
+                for (const Pending& p : in->queue) {
+                    byEnvelope = byEnvelope && p.data.hasEnvelope;
+                }
+            }
+            double reference = when(needed_.front()->queue.front(), byEnvelope);
+            for (const Input* in : needed_) {
+                reference = std::max(reference, when(in->queue.front(), byEnvelope));
+            }
+            for (Input* in : needed_) {
+                use(*in, nearest(*in, reference, byEnvelope));
+            }
+        } else if (eventDriven_) {
+            // the oldest unused Bottle of any needed input; an input no message
+            // used yet joins with its Bottle nearest in time to it
+            Input* first = nullptr;
+            for (Input* in : needed_) {
+                if (!in->queue.empty() && (first == nullptr || in->queue.front().arrival < first->queue.front().arrival)) {
+                    first = in;
+                }
+            }
+            const double reference = when(first->queue.front(), false);
+            use(*first, 0);
+            for (Input* in : needed_) {
+                if (!in->hasLatest && !in->queue.empty()) {
+                    use(*in, nearest(*in, reference, false));
+                }
+            }
+        }
+        for (auto& in : inputs_) {
+            if (!eventDriven_ || std::find(needed_.begin(), needed_.end(), in.get()) == needed_.end()) {
+                takeNewest(*in);  // fixed rate: every input; event-driven: those not needed
+            }
+        }
+    }
+
+    /// Builds and writes one message from the values taken; Shared::mutex
     /// held, so no input changes meanwhile (and nothing is copied).
     void publish()
     {
-        for (Input* in : needed_) {
-            in->used = in->generation;
-        }
+        take();
         Context ctx;
         ctx.counter = published_;
         ctx.wallNs = std::chrono::duration_cast<std::chrono::nanoseconds>(
@@ -1332,7 +1450,7 @@ private:
         std::unique_lock<std::mutex> lock(shared_.mutex);
         publishing_ = true;
         // Bottles that came before the output was open
-        if (ready(SteadyClock::now(), true)) {
+        while (ready(SteadyClock::now(), true)) {
             publish();
         }
         while (!shared_.stopping) {
@@ -1385,7 +1503,7 @@ private:
         for (const auto& in : inputs_) {
             out += "  input " + std::string(in->spec.source) + ": received " + std::to_string(in->received)
                 + ", dropped " + std::to_string(in->dropped) + ", stale periods "
-                + std::to_string(in->stalePeriods) + "\n";
+                + std::to_string(in->stalePeriods) + ", unused " + std::to_string(in->unused) + "\n";
         }
         out += "  published " + std::to_string(published_) + " messages, skipped "
             + std::to_string(skippedCycles_) + " cycles, build failures " + std::to_string(buildFailures_) + "\n";

@@ -170,11 +170,27 @@ def _picked(bottle, positions):
     return items
 
 
-def parse_bottle(bottle, types, flatten, drop_nan, positions=None):
+#: Bottle.getSpecialization() of a Bottle whose items are all float64
+_TAG_FLOAT64 = 10
+
+
+def parse_bottle(bottle, types, flatten, drop_nan, positions=None, floats=False):
     """(values, None) for a Bottle that matches the input's layout, else
     (None, reason). ``types`` None: any number of numbers, each as a float.
     ``positions``: take the values at these index paths (typed ROS 1 topics);
-    ``flatten``: nested lists flattened depth-first (untyped ROS 1 topics)."""
+    ``flatten``: nested lists flattened depth-first (untyped ROS 1 topics);
+    ``floats``: every element is read as a float (undeclared, or declared
+    float32/float64 only), so a Bottle of float64 only is taken whole."""
+    if floats and bottle.getSpecialization() == _TAG_FLOAT64:
+        n = bottle.size()
+        if types is None or n == len(types):
+            get = bottle.get
+            out = [get(k).asFloat64() for k in range(n)]
+            if drop_nan:
+                for k, x in enumerate(out):
+                    if x != x:
+                        return None, "element %d is NaN" % k
+            return out, None
     if positions is not None:
         items = _picked(bottle, positions)
         if items is None:
@@ -224,32 +240,53 @@ def parse_bottle(bottle, types, flatten, drop_nan, positions=None):
     return out, None
 
 
-class Input:
-    """One input of a mux: its own port, read by its own thread, keeping
-    only the newest accepted Bottle with its arrival time and envelope."""
+#: unused Bottles an input keeps (the oldest goes first, counted as unused)
+QUEUE_DEPTH = 64
+#: unread Bottles a port may hold before the oldest are skipped unread (a
+#: reader that fell this far behind catches up instead of lagging)
+BACKLOG = 64
 
-    def __init__(self, bridge, spec, local, timeout):
+
+class InputState:
+    """What the bridge keeps of one input, guarded by the bridge's lock: the
+    accepted Bottles no message used yet (``queue``, oldest first, each
+    ``(values, arrival, envelope)``), the values messages use (``values``,
+    ``envelope``; ``values`` None before the first), the arrival of the
+    newest accepted Bottle, and the totals."""
+
+    def init_state(self, bridge, spec, timeout):
         self.bridge = bridge
         self.spec = spec
         self.source = spec.source
-        self.local = local
         self.timeout = timeout
-        self.port = yarp.BufferedPortBottle()
+        self.queue = collections.deque()
         self.values = None
-        self.arrival = None
         self.envelope = None
+        self.arrival = None
         self.generation = 0
-        self.used = 0
         self.received = 0
         self.dropped = 0
+        self.unused = 0
         self.stale_periods = 0
         self.state = "waiting"
         self.reported_waiting = False
         self.reported_drop = False
+
+
+class Input(InputState):
+    """One input of a mux: its own port, read strictly (every Bottle, in
+    order) by its own thread."""
+
+    def __init__(self, bridge, spec, local, timeout):
+        self.init_state(bridge, spec, timeout)
+        self.local = local
+        self.port = yarp.BufferedPortBottle()
         self.thread = None
+        self.floats = spec.kind != "ros1" and (spec.types is None
+                                               or all(t in _FLOAT_TYPES for t in spec.types))
 
     def open(self):
-        self.port.setStrict(False)
+        self.port.setStrict(True)
         if self.spec.kind == "ros1":
             self.port.setReadOnly()
         if not self.port.open(self.local):
@@ -268,10 +305,14 @@ class Input:
             if bottle is None:
                 break  # interrupted: shutting down
             now = time.monotonic()
+            if self.port.getPendingReads() > BACKLOG:
+                self.bridge.on_skipped(self)
+                continue
             envelope = None
             if self.port.getEnvelope(stamp) and stamp.isValid():
                 envelope = stamp.getTime()
-            values, reason = parse_bottle(bottle, self.spec.types, flatten, drop_nan, self.spec.positions)
+            values, reason = parse_bottle(bottle, self.spec.types, flatten, drop_nan,
+                                          self.spec.positions, self.floats)
             self.bridge.on_bottle(self, values, reason, now, envelope)
 
     def interrupt(self):
@@ -284,9 +325,11 @@ class Input:
 # --- connections ---------------------------------------------------------------
 
 class Watcher(threading.Thread):
-    """Every 0.5 s, connects each (source, destination) pair whose source
-    exists and is not connected, so that a source that starts late or is
-    restarted is picked up. The main loop never waits for it."""
+    """Every 0.5 s, connects each (source, destination, linked) link whose
+    source exists and is not connected, so that a source that starts late or
+    is restarted is picked up. ``linked``, when given, tells from the
+    module's own port, without asking the network, that the link is up: only
+    a missing one costs name-server queries. The main loop never waits for it."""
 
     PERIOD = 0.5
 
@@ -299,9 +342,11 @@ class Watcher(threading.Thread):
 
     def run(self):
         while not self.done.is_set():
-            for src, dst in self.pairs:
+            for src, dst, linked in self.pairs:
                 if self.done.is_set():
                     break
+                if linked is not None and linked():
+                    continue
                 self._check(src, dst)
             self.done.wait(self.PERIOD)
 
@@ -384,12 +429,16 @@ class Bridge:
                 else:
                     local = "%s/%s/in%d:i" % (self.prefix, mux.name, i.index)
                 timeout = i.timeout if self.timeout is None else self.timeout
-                group.append(Input(self, i, local, timeout))
+                group.append(self.make_input(mux, i, local, timeout))
             self.mux_inputs[mux.name] = group
             self.inputs.extend(group)
         needed = [i for name in spec.needed for i in self.mux_inputs[name]]
         self.needed = needed if needed else list(self.inputs)
         self.watcher = None
+
+    def make_input(self, mux, spec, local, timeout):
+        """The object that reads one input (a subclass reads other kinds)."""
+        return Input(self, spec, local, timeout)
 
     # -- messages to the user
     def log(self, text):
@@ -406,14 +455,23 @@ class Bridge:
                     self.log("input %s: dropped a Bottle (%s); further drops are only counted"
                              % (inp.source, reason))
                 return
-            inp.values = values
+            queue = inp.queue
+            queue.append((values, now, envelope))
+            if len(queue) > QUEUE_DEPTH:
+                queue.popleft()
+                inp.unused += 1
             inp.arrival = now
-            inp.envelope = envelope
             inp.generation += 1
             if inp.state == "stale":
                 self.log("input %s is fresh again" % inp.source)
             inp.state = "fresh"
             self.cond.notify_all()
+
+    def on_skipped(self, inp):
+        """A Bottle skipped unread: the input's reader fell BACKLOG behind."""
+        with self.cond:
+            inp.received += 1
+            inp.unused += 1
 
     def request_stop(self, *_):
         with self.cond:
@@ -448,13 +506,73 @@ class Bridge:
                 return False
         elif not all(i.state == "fresh" for i in needed):
             return False
-        if event_driven and needed:
-            new = [i.generation > i.used for i in needed]
-            return all(new) if self.spec.trigger == "all" else any(new)
+        if event_driven:
+            if not needed:
+                return False  # nothing arrives to publish for
+            if self.spec.trigger == "all":
+                return all(i.queue for i in needed)
+            return any(i.queue for i in needed)
         return True
 
-    def _snapshot(self):
-        """Under the lock: the raw values of every mux and their envelopes."""
+    @staticmethod
+    def _nearest(inp, reference, key):
+        """The index of the input's queued Bottle nearest in time to
+        ``reference`` (the older one on a tie); ``key`` 2: envelope, 1: arrival."""
+        queue = inp.queue
+        best, gap = 0, abs(queue[0][key] - reference)
+        for k in range(1, len(queue)):
+            g = abs(queue[k][key] - reference)
+            if g < gap:
+                best, gap = k, g
+        return best
+
+    @staticmethod
+    def _use(inp, k):
+        """Queued Bottle ``k`` becomes what messages use; the older ones are unused."""
+        queue = inp.queue
+        for _ in range(k):
+            queue.popleft()
+        inp.unused += k
+        inp.values, _, inp.envelope = queue.popleft()
+
+    @staticmethod
+    def _take_newest(inp):
+        """The newest queued Bottle becomes what messages use; the older ones are unused."""
+        queue = inp.queue
+        if queue:
+            inp.unused += len(queue) - 1
+            inp.values, _, inp.envelope = queue[-1]
+            queue.clear()
+
+    def _take(self, event_driven):
+        """Under the lock: moves the Bottles the next message uses from the
+        queues (docs/runtime.md, "Which Bottles a message uses")."""
+        needed = self.needed
+        if event_driven and self.spec.trigger == "all":
+            # one Bottle of every needed input, matched in time to the newest
+            # of the oldest ones: by envelope stamps when all of them have one
+            by_envelope = all(e[2] is not None for i in needed for e in i.queue)
+            key = 2 if by_envelope else 1
+            reference = max(i.queue[0][key] for i in needed)
+            for inp in needed:
+                self._use(inp, self._nearest(inp, reference, key))
+        elif event_driven:
+            # the oldest unused Bottle of any needed input; an input no message
+            # used yet joins with its Bottle nearest in time to it
+            first = min((i for i in needed if i.queue), key=lambda i: i.queue[0][1])
+            reference = first.queue[0][1]
+            self._use(first, 0)
+            for inp in needed:
+                if inp.values is None and inp.queue:
+                    self._use(inp, self._nearest(inp, reference, 1))
+        for inp in self.inputs:
+            if not event_driven or inp not in needed:
+                self._take_newest(inp)  # fixed rate: every input; event-driven: those not needed
+
+    def _snapshot(self, event_driven):
+        """Under the lock: takes the next message's Bottles; the raw values
+        of every mux and their envelopes."""
+        self._take(event_driven)
         raw = {}
         envelopes = {}
         for mux in self.spec.muxes:
@@ -467,8 +585,6 @@ class Bridge:
                     newest = inp.envelope
             raw[mux.name] = values
             envelopes[mux.name] = newest
-        for inp in self.needed:
-            inp.used = inp.generation
         return raw, envelopes
 
     def _publish(self, raw, envelopes):
@@ -508,7 +624,7 @@ class Bridge:
                     wait = 1.0 if deadline is None else min(1.0, max(0.0, deadline - now))
                     self.cond.wait(wait)
                     continue
-                raw, envelopes = self._snapshot()
+                raw, envelopes = self._snapshot(True)
             self._publish(raw, envelopes)
 
     def _loop_fixed_rate(self):
@@ -534,7 +650,7 @@ class Bridge:
                 self._check_freshness(now)
                 if not self._ready(False):
                     continue
-                raw, envelopes = self._snapshot()
+                raw, envelopes = self._snapshot(False)
             self._publish(raw, envelopes)
 
     def run(self):
@@ -556,8 +672,9 @@ class Bridge:
             if not self.output.open():
                 self.log("cannot open the output %s" % self.output.port_name)
                 return 1
-            pairs = [(i.source, i.local) for i in self.inputs if i.spec.kind == "yarp"]
-            pairs.extend(self.output.connections())
+            pairs = [(i.source, i.local, i.port.getInputCount) for i in self.inputs
+                     if i.spec.kind == "yarp"]
+            pairs.extend((src, dst, None) for src, dst in self.output.connections())
             self.watcher = Watcher(pairs, self.log)
             self.watcher.start()
             self.log("publishing %s on %s" % (self.output.describe(),
@@ -611,8 +728,8 @@ class Bridge:
     def _print_totals(self):
         lines = ["totals:"]
         for inp in self.inputs:
-            lines.append("  input %s: received %d, dropped %d, stale periods %d"
-                         % (inp.source, inp.received, inp.dropped, inp.stale_periods))
+            lines.append("  input %s: received %d, dropped %d, stale periods %d, unused %d"
+                         % (inp.source, inp.received, inp.dropped, inp.stale_periods, inp.unused))
         lines.append("  published %d messages, skipped %d cycles, build failures %d"
                      % (self.published, self.skipped_cycles, self.build_errors))
         print("\n".join(lines), flush=True)
