@@ -320,18 +320,21 @@ def write(data: dict, docs: Path, json_path: Path) -> Path:
     add("")
     add("- **Latency**: the producer writes one Bottle on each of its ports per tick (strict "
         "writes, absolute deadlines), each holding its sequence number and its send time "
-        "(CLOCK_MONOTONIC, taken just before the write; also in the envelope). Every subject "
+        "(CLOCK_MONOTONIC, taken just before the write); the envelope carries the sequence "
+        "number and the tick's time, one acquisition stamp for all ports of a tick, as a robot's "
+        "state ports do. Every subject "
         "converts it all with `deg_to_rad`, so the consumer divides by pi/180 to read them back. "
         "Latency = receive time − the newest send time in the output (the tick's last port, whose "
         "arrival completes the set). `direct` measures each Bottle of each port. The consumer is a "
         "`yarp::os::Port` whose reader runs in the connection thread (nothing queued); the ROS 2 "
         "consumer is an rclpy subscription (reliable, depth 100) whose callback appends one tuple.")
     add("- **Delivered / sent**: distinct ticks that came out (a tick is identified by its first "
-        "port's sequence number); a tick that never comes out is lost: one of its Bottles was "
-        "overwritten by a newer one before the module read it (inputs keep only the newest "
-        "Bottle), or the module's write was dropped. *mixed*: outputs combining Bottles of "
-        "different ticks (after a loss on one input, the inputs can stay a tick apart until the "
-        "next loss); they count as delivered. The consumer checks every value of every output.")
+        "port's sequence number); a tick that never comes out is lost. The generated modules "
+        "read their inputs strictly and match the Bottles of a tick by envelope stamp "
+        "(docs/runtime.md); the hand-written relay keeps only each input's newest Bottle, as "
+        "YARP does by default, so it loses a Bottle that a newer one replaces before its "
+        "callback runs. *mixed*: outputs combining Bottles of different ticks; they count as "
+        "delivered. The consumer checks every value of every output.")
     add("- **CPU %** of the module process over the measured run (user + system, all threads, "
         "100 % = one core); **RSS** from /proc (VmRSS; peak = VmHWM).")
     add("- Before each measured run a warm-up run (discarded) lets connections and buffers "

@@ -758,6 +758,31 @@ def test_fixed_rate_50hz_with_nan_passing(builds, yarp_server):
     assert "skipped 0 cycles" in module.log_text()
 
 
+def test_fixed_rate_skips_overrun_cycles(builds, yarp_server):
+    """A module held up for 0.5 s at 50 Hz (SIGSTOP, as a machine under load
+    would) skips the cycles it missed and counts them; it does not catch up
+    with a burst of 25 messages, and the rate holds afterwards."""
+    env = yarp_server.env
+    with Module(env, builds.exe("relay_bridge"), "--rate", "50") as module, \
+            YarpReader(env, "/test/skip:i", source="/relay_bridge/out:o") as reader, \
+            YarpProducer(env, "/t/src:o", bottles=[[1.0]], rate=100):
+        reader.wait_for(10)
+        os.kill(module.pid, signal.SIGSTOP)
+        time.sleep(0.5)
+        reader.clear()
+        os.kill(module.pid, signal.SIGCONT)
+        time.sleep(1.0)
+        got = [b.t for b in reader.bottles]
+        rc, _ = module.interrupt()
+    assert rc == 0
+    first = got[0]
+    burst = sum(1 for t in got if t - first < 0.1)
+    assert burst <= 7, f"{burst} messages in the first 0.1 s after the stop: a catch-up burst"
+    assert 40 <= len(got) <= 60, f"{len(got)} messages in the second after the stop"
+    skipped = int(re.search(r"skipped (\d+) cycles", module.log_text()).group(1))
+    assert 20 <= skipped <= 30, skipped
+
+
 def test_stalled_consumer_does_not_stall_the_module(builds, yarp_server):
     env = yarp_server.env
     big = [float(k) for k in range(500)]  # 4 kB messages: a stalled reader's buffers fill fast

@@ -321,6 +321,60 @@ def test_generated_module_imports_and_exposes_its_data(tmp_path):
     assert msg.fields[1][1].values == (EVIL, "", "'", '"', "\\")
 
 
+PARSE_CHECK = r"""
+import importlib.util, json, math, sys, time
+import yarp
+spec = importlib.util.spec_from_file_location("m", sys.argv[1])
+m = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(m)
+yarp.Network.init()
+out, inp = yarp.BufferedPortBottle(), yarp.BufferedPortBottle()
+inp.setStrict(True)
+assert out.open("/test/parse:o") and inp.open("/test/parse:i")
+assert yarp.Network.connect("/test/parse:o", "/test/parse:i")
+cases = [[1.5, -2.25, 1e300, float("nan"), 0.0], [1.5, 2, 3.5], [], [0.1] * 50]
+report = []
+for values in cases:
+    b = out.prepare()
+    b.clear()
+    for x in values:
+        if isinstance(x, int):
+            b.addInt32(x)
+        else:
+            b.addFloat64(x)
+    out.write(True)
+    got = inp.read(True)
+    row = {"special": got.getSpecialization()}
+    for types in (None, ("float64",) * len(values), ("float32",) * 3):
+        for drop_nan in (False, True):
+            fast = m.parse_bottle(got, types, False, drop_nan, None, True)
+            slow = m.parse_bottle(got, types, False, drop_nan, None, False)
+            row.setdefault("pairs", []).append([repr(fast), repr(slow)])
+    report.append(row)
+print("report " + json.dumps(report), flush=True)
+out.close(); inp.close()
+"""
+
+
+def test_float64_fast_path_reads_what_the_checked_path_reads(yarp_server, tmp_path):
+    """A Bottle read from the network whose items are all float64 is taken
+    whole (no per-element type checks); whatever the Bottle, the result and
+    the reason for a drop are those of the checked path."""
+    path = write_module(simple_program("parse_bridge"), tmp_path)
+    script = tmp_path / "parse_check.py"
+    script.write_text(PARSE_CHECK, encoding="utf-8")
+    r = subprocess.run([VENV_PYTHON, str(script), str(path)], env=yarp_server.env,
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stderr[-3000:]
+    line, = [l for l in r.stdout.splitlines() if l.startswith("report ")]
+    report = json.loads(line[len("report "):])
+    assert [row["special"] for row in report] == [10, 0, 0, 10]  # all float64: the fast path
+    for row in report:
+        for fast, slow in row["pairs"]:
+            assert fast == slow
+    assert "element 3 is NaN" in report[0]["pairs"][1][0]  # drop_nan: the same reason
+
+
 def test_help_without_a_name_server(tmp_path):
     require_yarp()
     path = write_module(values_program(), tmp_path)
@@ -474,6 +528,34 @@ def test_fixed_rate_50hz(yarp_server, tmp_path):
         reader.stop()
     assert_clean_exit(yarp_server, bridge, rc, seconds, ["/rate_bridge/out:o"])
     assert 80 <= n <= 120, f"{n} messages in 2 s at 50 Hz"
+
+
+def test_fixed_rate_skips_overrun_cycles(yarp_server, tmp_path):
+    """A module held up for 0.5 s at 50 Hz (SIGSTOP, as a machine under load
+    would) skips the cycles it missed and counts them; it does not catch up
+    with a burst of 25 messages, and the rate holds afterwards."""
+    env = yarp_server.env
+    program = simple_program("skip_bridge", rate=50.0)
+    stream = YarpProducer(env, "/test/a:o", bottles=[[1.0]], rate=100)
+    bridge, (), reader = start_pipeline(env, program, tmp_path)
+    try:
+        stream.start()
+        reader.wait_for(10, timeout=15)
+        os.kill(bridge.pid, signal.SIGSTOP)
+        time.sleep(0.5)
+        reader.clear()
+        os.kill(bridge.pid, signal.SIGCONT)
+        time.sleep(1.0)
+        got = [b.t for b in reader.bottles]
+    finally:
+        rc, seconds = bridge.interrupt(signal.SIGTERM)
+        stream.stop()
+        reader.stop()
+    assert_clean_exit(yarp_server, bridge, rc, seconds, ["/skip_bridge/out:o"])
+    burst = sum(1 for t in got if t - got[0] < 0.1)
+    assert burst <= 7, f"{burst} messages in the first 0.1 s after the stop: a catch-up burst"
+    assert 40 <= len(got) <= 60, f"{len(got)} messages in the second after the stop"
+    assert 20 <= totals(bridge.log_text())["skipped"] <= 30, bridge.log_text()[-1000:]
 
 
 def test_producer_never_starts(yarp_server, tmp_path):
