@@ -201,15 +201,22 @@ def parse_bottle(bottle, types, flatten, drop_nan, positions=None, floats=False)
     ``floats``: every element is read as a float (undeclared, or declared
     float32/float64 only), so a Bottle of float64 only is taken whole."""
     if floats and bottle.getSpecialization() == _TAG_FLOAT64:
+        # one binding call for the whole Bottle, not two per element: each
+        # call lets the GIL go, and input threads reading at once would take
+        # turns at it for every element. YARP prints a float64 with 21
+        # significant digits (exact), "nan" and "inf" as float() reads them.
         n = bottle.size()
         if types is None or n == len(types):
-            get = bottle.get
-            out = [get(k).asFloat64() for k in range(n)]
-            if drop_nan:
-                for k, x in enumerate(out):
-                    if x != x:
-                        return None, "element %d is NaN" % k
-            return out, None
+            try:
+                out = list(map(float, bottle.toString().split()))
+            except ValueError:
+                out = None
+            if out is not None and len(out) == n:
+                if drop_nan:
+                    for k, x in enumerate(out):
+                        if x != x:
+                            return None, "element %d is NaN" % k
+                return out, None
     if positions is not None:
         items = _picked(bottle, positions)
         if items is None:
@@ -435,6 +442,7 @@ class Bridge:
         self.verbose = options.verbose
         self.cond = threading.Condition(threading.RLock())
         self.stopping = False
+        self.publishing = False  # event-driven, once the output is open
         self.published = 0
         self.skipped_cycles = 0
         self.build_errors = 0
@@ -481,10 +489,15 @@ class Bridge:
                 inp.unused += 1
             inp.arrival = now
             inp.generation += 1
-            if inp.state == "stale":
-                self.log("input %s is fresh again" % inp.source)
-            inp.state = "fresh"
-            self.cond.notify_all()
+            if inp.state != "fresh":
+                if inp.state == "stale":
+                    self.log("input %s is fresh again" % inp.source)
+                inp.state = "fresh"
+                self.cond.notify_all()  # the loop sleeps until the next stale deadline
+            if self.publishing:
+                # event-driven: built and published here, in the thread of
+                # the Bottle that completes it (no hand-off to another thread)
+                self._publish_ready()
 
     def on_skipped(self, inp):
         """A Bottle skipped unread: the input's reader fell BACKLOG behind."""
@@ -631,20 +644,26 @@ class Bridge:
         self.published += 1
 
     # -- the loops
+    def _publish_ready(self):
+        """Under the lock, event-driven: every message that is ready."""
+        while not self.stopping and self._ready(True):
+            raw, envelopes = self._snapshot(True)
+            self._publish(raw, envelopes)
+
     def _loop_event_driven(self):
+        """Messages are published by the input threads (on_bottle); the loop
+        reports freshness, sleeping until an input would go stale."""
+        with self.cond:
+            self.publishing = True
+            self._publish_ready()  # Bottles that came before the output was open
         while True:
             with self.cond:
                 if self.stopping:
                     return
                 now = time.monotonic()
                 deadline = self._check_freshness(now)
-                if not self._ready(True):
-                    # sleep until data arrives (notify) or an input would go stale
-                    wait = 1.0 if deadline is None else min(1.0, max(0.0, deadline - now))
-                    self.cond.wait(wait)
-                    continue
-                raw, envelopes = self._snapshot(True)
-            self._publish(raw, envelopes)
+                wait = 1.0 if deadline is None else min(1.0, max(0.0, deadline - now))
+                self.cond.wait(wait)
 
     def _loop_fixed_rate(self):
         period = 1.0 / self.rate
@@ -773,14 +792,15 @@ def convert(values, converters):
         if c.scale == 1.0 and c.offset == 0.0 and not c.to_float:
             continue
         stop = n if c.stop is None else min(c.stop, n)
-        for k in range(c.start, stop):
-            x = values[k]
-            y = x * c.scale + c.offset
-            if c.to_float:
-                y = float(y)
-            elif isinstance(x, int):
-                y = int(y)
-            values[k] = y
+        if c.start >= stop:
+            continue
+        scale, offset = c.scale, c.offset
+        part = values[c.start:stop]
+        if c.to_float:
+            part = [float(x * scale + offset) for x in part]
+        else:  # an integer stays an integer
+            part = [int(x * scale + offset) if isinstance(x, int) else x * scale + offset for x in part]
+        values[c.start:stop] = part
     return values
 
 
