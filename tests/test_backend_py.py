@@ -332,7 +332,9 @@ out, inp = yarp.BufferedPortBottle(), yarp.BufferedPortBottle()
 inp.setStrict(True)
 assert out.open("/test/parse:o") and inp.open("/test/parse:i")
 assert yarp.Network.connect("/test/parse:o", "/test/parse:i")
-cases = [[1.5, -2.25, 1e300, float("nan"), 0.0], [1.5, 2, 3.5], [], [0.1] * 50]
+cases = [[1.5, -2.25, 1e300, float("nan"), 0.0], [1.5, 2, 3.5], [],
+         [0.1, -0.0, 5e-324, float("inf"), -float("inf"), 1.7976931348623157e308, 1 / 3]
+         + [k * 0.7318 - 17.2 for k in range(50)]]
 report = []
 for values in cases:
     b = out.prepare()
@@ -346,6 +348,7 @@ for values in cases:
     got = inp.read(True)
     row = {"special": got.getSpecialization()}
     for types in (None, ("float64",) * len(values), ("float32",) * 3):
+        # repr of the list: the exact value of every float
         for drop_nan in (False, True):
             fast = m.parse_bottle(got, types, False, drop_nan, None, True)
             slow = m.parse_bottle(got, types, False, drop_nan, None, False)
@@ -371,7 +374,7 @@ def test_float64_fast_path_reads_what_the_checked_path_reads(yarp_server, tmp_pa
     assert [row["special"] for row in report] == [10, 0, 0, 10]  # all float64: the fast path
     for row in report:
         for fast, slow in row["pairs"]:
-            assert fast == slow
+            assert fast == slow  # repr: every bit of every float (-0.0, 5e-324, inf)
     assert "element 3 is NaN" in report[0]["pairs"][1][0]  # drop_nan: the same reason
 
 
