@@ -40,7 +40,7 @@ from ybg.backends.cpp.escape import (CPP_KEYWORDS, cpp_comment, cpp_float, cpp_i
 from ybg.backends.cpp.lower import WIRE_ROS1, WIRE_YARP, LoweringError
 from ybg.compiler import ir
 from ybg.compiler.ir import (Converter, Counter, Default, ElementGroup, Field, Input, Literal, Mux,
-                             MuxRef, Output, Policy, Program, Seconds, Struct, Timestamp,
+                             MuxRef, Output, Policy, Program, Seconds, Struct, Timestamp, Timing,
                              TypeRef)
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -111,6 +111,16 @@ def relay_program() -> Program:
         muxes=(Mux("data", (Input("/t/src:o"),)),),
         message=Struct((Field("count", Counter("int32")), Field("values", MuxRef("data", splice=True)))),
         output=Output("yarp", "/relay_bridge/out:o"))
+
+
+def newest_only_program() -> Program:
+    """Two inputs, trigger = all, `queue = 1`: each input keeps only its newest Bottle."""
+    return Program(
+        module="newest_bridge", source="newest_bridge.ini",
+        muxes=(Mux("data", (Input("/t/a:o"), Input("/t/b:o"))),),
+        message=Struct((Field("count", Counter("int32")), Field("values", MuxRef("data", splice=True)))),
+        output=Output("yarp", "/newest_bridge/out:o"),
+        timing=Timing(queue=1))
 
 
 def escape_program(strings=FIXED_STRINGS, module="escape_bridge") -> Program:
@@ -278,6 +288,7 @@ def builds(tmp_path_factory) -> Builds:
     b = Builds(tmp_path_factory.mktemp("cpp_modules"))
     b.add("values_bridge", values_program())
     b.add("relay_bridge", relay_program(), optimize=True)
+    b.add("newest_bridge", newest_only_program())
     b.add("escape_hypothesis", escape_program(FIXED_STRINGS + tuple(hypothesis_strings()), "escape_hypothesis"))
     b.add("typed_ros_input", ros1_input_program())
     for path in SUPPORTED:
@@ -548,8 +559,11 @@ def test_ros1_input_fields_are_found_by_path():
 # building
 
 
-@pytest.mark.parametrize("key", ["values_bridge", "relay_bridge", "escape_hypothesis", "typed_ros_input"]
-                         + [p.stem for p in SUPPORTED])
+# the first of these builds every module of the session (two jobs, about two
+# minutes on a quiet machine): more time than a single test gets
+@pytest.mark.timeout(900)
+@pytest.mark.parametrize("key", ["values_bridge", "relay_bridge", "newest_bridge", "escape_hypothesis",
+                                 "typed_ros_input"] + [p.stem for p in SUPPORTED])
 def test_builds_with_werror(builds, key):
     exe = builds.exe(key)
     assert os.access(exe, os.X_OK)
@@ -756,6 +770,33 @@ def test_fixed_rate_50hz_with_nan_passing(builds, yarp_server):
     assert 0.017 <= gaps[len(gaps) // 2] <= 0.023
     assert math.isnan(got[-1].data[2])  # on_nan = pass
     assert "skipped 0 cycles" in module.log_text()
+
+
+def test_queue_one_keeps_the_newest_bottle_only(builds, yarp_server):
+    """`queue = 1`: two stamped Bottles on a before any on b; the first is
+    replaced (unused) and the one message pairs the newest of a with b's
+    first (with the default queue both would be paired: test_differential)."""
+    env = yarp_server.env
+    with Module(env, builds.exe("newest_bridge")) as module, \
+            YarpReader(env, "/test/newest:i", source="/newest_bridge/out:o") as reader, \
+            YarpProducer(env, "/t/a:o") as a, YarpProducer(env, "/t/b:o") as b:
+        reader.wait_connected(timeout=15)
+        a.wait_outputs(1, timeout=15)
+        b.wait_outputs(1, timeout=15)
+        a.write([1.0], stamp=[1, 500.001])
+        time.sleep(0.1)
+        a.write([2.0], stamp=[2, 500.002])
+        time.sleep(0.3)
+        b.write([10.0], stamp=[1, 500.001])
+        time.sleep(0.1)
+        b.write([20.0], stamp=[2, 500.002])
+        reader.wait_for(1)
+        time.sleep(0.3)
+        got = [r.data for r in reader.bottles]
+        rc, _ = module.interrupt()
+    assert rc == 0
+    assert got == [[0, 2.0, 10.0]]
+    assert re.search(r"input /t/a:o: received 2, dropped 0, stale periods \d+, unused 1", module.log_text())
 
 
 def test_fixed_rate_skips_overrun_cycles(builds, yarp_server):

@@ -27,6 +27,7 @@ from ybg.backends import get_backend
 from ybg.backends.py import PyBackend
 from ybg.backends.py.lower import LoweringError, py_literal
 from ybg.compiler import ir
+from ybg.compiler.pipeline import compile_text
 from ybg.compiler.ir import (Converter, Counter, Default, ElementGroup, Field, Input, Literal,
                              Mux, MuxRef, Output, Policy, Program, Seconds, Struct, Timestamp,
                              Timing, TypeRef)
@@ -101,7 +102,7 @@ def values_program(rate=None, trigger="all"):
 
 def simple_program(module, *, rate=None, trigger="all", layout=None, on_stale="skip",
                    on_nan="pass", timeout=1.0, inputs=("/test/a:o",), envelope=False,
-                   big=0):
+                   big=0, queue=64):
     """One mux of ``inputs`` into (counter, values[, envelope time][, padding])."""
     fields = [Field("count", Counter("int32")), Field("values", MuxRef("m"))]
     if envelope:
@@ -114,7 +115,7 @@ def simple_program(module, *, rate=None, trigger="all", layout=None, on_stale="s
         muxes=(Mux("m", tuple(Input(n, layout=layout, timeout=timeout) for n in inputs)),),
         message=Struct(tuple(fields)),
         output=Output("yarp", f"/{module}/out:o"),
-        timing=Timing(rate=rate, trigger=trigger),
+        timing=Timing(rate=rate, trigger=trigger, queue=queue),
         policy=Policy(on_stale=on_stale, on_nan=on_nan))
 
 
@@ -531,6 +532,48 @@ def test_fixed_rate_50hz(yarp_server, tmp_path):
         reader.stop()
     assert_clean_exit(yarp_server, bridge, rc, seconds, ["/rate_bridge/out:o"])
     assert 80 <= n <= 120, f"{n} messages in 2 s at 50 Hz"
+
+
+def test_queue_setting_reaches_the_module():
+    """`queue` in [output] goes into the IR and the generated module."""
+    text = "[output]\nport = /q/out:o\nqueue = 1\n\n[mux m]\nports = /q/a:o\n\n[message]\nv = m\n"
+    result = compile_text(text, "q.ini")
+    assert result.program is not None, result.diagnostics
+    assert result.program.timing.queue == 1
+    assert compile_text(text.replace("queue = 1\n", ""), "q.ini").program.timing.queue == 64
+    (_, code), = PyBackend().render(result.program).items()
+    assert "    queue=1,\n" in code
+
+
+@pytest.mark.parametrize("queue, expected", [(64, [(1, 1), (2, 2)]), (1, [(2, 1)])])
+def test_queue_one_keeps_the_newest_bottle_only(yarp_server, tmp_path, queue, expected):
+    """Two stamped Bottles on a before any on b: with the default queue both
+    are paired with b's Bottles of the same stamps; with `queue = 1` (YARP's
+    newest-only reading) the first is replaced before b delivers, and the
+    message pairs the newest of a with b's first."""
+    env = yarp_server.env
+    program = simple_program(f"queue{queue}_bridge", inputs=("/test/a:o", "/test/b:o"), queue=queue)
+    bridge, (a, b), reader = start_pipeline(env, program, tmp_path, producers=("/test/a:o", "/test/b:o"))
+    try:
+        a.write([1.0], stamp=[1, 500.001])
+        time.sleep(0.1)  # read one by one, even by a newest-only port
+        a.write([2.0], stamp=[2, 500.002])
+        time.sleep(0.3)
+        b.write([10.0], stamp=[1, 500.001])
+        time.sleep(0.1)
+        b.write([20.0], stamp=[2, 500.002])
+        reader.wait_for(len(expected))
+        time.sleep(0.3)
+        got = [tuple(int(x) for x in d.data[1]) for d in reader.bottles]
+    finally:
+        rc, seconds = bridge.interrupt(signal.SIGTERM)
+        for p in (a, b, reader):
+            p.stop()
+    assert_clean_exit(yarp_server, bridge, rc, seconds, [f"/queue{queue}_bridge/out:o"])
+    assert [(x, y // 10) for x, y in got] == expected
+    unused = re.search(r"input /test/a:o: received 2, dropped 0, stale periods \d+, unused (\d+)",
+                       bridge.log_text())
+    assert unused and int(unused.group(1)) == (0 if queue > 1 else 1), bridge.log_text()[-800:]
 
 
 def test_fixed_rate_skips_overrun_cycles(yarp_server, tmp_path):

@@ -21,7 +21,7 @@ from ybg.compiler.names import identifier_problem, port_problem, sanitize_identi
 
 SECTION_KEYS: dict[str, tuple[str, ...]] = {
     "module": ("name", "distro"),
-    "output": ("topic", "port", "connect", "type", "via", "node", "rate", "trigger",
+    "output": ("topic", "port", "connect", "type", "via", "node", "rate", "trigger", "queue",
                "on_stale", "on_nan", "timeout", "reliability", "durability", "depth"),
     "mux": ("ports", "topics", "via", "convert", "verbose", "timeout"),
     "message": (),
@@ -35,6 +35,8 @@ CHOICES = {
     "durability": ("volatile", "transient_local"),
 }
 DEFAULT_TIMEOUT = 1.0
+DEFAULT_QUEUE = 64
+MAX_QUEUE = 100_000
 
 #: converter name -> (number of parameters, scale, offset, to_float)
 CONVERTERS: dict[str, tuple[int, float, float, bool]] = {
@@ -290,6 +292,7 @@ class _Checker:
         timing = ir.Timing(
             rate=self.rate(out_keys),
             trigger=_choice(out_keys["trigger"], self.sink) if "trigger" in out_keys else "all",
+            queue=self.queue(out_keys),
         )
         policy = ir.Policy(
             on_stale=(_choice(out_keys["on_stale"], self.sink) if "on_stale" in out_keys else None) or "skip",
@@ -304,6 +307,21 @@ class _Checker:
                         or message.msg_type) else None,
             distro=self.distro,
         )
+
+    def queue(self, keys: dict[str, ast.Entry]) -> int:
+        """[output] queue: a whole number from 1 (the newest Bottle only) to MAX_QUEUE."""
+        if "queue" not in keys:
+            return DEFAULT_QUEUE
+        n = _number(keys["queue"], self.sink, 1.0)
+        if n is None:
+            return DEFAULT_QUEUE
+        if n != int(n) or n > MAX_QUEUE:
+            self.sink.error("E208", f"`queue` is a whole number from 1 to {MAX_QUEUE}",
+                            keys["queue"].items[0].span,
+                            "1 keeps only the newest Bottle of each input; the default, "
+                            f"{DEFAULT_QUEUE}, relays a burst whole")
+            return DEFAULT_QUEUE
+        return int(n)
 
     # ---- output
     def output_via(self, keys: dict[str, ast.Entry]) -> str | None:

@@ -306,10 +306,13 @@ class Output:
 class Timing:
     """``rate`` in Hz for a fixed period, or ``None`` for event-driven:
     publish when every input the message needs has delivered new data since
-    the last publish (``trigger = "all"``) or any of them (``"any"``)."""
+    the last publish (``trigger = "all"``) or any of them (``"any"``).
+    ``queue``: the Bottles each input keeps that no message used yet; 1 is
+    the newest only, read non-strictly (YARP's default)."""
 
     rate: float | None = None
     trigger: str = "all"
+    queue: int = 64
 
 
 @dataclass(frozen=True)

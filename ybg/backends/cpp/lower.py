@@ -91,6 +91,7 @@ class ModuleView:
     rate: str
     rate_comment: str
     trigger_all: str
+    queue: str
     hold: str
     drop_nan: str
     msg_comment: str
@@ -529,6 +530,7 @@ def lower(program: ir.Program) -> ModuleView:
         rate=cpp_float(float(rate)) if rate is not None else "0.0",
         rate_comment="Hz" if rate is not None else "event-driven",
         trigger_all="true" if program.timing.trigger == "all" else "false",
+        queue=str(int(program.timing.queue)),
         hold="true" if program.policy.on_stale == "hold" else "false",
         drop_nan="true" if program.policy.on_nan == "drop" else "false",
         msg_comment=(comment(program.message.msg_type or out.msg_type)

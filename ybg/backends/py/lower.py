@@ -127,6 +127,7 @@ class ModuleView:
     needed: str
     rate: str
     trigger: str
+    queue: str
     on_stale: str
     on_nan: str
     output: OutputView
@@ -374,6 +375,7 @@ def lower(program: ir.Program) -> ModuleView:
         needed=py_literal(needed),
         rate=py_literal(None if rate is None else float(rate)),
         trigger=py_literal(program.timing.trigger),
+        queue=py_literal(int(program.timing.queue)),
         on_stale=py_literal(program.policy.on_stale),
         on_nan=py_literal(program.policy.on_nan),
         output=output,

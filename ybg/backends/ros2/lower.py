@@ -110,6 +110,7 @@ class NodeView:
     rate: str
     default_rate: str
     trigger: str
+    queue: str
     on_stale: str
     on_nan: str
     output_kind: str
@@ -534,6 +535,7 @@ def lower(program: ir.Program) -> NodeView:
         rate=py_literal(None if rate is None else float(rate)),
         default_rate=py_literal(0.0 if rate is None else float(rate)),
         trigger=py_literal(program.timing.trigger),
+        queue=py_literal(int(program.timing.queue)),
         on_stale=py_literal(program.policy.on_stale),
         on_nan=py_literal(program.policy.on_nan),
         output_kind=py_literal(out.kind),

@@ -406,6 +406,7 @@ struct BridgeSpec
     OutputSpec output;
     double rate;              // Hz; 0 = event-driven
     bool triggerAll;          // event-driven: every needed input has new data (else any)
+    std::size_t queue;        // unused Bottles kept per input (1: the newest, read non-strictly)
     bool hold;                // on_stale = hold (else skip)
     bool dropNan;             // on_nan = drop (else pass)
 };
@@ -427,8 +428,6 @@ struct Pending
     SteadyClock::time_point arrival;
 };
 
-/// Unused Bottles an input keeps (the oldest goes first, counted as unused).
-constexpr std::size_t kQueueDepth = 64;
 /// Unread Bottles a port may hold before the oldest are skipped unread (a
 /// reader that fell this far behind catches up instead of lagging).
 constexpr int kBacklog = 64;
@@ -654,6 +653,7 @@ struct Shared
     std::condition_variable wake;  // stop, or an input became fresh (new stale deadline)
     bool stopping = false;
     bool dropNan = false;
+    std::size_t queue = 1;  // unused Bottles kept per input (BridgeSpec::queue)
     ArrivalListener* listener = nullptr;
 };
 
@@ -671,7 +671,9 @@ public:
 
     bool open()
     {
-        port_.setStrict(true);  // every Bottle reaches onRead, in order (kBacklog bounds it)
+        // queue > 1: every Bottle reaches onRead, in order (kBacklog bounds
+        // it); 1: the newest only, as YARP reads by default
+        port_.setStrict(shared_.queue > 1);
         if (spec.kind == InputKind::Ros1) {
             port_.setReadOnly();
         }
@@ -726,7 +728,7 @@ public:
             entry.data.hasEnvelope = hasEnvelope;
             entry.data.envelope = hasEnvelope ? stamp.getTime() : 0.0;
             entry.arrival = now;
-            if (queue.size() > kQueueDepth) {
+            if (queue.size() > shared_.queue) {
                 queue.pop_front();
                 ++unused;
             }
@@ -1117,6 +1119,7 @@ public:
             eventDriven_(!(options.rate > 0))
     {
         shared_.dropNan = spec.dropNan;
+        shared_.queue = spec.queue;
         shared_.listener = this;
         for (const InputSpec& in : spec.inputs) {
             const std::string mux = spec.muxes[static_cast<std::size_t>(in.mux)].name;
@@ -1683,6 +1686,7 @@ const ybgc::BridgeSpec kSpec = {
     {ybgc::OutputKind::Ros1, "/yarp/joint_states@/yarp/thesis_figure5_rviz", "sensor_msgs/JointState", ""},
     0.0,  // rate: event-driven
     true,  // trigger = all (else any)
+    64,  // queue: unused Bottles kept per input (1: the newest only)
     false,  // on_stale = hold (else skip)
     false,  // on_nan = drop (else pass)
 };

@@ -46,7 +46,7 @@ InputSpec = collections.namedtuple("InputSpec", "mux index source kind types tim
 ConverterSpec = collections.namedtuple("ConverterSpec", "name scale offset to_float start stop")
 MuxSpec = collections.namedtuple("MuxSpec", "name inputs converters verbose types")
 BridgeSpec = collections.namedtuple(
-    "BridgeSpec", "module config description muxes needed rate trigger on_stale on_nan")
+    "BridgeSpec", "module config description muxes needed rate trigger queue on_stale on_nan")
 
 
 # --- the message tree --------------------------------------------------------
@@ -247,8 +247,6 @@ def parse_bottle(bottle, types, flatten, drop_nan, positions=None, floats=False)
     return out, None
 
 
-#: unused Bottles an input keeps (the oldest goes first, counted as unused)
-QUEUE_DEPTH = 64
 #: unread Bottles a port may hold before the oldest are skipped unread (a
 #: reader that fell this far behind catches up instead of lagging)
 BACKLOG = 64
@@ -293,7 +291,9 @@ class Input(InputState):
                                                or all(t in _FLOAT_TYPES for t in spec.types))
 
     def open(self):
-        self.port.setStrict(True)
+        # queue > 1: every Bottle, in order (BACKLOG bounds it); 1: the
+        # newest only, as YARP reads by default
+        self.port.setStrict(self.bridge.spec.queue > 1)
         if self.spec.kind == "ros1":
             self.port.setReadOnly()
         if not self.port.open(self.local):
@@ -465,7 +465,7 @@ class Bridge:
                 return
             queue = inp.queue
             queue.append((values, now, envelope))
-            if len(queue) > QUEUE_DEPTH:
+            if len(queue) > self.spec.queue:
                 queue.popleft()
                 inp.unused += 1
             inp.arrival = now
@@ -706,7 +706,10 @@ class Bridge:
             self.status = 0
             return 0
         finally:
-            self.stopping = True
+            # under the lock: a message being published by an input thread is
+            # finished, and none starts after this, before the ports close
+            with self.cond:
+                self.stopping = True
             self._shut_down(opened)
 
     def _shut_down(self, opened):
@@ -987,6 +990,7 @@ SPEC = BridgeSpec(
     needed=('mux1',),
     rate=60.0,
     trigger='all',
+    queue=64,
     on_stale='skip',
     on_nan='pass',
 )
