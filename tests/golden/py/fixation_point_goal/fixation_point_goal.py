@@ -408,6 +408,9 @@ class Context:
         return time_msg(round(t * 1e9), style)
 
 
+_LOG_LOCK = threading.Lock()
+
+
 class Bridge:
     """The module's loop: gathers inputs into muxes, converts, builds and
     publishes messages, event-driven or at a fixed rate."""
@@ -450,7 +453,11 @@ class Bridge:
 
     # -- messages to the user
     def log(self, text):
-        print("%s: %s" % (self.spec.module, text), flush=True)
+        # one write of the whole line: several threads log (inputs, the
+        # loop, ROS 2 callbacks), and print() writes the end of line apart
+        with _LOG_LOCK:
+            sys.stdout.write("%s: %s\n" % (self.spec.module, text))
+            sys.stdout.flush()
 
     # -- called by the input threads
     def on_bottle(self, inp, values, reason, now, envelope):
