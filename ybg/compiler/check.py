@@ -35,7 +35,6 @@ CHOICES = {
     "durability": ("volatile", "transient_local"),
 }
 DEFAULT_TIMEOUT = 1.0
-DEFAULT_QUEUE = 64
 MAX_QUEUE = 100_000
 
 #: converter name -> (number of parameters, scale, offset, to_float)
@@ -138,6 +137,19 @@ def _number(entry: ast.Entry, sink: Sink, minimum: float = 0.0, allow_zero: bool
                    item.span)
         return None
     return float(num)
+
+
+def _whole(entry: ast.Entry, sink: Sink, minimum: int, maximum: int | None = None,
+           hint: str | None = None) -> int | None:
+    """A whole number from ``minimum`` (to ``maximum``), or None (reported)."""
+    num = _number(entry, sink, float(minimum))
+    if num is None:
+        return None
+    if num != int(num) or (maximum is not None and num > maximum):
+        where = f" from {minimum} to {maximum}" if maximum is not None else ""
+        sink.error("E208", f"`{entry.key}` is a whole number{where}", entry.items[0].span, hint)
+        return None
+    return int(num)
 
 
 def _bool(entry: ast.Entry, sink: Sink) -> bool | None:
@@ -311,17 +323,11 @@ class _Checker:
     def queue(self, keys: dict[str, ast.Entry]) -> int:
         """[output] queue: a whole number from 1 (the newest Bottle only) to MAX_QUEUE."""
         if "queue" not in keys:
-            return DEFAULT_QUEUE
-        n = _number(keys["queue"], self.sink, 1.0)
-        if n is None:
-            return DEFAULT_QUEUE
-        if n != int(n) or n > MAX_QUEUE:
-            self.sink.error("E208", f"`queue` is a whole number from 1 to {MAX_QUEUE}",
-                            keys["queue"].items[0].span,
-                            "1 keeps only the newest Bottle of each input; the default, "
-                            f"{DEFAULT_QUEUE}, relays a burst whole")
-            return DEFAULT_QUEUE
-        return int(n)
+            return ir.DEFAULT_QUEUE
+        n = _whole(keys["queue"], self.sink, 1, MAX_QUEUE,
+                   "1 keeps only the newest Bottle of each input; the default, "
+                   f"{ir.DEFAULT_QUEUE}, relays a burst whole")
+        return ir.DEFAULT_QUEUE if n is None else n
 
     # ---- output
     def output_via(self, keys: dict[str, ast.Entry]) -> str | None:
@@ -400,11 +406,9 @@ class _Checker:
             sensor = msg_type in SENSOR_DATA_TYPES
             rel = _choice(keys["reliability"], s) if "reliability" in keys else None
             dur = _choice(keys["durability"], s) if "durability" in keys else None
-            depth = _number(keys["depth"], s, 1.0) if "depth" in keys else None
-            if depth is not None and depth != int(depth):
-                s.error("E208", "`depth` is a whole number", keys["depth"].items[0].span)
+            depth = _whole(keys["depth"], s, 1) if "depth" in keys else None
             qos = ir.QoS(rel or ("best_effort" if sensor else "reliable"), dur or "volatile",
-                         int(depth) if depth else (5 if sensor else 10))
+                         depth if depth else (5 if sensor else 10))
         else:
             for k in ("reliability", "durability", "depth"):
                 if k in keys:

@@ -302,6 +302,10 @@ class Output:
     connect_to: str | None = None
 
 
+#: Bottles each input keeps that no message used yet, unless the config says
+DEFAULT_QUEUE = 64
+
+
 @dataclass(frozen=True)
 class Timing:
     """``rate`` in Hz for a fixed period, or ``None`` for event-driven:
@@ -312,7 +316,7 @@ class Timing:
 
     rate: float | None = None
     trigger: str = "all"
-    queue: int = 64
+    queue: int = DEFAULT_QUEUE
 
 
 @dataclass(frozen=True)
@@ -464,7 +468,7 @@ def from_json(text: str) -> Program:
 __all__ = [
     "ElementGroup", "Input", "Converter", "Mux", "TypeRef", "Literal", "MuxRef",
     "Counter", "Timestamp", "Seconds", "Default", "Field", "Struct", "QoS",
-    "Output", "Timing", "Policy", "Program", "to_dict", "to_json", "from_dict",
+    "DEFAULT_QUEUE", "Output", "Timing", "Policy", "Program", "to_dict", "to_json", "from_dict",
     "from_json", "IR_VERSION", "NUMERIC_TYPES", "INTEGER_TYPES", "FLOAT_TYPES",
     "ELEMENT_TYPES",
 ]

@@ -733,7 +733,6 @@ public:
                 ++unused;
             }
             arrival = now;
-            ++generation;
             const bool wasFresh = state == Freshness::Fresh;
             if (state == Freshness::Stale) {
                 say("input " + std::string(spec.source) + " is fresh again");
@@ -761,7 +760,6 @@ public:
     Latest latest;                 // what messages use (hasLatest: there is one)
     bool hasLatest = false;
     SteadyClock::time_point arrival;  // of the newest accepted Bottle
-    std::uint64_t generation = 0;  // Bottles accepted
     std::atomic<std::uint64_t> received{0};      // atomic: the totals are read without the lock
     std::atomic<std::uint64_t> dropped{0};
     std::atomic<std::uint64_t> unused{0};        // accepted (or skipped unread), never in a message
@@ -1138,6 +1136,9 @@ public:
         }
         for (const auto& in : inputs_) {
             latest_.add(in->latest);
+            if (!eventDriven_ || std::find(needed_.begin(), needed_.end(), in.get()) == needed_.end()) {
+                sampled_.push_back(in.get());
+            }
         }
     }
 
@@ -1316,7 +1317,7 @@ private:
     bool ready(SteadyClock::time_point now, bool eventDriven) const
     {
         for (const Input* in : needed_) {
-            if (spec_.hold ? in->generation == 0 : !in->isFresh(now)) {
+            if (spec_.hold ? in->state == Freshness::Waiting : !in->isFresh(now)) {
                 return false;
             }
         }
@@ -1365,19 +1366,6 @@ private:
         in.queue.pop_front();
     }
 
-    /// The newest queued Bottle becomes what messages use; the older ones
-    /// are unused.
-    static void takeNewest(Input& in)
-    {
-        if (in.queue.empty()) {
-            return;
-        }
-        in.unused += in.queue.size() - 1;
-        in.latest = std::move(in.queue.back().data);
-        in.hasLatest = true;
-        in.queue.clear();
-    }
-
     /// Moves the Bottles the next message uses from the queues
     /// (docs/runtime.md, "Which Bottles a message uses").
     void take()
@@ -1415,9 +1403,9 @@ private:
                 }
             }
         }
-        for (auto& in : inputs_) {
-            if (!eventDriven_ || std::find(needed_.begin(), needed_.end(), in.get()) == needed_.end()) {
-                takeNewest(*in);  // fixed rate: every input; event-driven: those not needed
+        for (Input* in : sampled_) {
+            if (!in->queue.empty()) {
+                use(*in, in->queue.size() - 1);
             }
         }
     }
@@ -1519,6 +1507,7 @@ private:
     Shared shared_;
     std::vector<std::unique_ptr<Input>> inputs_;
     std::vector<Input*> needed_;
+    std::vector<Input*> sampled_;  // newest Bottle each message: all at a fixed rate, else those not needed
     Output output_;
     const bool eventDriven_;
     bool publishing_ = false;  // guarded by Shared::mutex

@@ -268,7 +268,6 @@ class InputState:
         self.values = None
         self.envelope = None
         self.arrival = None
-        self.generation = 0
         self.received = 0
         self.dropped = 0
         self.unused = 0
@@ -445,6 +444,9 @@ class Bridge:
             self.inputs.extend(group)
         needed = [i for name in spec.needed for i in self.mux_inputs[name]]
         self.needed = needed if needed else list(self.inputs)
+        # the inputs each message takes the newest Bottle of: all at a fixed
+        # rate, those not needed when event-driven
+        self.sampled = [i for i in self.inputs if self.rate is not None or i not in self.needed]
         self.watcher = None
 
     def make_input(self, mux, spec, local, timeout):
@@ -476,7 +478,6 @@ class Bridge:
                 queue.popleft()
                 inp.unused += 1
             inp.arrival = now
-            inp.generation += 1
             if inp.state != "fresh":
                 if inp.state == "stale":
                     self.log("input %s is fresh again" % inp.source)
@@ -522,7 +523,7 @@ class Bridge:
     def _ready(self, event_driven):
         needed = self.needed
         if self.spec.on_stale == "hold":
-            if not all(i.generation > 0 for i in needed):
+            if any(i.state == "waiting" for i in needed):  # one has not delivered yet
                 return False
         elif not all(i.state == "fresh" for i in needed):
             return False
@@ -555,15 +556,6 @@ class Bridge:
         inp.unused += k
         inp.values, _, inp.envelope = queue.popleft()
 
-    @staticmethod
-    def _take_newest(inp):
-        """The newest queued Bottle becomes what messages use; the older ones are unused."""
-        queue = inp.queue
-        if queue:
-            inp.unused += len(queue) - 1
-            inp.values, _, inp.envelope = queue[-1]
-            queue.clear()
-
     def _take(self, event_driven):
         """Under the lock: moves the Bottles the next message uses from the
         queues (docs/runtime.md, "Which Bottles a message uses")."""
@@ -585,9 +577,9 @@ class Bridge:
             for inp in needed:
                 if inp.values is None and inp.queue:
                     self._use(inp, self._nearest(inp, reference, 1))
-        for inp in self.inputs:
-            if not event_driven or inp not in needed:
-                self._take_newest(inp)  # fixed rate: every input; event-driven: those not needed
+        for inp in self.sampled:
+            if inp.queue:
+                self._use(inp, len(inp.queue) - 1)
 
     def _snapshot(self, event_driven):
         """Under the lock: takes the next message's Bottles; the raw values
