@@ -351,7 +351,9 @@ class Watcher(threading.Thread):
             for src, dst, linked in self.pairs:
                 if self.done.is_set():
                     break
-                if linked is not None and linked():
+                # a link this watcher made and that the port still shows is up;
+                # any other input connection (a query) does not count for it
+                if linked is not None and self.connected.get((src, dst)) and linked():
                     continue
                 self._check(src, dst)
             self.done.wait(self.PERIOD)
