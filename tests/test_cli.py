@@ -222,3 +222,22 @@ def test_user_messages_from_msg_path_and_environment(tmp_path):
     r = run("check", "--msg-path", msgs, bad)
     assert r.returncode == 1 and "E303" in r.stderr
     assert run("check", "--msg-path", tmp_path / "nowhere", cfg).returncode == 2
+
+
+def test_target_yarp_version(tmp_path):
+    """`--yarp`: ROS 1 through YARP is an error for YARP 4, a warning for 3.10
+    to 3.12, nothing for 3.5; a version that is not one is a usage error."""
+    ros1 = str(ROOT / "examples" / "rviz_joint_states_ros1.ini")
+    r4 = run("check", "--yarp", "4.0.0", ros1)
+    assert r4.returncode == 1 and "E320" in r4.stdout + r4.stderr and "via = ros2" in r4.stdout + r4.stderr
+    r312 = run("check", "--yarp", "3.12", ros1)
+    assert r312.returncode == 0 and "W507" in r312.stdout + r312.stderr
+    assert run("check", "--strict", "--yarp", "3.12", ros1).returncode == 1
+    r35 = run("check", "--yarp", "3.5", ros1)
+    assert r35.returncode == 0 and "W507" not in r35.stdout + r35.stderr and "E320" not in r35.stdout + r35.stderr
+    yarp_only = str(ROOT / "examples" / "yarp_to_yarp_end_effector.ini")
+    assert run("check", "--strict", "--yarp", "4.0", yarp_only).returncode == 0
+    gen = run("generate", ros1, "--backend", "cpp", "--yarp", "4.0", "-o", str(tmp_path / "out"))
+    assert gen.returncode == 1 and "E320" in gen.stdout + gen.stderr and not (tmp_path / "out").exists()
+    bad = run("check", "--yarp", "four", ros1)
+    assert bad.returncode == 2 and "not a YARP version" in bad.stderr

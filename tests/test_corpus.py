@@ -59,7 +59,9 @@ def test_invalid_config_exact_code_and_position(path: Path):
     assert m, f"{path.name} has no `# expect: CODE LINE:COL` line"
     code, line, col = m.group(1), int(m.group(2)), int(m.group(3))
     backend = re.search(r"# backend: (\S+)", head)
-    result = compile_path(path, backend.group(1) if backend else None)
+    yarp = re.search(r"# yarp: (\S+)", head)
+    result = compile_path(path, backend.group(1) if backend else None,
+                          Options(yarp=yarp.group(1)) if yarp else None)
     shown = [d for d in result.diagnostics if d.severity.value != "note" or code.startswith("N")]
     assert shown, f"{path.name}: no diagnostic at all"
     first = shown[0]

@@ -36,6 +36,9 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--distro", help="ROS distro of the message definitions (noetic, humble, jazzy, kilted)")
     p.add_argument("--msg-path", action="append", default=[], metavar="DIR",
                    help="folder of user .msg files (<DIR>/<pkg>/msg/<Name>.msg); repeatable")
+    p.add_argument("--yarp", metavar="VERSION",
+                   help="the YARP version the module is for, e.g. 3.12 or 4.0 (default: any): "
+                        "ROS 1 through YARP is an error for YARP 4, a warning for 3.10 to 3.12")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -93,7 +96,13 @@ def _options(args):
         if not Path(d).is_dir():
             sys.stderr.write(f"ybgc: --msg-path {d}: not a folder\n")
             sys.exit(EXIT_USAGE)
-    return Options(distro=args.distro, msg_path=tuple(args.msg_path))
+    yarp = getattr(args, "yarp", None)
+    if yarp is not None:
+        from ybg.compiler.pipeline import yarp_version
+        if yarp_version(yarp) is None:
+            sys.stderr.write(f"ybgc: --yarp {yarp}: not a YARP version (e.g. 3.12 or 4.0.0)\n")
+            sys.exit(EXIT_USAGE)
+    return Options(distro=args.distro, msg_path=tuple(args.msg_path), yarp=yarp)
 
 
 _CONFIG_SECTIONS = re.compile(r"(?m)^[ \t]*\[[ \t]*(general|output)[ \t]*\]")

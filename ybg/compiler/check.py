@@ -70,11 +70,13 @@ _INT_RANGE = {
 @dataclass(frozen=True)
 class Options:
     """What the command line adds to a config: ``distro`` overrides
-    ``[module] distro``; ``msg_path`` directories of user ``.msg`` files."""
+    ``[module] distro``; ``msg_path`` directories of user ``.msg`` files;
+    ``yarp`` the YARP version the module is for ("3.12", "4.0.0"; None: any)."""
 
     distro: str | None = None
     msg_path: tuple[str, ...] = ()
     environ: Mapping[str, str] | None = None
+    yarp: str | None = None
 
 
 @dataclass

@@ -101,6 +101,7 @@ CODES: dict[str, str] = {
     "E317": "integer out of range for the field type",
     "E318": "backend cannot build this config",
     "E319": "ROS topic input needs a message type",
+    "E320": "the target YARP version has no ROS 1 support",
     # names
     "E401": "invalid YARP port name",
     "E402": "invalid ROS topic name",
@@ -111,6 +112,7 @@ CODES: dict[str, str] = {
     "W504": "no rate: the module is event-driven",
     "W505": "message type missing: inferred",
     "W506": "key has no effect",
+    "W507": "ROS 1 through YARP needs YARP's yarp-ros plugins on this YARP version",
     # notes
     "N601": "legacy form",
 }

@@ -126,8 +126,11 @@ def _compile_text(text: str, path: str, options: Options | None, backend: str | 
     result.named = named
     if not (legacy and sink.has_errors and not named.sections):
         result.program = check_named(named, Path(path).name, sink, options, module_name_for(path))
-    if result.program is not None and backend is not None:
-        check_backend(result.program, backend, sink, legacy, _output_span(named))
+    if result.program is not None and (options.yarp is not None or backend is not None):
+        if options.yarp is not None:
+            check_yarp_target(result.program, options.yarp, named, sink)
+        if backend is not None:
+            check_backend(result.program, backend, sink, legacy, _output_span(named))
         if sink.has_errors:
             result.program = None
     result.diagnostics = sink.sorted()
@@ -140,6 +143,42 @@ def _output_span(doc: ast.Document):
         return None
     e = sec.get("via") or sec.get("topic") or sec.get("port")
     return e.span if e else sec.span
+
+
+def yarp_version(text: str) -> tuple[int, ...] | None:
+    """``"3.12"`` -> (3, 12); None for anything that is not a version."""
+    parts = text.strip().split(".")
+    if not 1 <= len(parts) <= 3 or not all(p.isdigit() for p in parts):
+        return None
+    return tuple(int(p) for p in parts)
+
+
+def check_yarp_target(program: ir.Program, yarp: str, doc: ast.Document, sink: Sink) -> None:
+    """Can YARP ``yarp`` carry what ``program`` needs? YARP's own ROS 1
+    support (tcpros, xmlrpc, ``yarpserver --ros``) is built in up to 3.9,
+    a separate plugin package (yarp-ros) in 3.10 to 3.12, gone in 4.0."""
+    version = yarp_version(yarp)
+    if version is None or version < (3, 10):
+        return
+    uses = []
+    if program.output.kind == "ros1":
+        uses.append(("its output", _output_span(doc)))
+    for m in program.muxes:
+        if any(i.kind == "ros1" for i in m.inputs):
+            sec = doc.section("mux", m.name)
+            entry = sec and (sec.get("via") or sec.get("topics"))
+            uses.append((f"mux `{m.name}`", entry.span if entry else sec.span if sec else None))
+    for what, span in uses:
+        if version >= (4,):
+            sink.error("E320", f"{what} goes through YARP's ROS 1 support, which YARP {yarp} no longer has "
+                       "(removed in YARP 4.0)", span,
+                       "use ROS 2: `via = ros2`, and `ybgc CONFIG --backend ros2`; a legacy config converts "
+                       "with `ybgc fmt --to named --ros2 FILE -o new.ini`")
+        else:
+            sink.warning("W507", f"{what} goes through YARP's ROS 1 support, which YARP {yarp} has only with "
+                         "its separate yarp-ros plugins (the tcpros and xmlrpc carriers)", span,
+                         "install yarp-ros beside YARP, or use ROS 2 (`via = ros2`); without the plugins the "
+                         "module stops at start and says so")
 
 
 def check_backend(program: ir.Program, backend: str, sink: Sink, legacy: bool, span=None) -> None:
