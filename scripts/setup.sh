@@ -5,8 +5,23 @@
 # legacy to_ros path. Idempotent: a second run takes seconds.
 #
 #   scripts/setup.sh            everything
+#   scripts/setup.sh --yarp 3.12.3,4.0.0
+#                               ... and YARP 3.12.3 and 4.0.0 built from their
+#                               sources (../shared/vendor/) for the tests' YARP
+#                               matrix: 12-14 min each the first time, then cached
+#                               (scripts/build_yarp.sh; also YBG_YARP_VERSIONS)
 #   YBG_SETUP_MINIMAL=1 scripts/setup.sh   only the compiler (no middleware)
 set -euo pipefail
+
+extra_yarp=${YBG_YARP_VERSIONS:-}
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --yarp) extra_yarp=${2:?--yarp needs a comma-separated list of versions}; shift 2 ;;
+    --yarp=*) extra_yarp=${1#--yarp=}; shift ;;
+    -h|--help) sed -n '2,14p' "${BASH_SOURCE[0]}"; exit 0 ;;
+    *) echo "setup.sh: unknown option $1 (see --help)" >&2; exit 2 ;;
+  esac
+done
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 venv=${YBG_VENV:-$root/.venv}
@@ -105,4 +120,7 @@ if "$vpy" -m pip show -q lark-parser >/dev/null 2>&1; then
 fi
 "$vpy" -c 'import lark, sys; sys.exit(int(lark.__version__.split(".")[0]) < 1)' \
   || { echo "lark 1.x is not importable in $venv" >&2; exit 1; }
+for v in ${extra_yarp//,/ }; do
+  "$root/scripts/build_yarp.sh" "$v"
+done
 log "setup done: $venv"

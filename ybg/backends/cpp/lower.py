@@ -97,6 +97,7 @@ class ModuleView:
     msg_comment: str
     builder: tuple[Line, ...]
     sizes: str
+    ros1: bool                       # uses YARP's ROS 1 support (output or an input)
 
 
 # --------------------------------------------------------------------------
@@ -537,6 +538,7 @@ def lower(program: ir.Program) -> ModuleView:
                      if program.message.msg_type or out.msg_type else "an untyped Bottle"),
         builder=builder,
         sizes=sizes,
+        ros1=out.kind == "ros1" or any(i.kind == "ros1" for m in program.muxes for i in m.inputs),
     )
 
 

@@ -42,8 +42,10 @@
 #include <pthread.h>
 #include <signal.h>
 
+#include <yarp/conf/version.h>
 #include <yarp/os/Bottle.h>
 #include <yarp/os/BufferedPort.h>
+#include <yarp/os/Carriers.h>
 #include <yarp/os/Contact.h>
 #include <yarp/os/ContactStyle.h>
 #include <yarp/os/Network.h>
@@ -1615,6 +1617,34 @@ int parseOptions(const BridgeSpec& spec, int argc, char* argv[], Options& opt)
     return -1;
 }
 
+/// Does this YARP carry ROS 1 topics? It needs the tcpros and xmlrpc carriers
+/// (built in up to YARP 3.9, YARP's separate yarp-ros plugins in 3.10 to 3.12,
+/// gone in YARP 4) and a name server started with `--ros`. Otherwise a ROS 1
+/// port opens as a plain YARP port and the module would publish into nothing.
+bool ros1Available(std::string& why)
+{
+    const yarp::os::Bottle carriers = yarp::os::Carriers::listCarriers();
+    for (const char* need : {"tcpros", "xmlrpc"}) {
+        bool found = false;
+        for (std::size_t k = 0; k < carriers.size() && !found; ++k) {
+            found = carriers.get(k).asString() == need;
+        }
+        if (!found) {
+            why = std::string("YARP ") + YARP_VERSION + " has no `" + need + "` carrier: ROS 1 topics need "
+                + (YARP_VERSION_MAJOR >= 4 ? "YARP 3.5 to 3.12 (YARP 4 has no ROS 1); with YARP 4 set `via = ros2` and "
+                                             "generate the ROS 2 node (ybgc CONFIG --backend ros2)"
+                                           : "YARP's yarp-ros plugins (tcpros, xmlrpc) with YARP 3.10 and later");
+            return false;
+        }
+    }
+    if (!yarp::os::Network::queryName("/ros").isValid()) {
+        why = "the YARP name server does not speak ROS: start it as `yarpserver --ros` with ROS_MASTER_URI "
+              "set to the ROS master";
+        return false;
+    }
+    return true;
+}
+
 /// Parses the command line and runs the bridge until SIGINT or SIGTERM.
 int run(const BridgeSpec& spec, int argc, char* argv[], MakeMessage make)
 {
@@ -1633,6 +1663,15 @@ int run(const BridgeSpec& spec, int argc, char* argv[], MakeMessage make)
     yarp::os::Network network;
     if (!yarp::os::Network::checkNetwork(3.0)) {
         say("cannot reach the YARP name server (is yarpserver running?)");
+        return 1;
+    }
+    bool ros1 = spec.output.kind == OutputKind::Ros1;
+    for (const InputSpec& input : spec.inputs) {
+        ros1 = ros1 || input.kind == InputKind::Ros1;
+    }
+    std::string why;
+    if (ros1 && !ros1Available(why)) {
+        say("cannot use ROS 1 topics: " + why);
         return 1;
     }
     Bridge bridge(spec, options, std::move(make));

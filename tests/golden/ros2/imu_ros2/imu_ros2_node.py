@@ -189,8 +189,9 @@ def _picked(bottle, positions):
     return items
 
 
-#: Bottle.getSpecialization() of a Bottle whose items are all float64
-_TAG_FLOAT64 = 10
+#: Bottle.getSpecialization() of a Bottle whose items are all float64: from
+#: the bindings, never a literal (YARP 4 changed the tags: 10 became float32)
+_TAG_FLOAT64 = yarp.BOTTLE_TAG_FLOAT64
 
 
 def parse_bottle(bottle, types, flatten, drop_nan, positions=None, floats=False):
@@ -294,19 +295,41 @@ class InputState:
         self.state = "waiting"
         self.reported_waiting = False
         self.reported_drop = False
+        self.calls = 0  # deliveries begun (closing waits until they settle)
+
+    def settled(self):
+        """Nothing waits to be delivered and nothing is being delivered."""
+        return True
+
+
+class _Reader(yarp.BottleCallback):
+    """What YARP calls for each Bottle of an input, in YARP's own thread."""
+
+    def __init__(self, inp):
+        yarp.BottleCallback.__init__(self)
+        self.inp = inp
+
+    def onRead(self, bottle, *reader):
+        self.inp.on_read(bottle)
 
 
 class Input(InputState):
     """One input of a mux: its own port, read strictly (every Bottle, in
-    order) by its own thread."""
+    order) through a callback in YARP's reader thread. Never a blocking
+    read(): from YARP 3.12.1 the bindings' BufferedPortBottle keeps the
+    interpreter lock in read(), so a thread blocked there stops every other."""
 
     def __init__(self, bridge, spec, local, timeout):
         self.init_state(bridge, spec, timeout)
         self.local = local
         self.port = yarp.BufferedPortBottle()
-        self.thread = None
+        self.reader = None
+        self.stamp = yarp.Stamp()
+        self.flatten = spec.kind == "ros1"
         self.floats = spec.kind != "ros1" and (spec.types is None
                                                or all(t in _FLOAT_TYPES for t in spec.types))
+        self.busy = False   # inside a callback
+        self.failed = False
 
     def open(self):
         # queue > 1: every Bottle, in order (BACKLOG bounds it); 1: the
@@ -314,34 +337,40 @@ class Input(InputState):
         self.port.setStrict(self.bridge.spec.queue > 1)
         if self.spec.kind == "ros1":
             self.port.setReadOnly()
-        if not self.port.open(self.local):
-            return False
-        self.thread = threading.Thread(target=self._read_loop, name="read " + self.local,
-                                       daemon=True)
-        self.thread.start()
-        return True
+        self.reader = _Reader(self)
+        self.port.useCallback(self.reader)
+        return self.port.open(self.local)
 
-    def _read_loop(self):
-        stamp = yarp.Stamp()
-        flatten = self.spec.kind == "ros1"
-        drop_nan = self.bridge.spec.on_nan == "drop"
-        while not self.bridge.stopping:
-            bottle = self.port.read(True)
-            if bottle is None:
-                break  # interrupted: shutting down
+    def on_read(self, bottle):
+        self.calls += 1
+        if self.bridge.stopping:
+            return
+        self.busy = True
+        try:
             now = time.monotonic()
             if self.port.getPendingReads() > BACKLOG:
                 self.bridge.on_skipped(self)
-                continue
+                return
             envelope = None
-            if self.port.getEnvelope(stamp) and stamp.isValid():
-                envelope = stamp.getTime()
-            values, reason = parse_bottle(bottle, self.spec.types, flatten, drop_nan,
+            if self.port.getEnvelope(self.stamp) and self.stamp.isValid():
+                envelope = self.stamp.getTime()
+            values, reason = parse_bottle(bottle, self.spec.types, self.flatten,
+                                          self.bridge.spec.on_nan == "drop",
                                           self.spec.positions, self.floats)
             self.bridge.on_bottle(self, values, reason, now, envelope)
+        except Exception as e:  # never a traceback out of YARP's thread
+            if not self.failed:
+                self.failed = True
+                self.bridge.log("input %s: %s: %s" % (self.source, type(e).__name__, e))
+        finally:
+            self.busy = False
 
     def interrupt(self):
         self.port.interrupt()
+
+    def settled(self):
+        """No Bottle waits for the callback and none is being handled."""
+        return not self.busy and self.port.getPendingReads() == 0
 
     def close(self):
         self.port.close()
@@ -429,6 +458,33 @@ class Context:
 
 
 _LOG_LOCK = threading.Lock()
+
+
+def ros1_problem():
+    """None when this YARP carries ROS 1 topics, else why it cannot. It needs
+    a name server started with `--ros` (its ROS master contact, /ros) reached
+    through the xmlrpc carrier: built in up to YARP 3.9, YARP's separate
+    yarp-ros plugins in 3.10 to 3.12, gone in YARP 4. Without them a ROS 1
+    port opens as a plain YARP port, and the module would publish into nothing."""
+    version = getattr(yarp, "YARP_VERSION", "")
+    if version[:1].isdigit() and int(version.split(".")[0]) >= 4:
+        return ("YARP %s has no ROS 1 support (removed in YARP 4.0): set `via = ros2` in the "
+                "config and generate the ROS 2 node (ybgc CONFIG --backend ros2)" % version)
+    master = yarp.Network.queryName("/ros")
+    if not master.isValid():
+        return ("the YARP name server does not speak ROS: start it as `yarpserver --ros` with "
+                "ROS_MASTER_URI set (YARP 3.10 and later: with YARP's yarp-ros plugins)")
+    style = yarp.ContactStyle()
+    style.quiet = True
+    style.timeout = 2.0
+    style.carrier = "xmlrpc"
+    cmd = yarp.Bottle()
+    cmd.addString("getPid")
+    cmd.addString("/ybgc")
+    if not yarp.Network.write(master, cmd, yarp.Bottle(), style):
+        return ("YARP %s cannot reach the ROS master through its xmlrpc carrier (YARP 3.10 and "
+                "later need YARP's yarp-ros plugins)" % version)
+    return None
 
 
 class Bridge:
@@ -700,6 +756,11 @@ class Bridge:
         if not yarp.Network.checkNetwork(3.0):
             self.log("cannot reach the YARP name server (is yarpserver running?)")
             return 1
+        if getattr(self.output, "kind", None) == "ros1" or any(i.spec.kind == "ros1" for i in self.inputs):
+            problem = ros1_problem()
+            if problem is not None:
+                self.log("cannot use ROS 1 topics: " + problem)
+                return 1
         opened = []
         self.status = 1
         try:
@@ -741,11 +802,20 @@ class Bridge:
         closed = []
 
         def close_all():
+            # interrupted first, so that no new Bottle comes in; closed once
+            # YARP's reader threads have handed every Bottle they hold to the
+            # callbacks (which return at once now): YARP 3.12's bindings keep
+            # the interpreter lock in close(), which waits for those threads
             for inp in opened:
                 inp.interrupt()
-            for inp in opened:
-                if inp.thread is not None:
-                    inp.thread.join(0.5)
+            end = time.monotonic() + 0.5
+            while time.monotonic() < end and not all(inp.settled() for inp in opened):
+                time.sleep(0.005)
+            calls = [inp.calls for inp in opened]
+            time.sleep(0.02)  # and none started since: a callback waiting for the lock shows here
+            while time.monotonic() < end and [inp.calls for inp in opened] != calls:
+                calls = [inp.calls for inp in opened]
+                time.sleep(0.02)
             for inp in opened:
                 inp.close()
                 closed.append(inp.local)
