@@ -395,7 +395,8 @@ class Proc:
 
     def __init__(self, argv: Iterable, env: Optional[dict] = None, cwd=None,
                  name: Optional[str] = None, log_dir=None, pipe_stdout: bool = False,
-                 pipe_stdin: bool = False, die_with_parent: bool = False):
+                 pipe_stdin: bool = False, die_with_parent: bool = False,
+                 gate_output: bool = False):
         self.argv = [str(a) for a in argv]
         self.env = dict(env) if env is not None else base_env()
         self.cwd = str(cwd) if cwd is not None else None
@@ -410,6 +411,8 @@ class Proc:
         self.pipe_stdout = pipe_stdout
         self.pipe_stdin = pipe_stdin
         self.die_with_parent = die_with_parent
+        self.gate_output = gate_output and not pipe_stdout
+        self._gate: Optional[_OutputGate] = None
         self.popen: Optional[subprocess.Popen] = None
         self.pgid: Optional[int] = None
         self._known: set = set()
@@ -429,14 +432,19 @@ class Proc:
         # that starts it, so only from the main thread.
         if self.die_with_parent and _SETPRIV and threading.current_thread() is threading.main_thread():
             argv = [_SETPRIV, "--pdeathsig", "KILL", "--"] + argv
+        stdout = subprocess.PIPE if self.pipe_stdout else log
+        if self.gate_output:
+            self._gate = _OutputGate(self.log_path)
+            stdout = self._gate.write_fd
         try:
             self.popen = subprocess.Popen(
                 argv, env=self.env, cwd=self.cwd,
                 stdin=subprocess.PIPE if self.pipe_stdin else subprocess.DEVNULL,
-                stdout=subprocess.PIPE if self.pipe_stdout else log,
-                stderr=log, start_new_session=True)
+                stdout=stdout, stderr=log, start_new_session=True)
         finally:
             log.close()
+            if self._gate is not None:
+                self._gate.started()
         self.pgid = self.popen.pid
         self._known = set()
         with _LIVE_LOCK:
@@ -489,6 +497,7 @@ class Proc:
         left (group and descendants). Returns the exit status."""
         if self.popen is None:
             return None
+        self.release_output()  # a held stdout would keep it from exiting
         self.tree()  # remember the descendants before they get orphaned
         if self.popen.poll() is None:
             self._signal_group(sig)
@@ -513,6 +522,8 @@ class Proc:
         except subprocess.TimeoutExpired:
             pass
         self._close_pipes()
+        if self._gate is not None:
+            self._gate.finish()
         with _LIVE_LOCK:
             _LIVE.discard(self)
         return self.popen.returncode
@@ -534,6 +545,49 @@ class Proc:
                 except OSError:
                     pass
 
+    # -- a held stdout (gate_output=True)
+    def hold_output(self) -> None:
+        """Stop copying the process's stdout to its log: once the small pipe
+        (one page) is full, every thread of the process that writes on
+        stdout blocks in write(2), the others run on. A test uses it to
+        hold up exactly the threads that print (e.g. a module's --verbose
+        values, printed by the thread that builds each message)."""
+        if self._gate is None:
+            raise RuntimeError(f"{self.name}: started without gate_output=True")
+        self._gate.hold()
+
+    def release_output(self) -> None:
+        """Copy stdout to the log again (the blocked writers go on)."""
+        if self._gate is not None:
+            self._gate.release()
+
+    def output_blocked(self) -> list:
+        """The threads of the process asleep in a write(2)/writev(2) on its
+        stdout (fd 1): those a held stdout holds up. [] when none."""
+        if self.popen is None or self.popen.poll() is not None:
+            return []
+        out = []
+        task = Path(f"/proc/{self.popen.pid}/task")
+        try:
+            tids = os.listdir(task)
+        except OSError:
+            return []
+        for tid in tids:
+            try:
+                fields = (task / tid / "syscall").read_text().split()
+            except OSError:
+                continue
+            # "<nr> <arg0> ...", or "running"; x86_64: write 1, writev 20
+            if len(fields) > 1 and fields[0] in ("1", "20") and int(fields[1], 16) == 1:
+                out.append(int(tid))
+        return out
+
+    def wait_output_blocked(self, timeout: float = 30.0) -> list:
+        """Wait until a thread is held up writing on the held stdout."""
+        return _wait_until(lambda: self.output_blocked(), timeout,
+                           f"a thread of {self.name} blocked on its held stdout", self,
+                           interval=0.01)
+
     def wait_exit(self, timeout: Optional[float] = None) -> int:
         """Wait for the process itself to end; returns its exit status."""
         return self.popen.wait(timeout)
@@ -552,6 +606,56 @@ class Proc:
 
     def __repr__(self):
         return f"<Proc {self.name} pid={self.pid}>"
+
+
+class _OutputGate:
+    """A process's stdout: a one-page pipe that a thread copies to the log
+    file, unless held (see Proc.hold_output)."""
+
+    PIPE_SIZE = 4096
+
+    def __init__(self, log_path: Path):
+        self.log_path = log_path
+        self.read_fd, self.write_fd = os.pipe()
+        try:
+            fcntl.fcntl(self.write_fd, getattr(fcntl, "F_SETPIPE_SZ", 1031), self.PIPE_SIZE)
+        except OSError:
+            pass
+        self._open = threading.Event()
+        self._open.set()
+        self._thread = threading.Thread(target=self._pump, daemon=True, name=f"gate {log_path.name}")
+
+    def started(self) -> None:
+        os.close(self.write_fd)  # the child holds it now; EOF when it (and its children) exit
+        self.write_fd = -1
+        self._thread.start()
+
+    def _pump(self) -> None:
+        with open(self.log_path, "ab", buffering=0) as log:
+            while True:
+                self._open.wait()
+                try:
+                    data = os.read(self.read_fd, 65536)
+                except OSError:
+                    break
+                if not data:
+                    break
+                log.write(data)
+
+    def hold(self) -> None:
+        self._open.clear()
+
+    def release(self) -> None:
+        self._open.set()
+
+    def finish(self) -> None:
+        self.release()
+        self._thread.join(5)
+        if not self._thread.is_alive():
+            try:
+                os.close(self.read_fd)
+            except OSError:
+                pass
 
 
 def stop_all() -> None:
@@ -994,7 +1098,7 @@ class Peer(Proc):
         self.popen.stdin.write((json.dumps(cmd) + "\n").encode())
         self.popen.stdin.flush()
 
-    def wait(self, pred: Callable[[], Any], timeout: float = 10.0, what: str = "a condition"):
+    def wait(self, pred: Callable[[], Any], timeout: float = 60.0, what: str = "a condition"):
         """Wait until ``pred()`` (called with the event lock held) is true; return it."""
         end = time.monotonic() + timeout
         with self._cond:
@@ -1014,7 +1118,7 @@ class Peer(Proc):
                 self._cond.wait(min(left, 0.1))
 
     def wait_event(self, ev: str, pred: Callable[[dict], bool] = lambda e: True,
-                   timeout: float = 10.0, since: int = 0) -> dict:
+                   timeout: float = 60.0, since: int = 0) -> dict:
         def find():
             for e in self.events[since:]:
                 if e["ev"] == ev and pred(e):
@@ -1080,19 +1184,27 @@ class YarpProducer(Peer):
         with self._cond:
             return [e for e in self.events[self._mark:] if e["ev"] == "sent"]
 
-    def write(self, data: list, stamp: Optional[list] = None, timeout: float = 10.0) -> dict:
+    def write(self, data: list, stamp: Optional[list] = None, timeout: float = 60.0) -> dict:
         """Write one Bottle (``stamp`` = [seq, time] sets the envelope); returns
         the "sent" event once written."""
         n0 = len(self.sent)
         self.send(cmd="write", data=data, stamp=stamp)
         return self.wait(lambda: len(self.sent) > n0 and self.sent[n0], timeout, "write")
 
-    def output_count(self, timeout: float = 10.0) -> int:
+    def burst(self, bottles: list, timeout: float = 60.0) -> dict:
+        """Write ``bottles`` back to back, as fast as the connections take
+        them (strict); returns once the last one is delivered (a reader's
+        port holds it: YARP's tcp carrier acknowledges each message)."""
+        mark = len(self.events)
+        self.send(cmd="burst", bottles=bottles)
+        return self.wait_event("burst", timeout=timeout, since=mark)
+
+    def output_count(self, timeout: float = 60.0) -> int:
         mark = len(self.events)
         self.send(cmd="outputs")
         return self.wait_event("outputs", timeout=timeout, since=mark)["n"]
 
-    def wait_outputs(self, n: int = 1, timeout: float = 10.0) -> int:
+    def wait_outputs(self, n: int = 1, timeout: float = 60.0) -> int:
         """Wait until at least ``n`` connections go out of the port."""
         end = time.monotonic() + timeout
         while True:
@@ -1133,16 +1245,16 @@ class YarpReader(Peer):
         elif ev["ev"] == "disconnected":
             self.connected = False
 
-    def wait_for(self, n: int, timeout: float = 10.0) -> list:
+    def wait_for(self, n: int, timeout: float = 60.0) -> list:
         """Wait until ``n`` Bottles in all have arrived; returns them all."""
         self.wait(lambda: len(self.bottles) >= n, timeout, f"{n} bottles on {self.port}")
         with self._cond:
             return list(self.bottles)
 
-    def wait_connected(self, timeout: float = 10.0) -> None:
+    def wait_connected(self, timeout: float = 60.0) -> None:
         self.wait(lambda: self.connected, timeout, f"connection {self.source} -> {self.port}")
 
-    def wait_disconnected(self, timeout: float = 10.0) -> None:
+    def wait_disconnected(self, timeout: float = 60.0) -> None:
         self.wait(lambda: not self.connected, timeout, f"{self.source} to go away")
 
     def clear(self) -> None:
@@ -1162,13 +1274,13 @@ class _Subscriber(Peer):
         elif ev["ev"] in ("publishers", "matched"):
             self.publishers = ev["n"]
 
-    def wait_for(self, n: int, timeout: float = 10.0) -> list:
+    def wait_for(self, n: int, timeout: float = 60.0) -> list:
         """Wait until ``n`` messages in all have arrived; returns them all."""
         self.wait(lambda: len(self.messages) >= n, timeout, f"{n} messages")
         with self._cond:
             return list(self.messages)
 
-    def wait_publishers(self, n: int = 1, timeout: float = 10.0) -> None:
+    def wait_publishers(self, n: int = 1, timeout: float = 60.0) -> None:
         self.wait(lambda: self.publishers >= n, timeout, f"{n} publishers")
 
     wait_matched = wait_publishers
@@ -1232,10 +1344,10 @@ class Ros2Publisher(Peer):
         with self._cond:
             return [e for e in self.events[self._mark:] if e["ev"] == "sent"]
 
-    def publish(self, msg: dict, timeout: float = 10.0) -> dict:
+    def publish(self, msg: dict, timeout: float = 60.0) -> dict:
         n0 = len(self.sent)
         self.send(cmd="publish", msg=msg)
         return self.wait(lambda: len(self.sent) > n0 and self.sent[n0], timeout, "publish")
 
-    def wait_matched(self, n: int = 1, timeout: float = 10.0) -> None:
+    def wait_matched(self, n: int = 1, timeout: float = 60.0) -> None:
         self.wait(lambda: self.matched >= n, timeout, f"{n} matched subscribers")

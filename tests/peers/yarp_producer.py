@@ -6,9 +6,12 @@ Config: {"port": "/name", "bottles": [[...], ...], "rate": hz or null,
 With a rate, writes the bottles in turn (cycling) at that rate (count times, or
 forever); without, writes only on command.
 Commands: {"cmd": "write", "data": [...], "stamp": [seq, time] (optional)}
+          {"cmd": "burst", "bottles": [[...], ...]}: writes them back to back
+            (strict), waits until the last is delivered (with YARP's default
+            tcp carrier: the reader's port has it), then event "burst" (n, t0, t1)
           {"cmd": "outputs"} -> event "outputs" with n
           {"cmd": "quit"}
-Events: ready, sent (n, t), outputs (n), done.
+Events: ready, sent (n, t), burst (n, t0, t1), outputs (n), done.
 """
 import threading
 import time
@@ -76,6 +79,13 @@ def main():
             break
         if c["cmd"] == "write":
             write(c["data"], c.get("stamp"))
+        elif c["cmd"] == "burst":
+            t0 = time.time()
+            for data in c["bottles"]:
+                write(data)
+            with lock:
+                port.waitForWrite()
+            peer_io.emit("burst", n=len(c["bottles"]), t0=t0, t1=time.time())
         elif c["cmd"] == "outputs":
             peer_io.emit("outputs", n=port.getOutputCount())
     port.close()
