@@ -103,7 +103,7 @@ class Driver:
 
     def wait(self, r, n):
         try:
-            return r.wait_for(n, timeout=10)
+            return r.wait_for(n, timeout=60)
         except TimeoutError as e:
             logs = "\n".join(f"--- {p.name} (alive: {p.alive})\n{p.log_text()[-2500:]}" for p in self.procs)
             raise AssertionError(f"{e}\n{logs}") from None
@@ -176,10 +176,10 @@ def modules(tmp_path_factory):
         readers = {tag: YarpReader(env, f"/test/read_{tag}", source=f"/diff_{tag}/out:o").start()
                    for tag in ("cpp", "py")}
         try:
-            arm.wait_outputs(2, timeout=20)
-            hand.wait_outputs(2, timeout=20)
+            arm.wait_outputs(2, timeout=60)
+            hand.wait_outputs(2, timeout=60)
             for r in readers.values():
-                r.wait_connected(timeout=20)
+                r.wait_connected(timeout=60)
             yield Driver(arm, hand, readers, procs)
         finally:
             for p in procs:
