@@ -458,9 +458,15 @@ bool isInteger(const yarp::os::Value& v)
     return v.isInt8() || v.isInt16() || v.isInt32() || v.isInt64();
 }
 
-bool isNumber(const yarp::os::Value& v)
+/// YARP 4 gave float32 the Bottle tag that YARP 3 gives float64, so on YARP 4
+/// a float32 element is most likely a YARP 3 producer's float64, read as other
+/// values: it is taken only where the input declares float32.
+constexpr bool kFloat32Ambiguous = YARP_VERSION_MAJOR >= 4;
+
+/// A number an input takes (`float32`: the input declares a float32 there).
+bool isNumber(const yarp::os::Value& v, bool float32 = false)
 {
-    return isInteger(v) || v.isFloat32() || v.isFloat64();
+    return isInteger(v) || v.isFloat64() || (v.isFloat32() && (float32 || !kFloat32Ambiguous));
 }
 
 std::string describe(const yarp::os::Value& v)
@@ -481,6 +487,17 @@ std::string describe(const yarp::os::Value& v)
         return "a vocab";
     }
     return "a " + v.toString();
+}
+
+/// Why element `k` is not the number wanted.
+std::string notA(std::size_t k, const yarp::os::Value& v, const std::string& wanted)
+{
+    if (kFloat32Ambiguous && v.isFloat32()) {
+        return "element " + std::to_string(k) + " is a float32 (on YARP " YARP_VERSION ", what a YARP 3 "
+               "producer's float64 reads as: YARP 4 changed the Bottle tags; declare the port (float32 xN) "
+               "if it really sends float32)";
+    }
+    return "element " + std::to_string(k) + " is " + describe(v) + ", " + wanted;
 }
 
 void leaves(const yarp::os::Bottle& b, std::vector<const yarp::os::Value*>& out)
@@ -538,12 +555,15 @@ bool items(const yarp::os::Bottle& b, const InputSpec& spec, std::vector<const y
     return true;
 }
 
-enum class Expect { Float, Integer, Bool, Text };
+enum class Expect { Float, Float32, Integer, Bool, Text };
 
 Expect expectOf(const std::string& type)
 {
-    if (type == "float32" || type == "float64") {
+    if (type == "float64") {
         return Expect::Float;
+    }
+    if (type == "float32") {
+        return Expect::Float32;
     }
     if (type == "bool") {
         return Expect::Bool;
@@ -568,7 +588,7 @@ bool parseBottle(const yarp::os::Bottle& b, const InputSpec& spec, bool dropNan,
         for (std::size_t k = 0; k < in.size(); ++k) {
             const yarp::os::Value& v = *in[k];
             if (!isNumber(v)) {
-                why = "element " + std::to_string(k) + " is " + describe(v) + ", not a number";
+                why = notA(k, v, "not a number");
                 return false;
             }
             out.push_back(Element::ofReal(v.asFloat64()));
@@ -590,8 +610,9 @@ bool parseBottle(const yarp::os::Bottle& b, const InputSpec& spec, bool dropNan,
                 const std::string at = "element " + std::to_string(k) + " is " + describe(v);
                 switch (expect) {
                 case Expect::Float:
-                    if (!isNumber(v)) {
-                        why = at + ", expected " + g.type;
+                case Expect::Float32:
+                    if (!isNumber(v, expect == Expect::Float32)) {
+                        why = notA(k, v, std::string("expected ") + g.type);
                         return false;
                     }
                     out.push_back(Element::ofReal(v.asFloat64()));

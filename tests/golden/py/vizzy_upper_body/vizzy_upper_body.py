@@ -126,6 +126,13 @@ def _describe(value):
     return "a " + value.toString()
 
 
+def _not_a(k, value, wanted):
+    """Why element ``k`` is not the number wanted."""
+    if _FLOAT32_AMBIGUOUS and value.isFloat32():
+        return "element %d is %s" % (k, _MIXED_VERSIONS)
+    return "element %d is %s, %s" % (k, _describe(value), wanted)
+
+
 def _leaves(bottle, out):
     """The Bottle's elements, nested lists flattened depth-first (ROS topics)."""
     for k in range(bottle.size()):
@@ -137,9 +144,22 @@ def _leaves(bottle, out):
     return out
 
 
-def _number(value):
-    if value.isFloat64() or value.isFloat32():
+#: YARP 4 gave float32 the Bottle tag that YARP 3 gives float64, so on YARP 4
+#: a float32 element is most likely a YARP 3 producer's float64, read as
+#: other values: taken only where the input declares float32
+_FLOAT32_AMBIGUOUS = yarp.YARP_VERSION_MAJOR >= 4
+_MIXED_VERSIONS = ("a float32 (on YARP %s, what a YARP 3 producer's float64 reads as: "
+                   "YARP 4 changed the Bottle tags; declare the port (float32 xN) if it "
+                   "really sends float32)" % yarp.YARP_VERSION)
+
+
+def _number(value, float32=False):
+    """The value as a Python number, or None. ``float32``: a float32 element
+    is wanted (never ambiguous then)."""
+    if value.isFloat64():
         return value.asFloat64()
+    if value.isFloat32():
+        return value.asFloat64() if float32 or not _FLOAT32_AMBIGUOUS else None
     if value.isInt32() or value.isInt64() or value.isInt8() or value.isInt16():
         return value.asInt64()
     return None
@@ -212,16 +232,16 @@ def parse_bottle(bottle, types, flatten, drop_nan, positions=None, floats=False)
         for k, value in enumerate(items):
             x = _number(value)
             if x is None:
-                return None, "element %d is %s, not a number" % (k, _describe(value))
+                return None, _not_a(k, value, "not a number")
             out.append(float(x))
     else:
         if len(items) != len(types):
             return None, "%d elements, expected %d" % (len(items), len(types))
         for k, (value, t) in enumerate(zip(items, types)):
             if t in _FLOAT_TYPES:
-                x = _number(value)
+                x = _number(value, t == "float32")
                 if x is None:
-                    return None, "element %d is %s, expected %s" % (k, _describe(value), t)
+                    return None, _not_a(k, value, "expected " + t)
                 out.append(float(x))
             elif t in _INT_TYPES:
                 if not (value.isInt32() or value.isInt64() or value.isInt8() or value.isInt16()):
@@ -800,14 +820,15 @@ class Bridge:
             for inp in opened:
                 inp.close()
                 closed.append(inp.local)
-            self.output.close()
-            closed.append(self.output.port_name)
+            if not self.output.stalled():  # else unregistered by name below
+                self.output.close()
+                closed.append(self.output.port_name)
 
         closer = threading.Thread(target=close_all, name="close ports", daemon=True)
         closer.start()
         closer.join(1.0)
         self._print_totals()
-        if closer.is_alive():
+        if closer.is_alive() or len(closed) < len(names):
             for name in names:
                 if name not in closed:
                     self.log("%s did not close in time (a stalled reader?); unregistering it" % name)
@@ -989,6 +1010,17 @@ class YarpOutput:
             self.patient = True
         fill_bottle(self.port.prepare(), message, self.wire)
         self.port.write()
+
+    def stalled(self, grace=0.2):
+        """A reader still takes a message after ``grace`` seconds. close()
+        would then wait for it up to YARP's own limit (5 s), and from YARP
+        3.12.1 the bindings keep the interpreter lock all that time."""
+        deadline = time.monotonic() + grace
+        while self.port.isWriting():
+            if time.monotonic() >= deadline:
+                return True
+            time.sleep(0.002)
+        return False
 
     def close(self):
         self.port.interrupt()
