@@ -1,7 +1,18 @@
 """Shared pytest setup: real middleware fixtures (see tests/middleware.py),
-the ``--update-goldens`` option, the ``slow`` marker and a default timeout.
+the YARP version matrix, the ``--update-goldens`` option, the ``slow`` marker
+and a default timeout.
+
+The YARP matrix: every test that uses the ``yarp`` fixture (directly, or
+through ``yarp_server``, or through a fixture of its own that asks for
+``yarp``) runs once per YARP version of ``--yarp`` (default: every version of
+``middleware.MATRIX``: PyPI's 3.5, 3.12.3, 4.0.0), with the test id
+``[yarp<version>]``. Tests of YARP's ROS 1 support (``yarp_ros_server``) run
+on the versions that have it (before 3.10). A version that is not built is a
+skip saying how to build it, except in CI (``CI`` set), where it fails.
 
 Fixtures
+    yarp              session scope, one per matrix version: the YarpInstall,
+                      made the active one (middleware.use_yarp) for the test.
     yarp_server       function scope: a YarpServer on 127.0.0.1:<free port>;
                       use ``yarp_server.env`` for every YARP process.
     yarp_ros_server   module scope: roscore + ``yarpserver --ros`` + the type
@@ -24,6 +35,23 @@ DEFAULT_TIMEOUT = 180  # seconds per test, when pytest-timeout is installed
 def pytest_addoption(parser):
     parser.addoption("--update-goldens", action="store_true", default=False,
                      help="rewrite the golden files instead of comparing against them")
+    parser.addoption("--yarp", default=os.environ.get("YBG_YARP_MATRIX", ",".join(middleware.MATRIX)),
+                     help="comma-separated YARP versions to run the YARP-facing tests on "
+                          "(default: %(default)s; also YBG_YARP_MATRIX)")
+
+
+def matrix_versions(config) -> list:
+    return [v.strip() for v in config.getoption("--yarp").split(",") if v.strip()]
+
+
+def pytest_generate_tests(metafunc):
+    if "yarp" not in metafunc.fixturenames:
+        return
+    versions = matrix_versions(metafunc.config)
+    if "yarp_ros_server" in metafunc.fixturenames:
+        versions = [v for v in versions if middleware.yarp_install(v).has_ros1]
+    metafunc.parametrize("yarp", versions, indirect=True, scope="session",
+                         ids=[f"yarp{v}" for v in versions])
 
 
 @pytest.hookimpl(tryfirst=True)
@@ -47,14 +75,41 @@ def update_goldens(request) -> bool:
     return bool(request.config.getoption("--update-goldens"))
 
 
+@pytest.fixture(scope="session")
+def yarp(request):
+    """The YARP install of this matrix version, made the active one."""
+    install = middleware.yarp_install(getattr(request, "param", "3.5"))
+    missing = install.missing()
+    if missing and install is not middleware.DEFAULT_YARP and install.python_path is not None:
+        msg = (f"YARP {install.version} is not built here (missing {missing[0]}). "
+               f"{install.build_hint()}")
+        if os.environ.get("CI"):
+            pytest.fail(msg, pytrace=False)
+        pytest.skip(msg)
+    middleware.require_yarp(install)
+    middleware.use_yarp(install)
+    yield install
+    middleware.use_yarp(middleware.DEFAULT_YARP)
+
+
+@pytest.fixture(autouse=True)
+def _active_yarp(request):
+    """Each test sees its own matrix version as the active YARP (others: 3.5)."""
+    if "yarp" in request.fixturenames:
+        middleware.use_yarp(request.getfixturevalue("yarp"))
+    else:
+        middleware.use_yarp(middleware.DEFAULT_YARP)
+    yield
+
+
 @pytest.fixture
-def yarp_server():
-    with middleware.YarpServer() as server:
+def yarp_server(yarp):
+    with middleware.YarpServer(install=yarp) as server:
         yield server
 
 
 @pytest.fixture(scope="module")
-def yarp_ros_server():
+def yarp_ros_server(yarp):
     with middleware.YarpRosStack() as stack:
         yield stack
 

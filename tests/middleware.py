@@ -1,4 +1,5 @@
-"""Real middleware for the tests: YARP 3.5, ROS 1 (Debian) and ROS 2 (rclpy).
+"""Real middleware for the tests: YARP (PyPI's 3.5, and 3.12.3 and 4.0.0 built
+from their sources), ROS 1 (Debian) and ROS 2 (rclpy).
 
 Nothing here is mocked. Every helper is a context manager that starts real
 processes, each in its own process group, and on exit stops them (SIGTERM,
@@ -11,16 +12,21 @@ middleware fails (``require_yarp()`` and friends), it is never skipped.
 
 Paths and checks
     ROOT, VENV, VENV_PYTHON, SITE_PACKAGES, YARP_PREFIX, YARP_BIN, YCM_PREFIX
-    cmake_prefix_path() -> "<yarp prefix>;<ycm prefix>" for -DCMAKE_PREFIX_PATH
-    require_yarp(), require_ros1(), require_ros2()   pytest.fail with how to install
+    YarpInstall: one YARP (.version, .prefix, .bin, .python_path, .has_ros1);
+    yarp_install(version) -> YarpInstall ("3.5": PyPI's, in the venv; others
+    built by scripts/build_yarp.sh); MATRIX, the versions the tests run on;
+    active_yarp() / use_yarp(install): the one the helpers use by default
+    (the ``yarp`` fixture sets it); YARP_PREFIX, YARP_BIN, YCM_PREFIX are its
+    cmake_prefix_path(install=None) -> "<yarp prefix>;<ycm prefix>" for -DCMAKE_PREFIX_PATH
+    require_yarp(install=None), require_ros1(), require_ros2()   pytest.fail with how to install
     free_port() -> int
     base_env(tmpdir=None) -> dict   os.environ + PATH (real YARP binaries, venv bin)
 
 Servers
     yarp_env(tmpdir, port) -> dict      YARP_CONFIG/DATA/CACHE_HOME=tmpdir, YARP_IP,
                                         writes <tmpdir>/yarp.conf "127.0.0.1 <port> yarp"
-    YarpServer(ros=False, ros_master_uri=None)
-        .port, .env (full environment for child processes), .tmpdir,
+    YarpServer(ros=False, ros_master_uri=None, install=None)
+        .port, .install, .env (full environment for child processes), .tmpdir,
         .yarp(*args) -> CompletedProcess of the real `yarp` CLI,
         .exists(port_name) -> bool, .wait_port(name, timeout)
     RosCore()           Debian `roscore -p <free port>`: .port, .uri, .ros_env, .env
@@ -115,9 +121,9 @@ def _site_packages() -> Path:
 
 
 SITE_PACKAGES = _site_packages()
-YARP_PREFIX = SITE_PACKAGES / "yarp"
-YARP_BIN = YARP_PREFIX / "bin"
-YCM_PREFIX = SITE_PACKAGES / "ycm_cmake_modules"
+#: where scripts/build_yarp.sh builds the YARP releases PyPI does not have
+YARP_CACHE = Path(os.environ.get("YBG_CACHE")
+                  or Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "ybgc")
 
 SETUP_HINT = (
     "Install it with `scripts/setup.sh` (run from the repository root; the first "
@@ -126,9 +132,101 @@ SETUP_HINT = (
 )
 
 
-def cmake_prefix_path() -> str:
+def _version_key(version: str) -> tuple:
+    return tuple(int(x) for x in re.findall(r"\d+", version))
+
+
+@dataclass(frozen=True)
+class YarpInstall:
+    """One YARP installation the tests run against: the PyPI 3.5 in the venv
+    (``version`` "3.5") or a release built from its sources by
+    ``scripts/build_yarp.sh`` into a prefix of its own."""
+    version: str
+    prefix: Path                  # CMake package prefix (lib/cmake/YARP)
+    bin: Path                     # yarpserver, yarp, yarprun, ...
+    python_path: Optional[Path]   # the bindings' folder (None: the venv's own `yarp`)
+    ycm: Optional[Path]           # YCM's prefix, for CMake
+
+    @property
+    def key(self) -> tuple:
+        return _version_key(self.version)
+
+    @property
+    def has_ros1(self) -> bool:
+        """YARP's own ROS 1 support (tcpros, xmlrpc, yarpidl_rosmsg, `yarpserver
+        --ros`): removed from YARP in 3.10."""
+        return self.key < (3, 10)
+
+    def cmake_prefix_path(self) -> str:
+        return ";".join(str(p) for p in (self.prefix, self.ycm) if p is not None)
+
+    def missing(self) -> list:
+        """What is missing for this install to be usable (empty: usable)."""
+        if self.python_path is not None and not (self.prefix / ".ybg-built").exists():
+            return [str(self.prefix / ".ybg-built")]  # not built, or its build did not finish
+        need = [self.bin / "yarpserver", self.bin / "yarp"]
+        if self.python_path is not None:
+            need.append(self.python_path / "yarp.py")
+        return [str(p) for p in need if not p.exists()]
+
+    def build_hint(self) -> str:
+        if self.python_path is None:
+            return SETUP_HINT
+        return (f"Build it with `scripts/setup.sh --yarp {self.version}` (from "
+                f"../shared/vendor/yarp-{self.version}.tar.xz into {self.prefix}, "
+                f"12-14 minutes on 2 cores, once per machine).")
+
+
+#: the YARP versions of the test matrix: PyPI's, and the two current releases
+MATRIX = ("3.5", "3.12.3", "4.0.0")
+
+
+def _newest(paths) -> Optional[Path]:
+    found = sorted(paths, key=lambda p: _version_key(p.name))
+    return found[-1] if found else None
+
+
+def yarp_install(version: str = "3.5") -> YarpInstall:
+    """The install of ``version`` (whether or not it is there: see
+    ``YarpInstall.missing``). "3.5" is PyPI's, in the venv."""
+    if version in ("3.5", "3.5.0"):
+        prefix = SITE_PACKAGES / "yarp"
+        return YarpInstall("3.5", prefix, prefix / "bin", None,
+                           SITE_PACKAGES / "ycm_cmake_modules")
+    prefix = YARP_CACHE / f"yarp-{version}"
+    site = _newest(prefix.glob("lib/python3*/site-packages")) or prefix / "lib" / "python3" / "site-packages"
+    ycm = _newest(p for p in YARP_CACHE.glob("ycm-*") if (p / ".ybg-built").exists())
+    return YarpInstall(version, prefix, prefix / "bin", site, ycm)
+
+
+DEFAULT_YARP = yarp_install("3.5")
+_ACTIVE: list = [DEFAULT_YARP]
+
+
+def active_yarp() -> YarpInstall:
+    """The YARP install the helpers use when none is given."""
+    return _ACTIVE[0]
+
+
+def use_yarp(install: YarpInstall) -> None:
+    """Make ``install`` the one the helpers use (the ``yarp`` fixture does)."""
+    _ACTIVE[0] = install
+
+
+def __getattr__(name):  # YARP_PREFIX, YARP_BIN, YCM_PREFIX: of the active install
+    install = active_yarp()
+    if name == "YARP_PREFIX":
+        return install.prefix
+    if name == "YARP_BIN":
+        return install.bin
+    if name == "YCM_PREFIX":
+        return install.ycm
+    raise AttributeError(name)
+
+
+def cmake_prefix_path(install: Optional[YarpInstall] = None) -> str:
     """Value for ``-DCMAKE_PREFIX_PATH`` to build C++ against YARP (and YCM)."""
-    return f"{YARP_PREFIX};{YCM_PREFIX}"
+    return (install or active_yarp()).cmake_prefix_path()
 
 
 # --------------------------------------------------------------------------
@@ -142,14 +240,17 @@ def _fail(msg: str):
 
 
 @functools.lru_cache(maxsize=None)
-def _python_imports(python: str, modules: str) -> Optional[str]:
-    """None if ``python -c 'import <modules>'`` works, else the error."""
+def _python_imports(python: str, modules: str, path: str = "") -> Optional[str]:
+    """None if ``python -c 'import <modules>'`` works (with ``path`` as
+    PYTHONPATH), else the error."""
     if not Path(python).exists():
         return f"{python} does not exist"
+    env = _clean_environ()
+    if path:
+        env["PYTHONPATH"] = path
     try:
         r = subprocess.run([python, "-c", "import " + modules],
-                           capture_output=True, text=True, timeout=60,
-                           env=_clean_environ())
+                           capture_output=True, text=True, timeout=60, env=env)
     except subprocess.TimeoutExpired:
         return f"{python} -c 'import {modules}' timed out"
     if r.returncode:
@@ -158,15 +259,19 @@ def _python_imports(python: str, modules: str) -> Optional[str]:
     return None
 
 
-def require_yarp() -> None:
-    """Fail the test (never skip) unless YARP 3.5 is installed in the venv."""
-    missing = [str(p) for p in (VENV_PYTHON, YARP_BIN / "yarpserver", YARP_BIN / "yarp")
-               if not p.exists()]
+def require_yarp(install: Optional[YarpInstall] = None) -> None:
+    """Fail the test (never skip) unless YARP (the active install: PyPI's 3.5
+    unless the ``yarp`` fixture chose another) is installed."""
+    install = install or active_yarp()
+    missing = [str(VENV_PYTHON)] if not VENV_PYTHON.exists() else []
+    missing += install.missing()
     if missing:
-        _fail(f"YARP is not installed: missing {', '.join(missing)}. {SETUP_HINT}")
-    err = _python_imports(str(VENV_PYTHON), "yarp")
+        _fail(f"YARP {install.version} is not installed: missing {', '.join(missing)}. "
+              f"{install.build_hint()}")
+    err = _python_imports(str(VENV_PYTHON), "yarp", str(install.python_path or ""))
     if err:
-        _fail(f"`import yarp` fails in {VENV_PYTHON}: {err}. {SETUP_HINT}")
+        _fail(f"`import yarp` of YARP {install.version} fails in {VENV_PYTHON}: {err}. "
+              f"{install.build_hint()}")
 
 
 def require_ros1() -> None:
@@ -182,8 +287,12 @@ def require_ros1() -> None:
     err = _python_imports(ROS1_PYTHON, "rospy, roslib.message, sensor_msgs.msg")
     if err:
         _fail(f"rospy does not import in {ROS1_PYTHON}: {err}. {SETUP_HINT}")
-    if not (YARP_BIN / "yarpidl_rosmsg").exists():
-        _fail(f"yarpidl_rosmsg is missing from {YARP_BIN}. {SETUP_HINT}")
+    install = active_yarp()
+    if not install.has_ros1:
+        _fail(f"YARP {install.version} has no ROS 1 support (removed in YARP 3.10): "
+              f"a ROS 1 test runs on YARP 3.5 only")
+    if not (install.bin / "yarpidl_rosmsg").exists():
+        _fail(f"yarpidl_rosmsg is missing from {install.bin}. {SETUP_HINT}")
 
 
 def require_ros2() -> None:
@@ -245,12 +354,17 @@ def _clean_environ() -> dict:
     return env
 
 
-def base_env(tmpdir: Optional[os.PathLike] = None) -> dict:
+def base_env(tmpdir: Optional[os.PathLike] = None, install: Optional[YarpInstall] = None) -> dict:
     """os.environ without any ROS / YARP settings of the machine, with PATH
-    starting with the real YARP binaries and the venv's bin, unbuffered Python
-    output, and (with a tmpdir) ROS logs kept in that folder."""
+    starting with the real YARP binaries (of ``install``, default the active
+    one) and the venv's bin, PYTHONPATH to its Python bindings when they are
+    not the venv's own, unbuffered Python output, and (with a tmpdir) ROS
+    logs kept in that folder."""
+    install = install or active_yarp()
     env = _clean_environ()
-    env["PATH"] = os.pathsep.join([str(YARP_BIN), str(VENV / "bin"), env.get("PATH", "/usr/bin:/bin")])
+    env["PATH"] = os.pathsep.join([str(install.bin), str(VENV / "bin"), env.get("PATH", "/usr/bin:/bin")])
+    if install.python_path is not None:
+        env["PYTHONPATH"] = str(install.python_path)
     env["VIRTUAL_ENV"] = str(VENV)
     env["PYTHONUNBUFFERED"] = "1"
     env["PYTHONDONTWRITEBYTECODE"] = "1"
@@ -735,7 +849,9 @@ class YarpServer:
     use this server."""
 
     def __init__(self, ros: bool = False, ros_master_uri: Optional[str] = None,
-                 port: Optional[int] = None, tmpdir=None, timeout: float = 20.0):
+                 port: Optional[int] = None, tmpdir=None, timeout: float = 20.0,
+                 install: Optional[YarpInstall] = None):
+        self.install = install
         self.ros = ros
         self.ros_master_uri = ros_master_uri
         self.port = port
@@ -745,20 +861,22 @@ class YarpServer:
         self.env: dict = {}
 
     def start(self) -> "YarpServer":
-        require_yarp()
+        if self.install is None:
+            self.install = active_yarp()
+        require_yarp(self.install)
         if self.ros and not self.ros_master_uri:
             raise ValueError("YarpServer(ros=True) needs ros_master_uri (start a RosCore first)")
         self._tmp = _TmpDir("ybg-yarp-", self._tmp_arg)
         self.tmpdir = self._tmp.path
         if self.port is None:
             self.port = free_port()
-        env = base_env(self.tmpdir)
+        env = base_env(self.tmpdir, self.install)
         env.update(yarp_env(self.tmpdir / "yarp", self.port))
         if self.ros_master_uri:
             env["ROS_MASTER_URI"] = self.ros_master_uri
             env["ROS_IP"] = LOCALHOST
         self.env = env
-        argv = [YARP_BIN / "yarpserver", "--ip", LOCALHOST, "--socket", self.port, "--read"]
+        argv = [self.install.bin / "yarpserver", "--ip", LOCALHOST, "--socket", self.port, "--read"]
         if self.ros:
             argv.append("--ros")
         self.proc = Proc(argv, env=env, name="yarpserver", log_dir=self.tmpdir,
@@ -773,7 +891,7 @@ class YarpServer:
 
     def yarp(self, *args, timeout: float = 20.0, check: bool = False) -> subprocess.CompletedProcess:
         """Run the real ``yarp`` command line tool against this server."""
-        return subprocess.run([str(YARP_BIN / "yarp"), *map(str, args)], env=self.env,
+        return subprocess.run([str(self.install.bin / "yarp"), *map(str, args)], env=self.env,
                               capture_output=True, text=True, timeout=timeout, check=check)
 
     def exists(self, port_name: str) -> bool:
@@ -926,7 +1044,7 @@ class TypeServer:
             dst = self.msg_dir / pkg
             dst.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(path, dst / f"{name}.msg")
-        self.proc = Proc([YARP_BIN / "yarpidl_rosmsg", "--name", self.NAME],
+        self.proc = Proc([self.yarp_server.install.bin / "yarpidl_rosmsg", "--name", self.NAME],
                          env=self.yarp_server.env, cwd=self.msg_dir, name="yarpidl_rosmsg",
                          log_dir=self._tmp.path, die_with_parent=True).start()
         try:

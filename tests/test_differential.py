@@ -23,7 +23,7 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
-from middleware import Proc, VENV_PYTHON, YarpProducer, YarpReader, YarpServer, cmake_prefix_path, require_yarp
+from middleware import Proc, VENV_PYTHON, YarpProducer, YarpReader, YarpServer
 
 ROOT = Path(__file__).resolve().parent.parent
 YBGC = str(Path(sys.executable).parent / "ybgc")
@@ -150,9 +150,8 @@ class Driver:
 
 
 @pytest.fixture(scope="module")
-def modules(tmp_path_factory):
-    require_yarp()
-    work = tmp_path_factory.mktemp("diff")
+def modules(tmp_path_factory, yarp):
+    work = tmp_path_factory.mktemp(f"diff_{yarp.version}")
     built = {}
     for tag in ("cpp", "py"):
         cfg = work / f"diff_{tag}.ini"
@@ -162,12 +161,12 @@ def modules(tmp_path_factory):
         assert r.returncode == 0, r.stderr
         built[tag] = out
     build = built["cpp"] / "build"
-    for cmd in (["cmake", "-S", str(built["cpp"]), "-B", str(build), f"-DCMAKE_PREFIX_PATH={cmake_prefix_path()}",
+    for cmd in (["cmake", "-S", str(built["cpp"]), "-B", str(build), f"-DCMAKE_PREFIX_PATH={yarp.cmake_prefix_path()}",
                  "-DCMAKE_CXX_FLAGS=-Werror", "-DCMAKE_BUILD_TYPE=Release"],
                 ["cmake", "--build", str(build), "-j2"]):
         r = subprocess.run(cmd, capture_output=True, text=True)
         assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
-    with YarpServer() as server:
+    with YarpServer(install=yarp) as server:
         env = server.env
         arm = YarpProducer(env, "/diff/arm:o").start()
         hand = YarpProducer(env, "/diff/hand:o").start()
