@@ -15,6 +15,13 @@ import time
 
 _out_lock = threading.Lock()
 
+# The events get a descriptor of their own: the standard output this process
+# was given, duplicated. Descriptor 1 then goes to standard error, so that what
+# the middleware writes there from its own threads (YARP prints its [INFO]
+# lines on stdout) lands in the log instead of inside an event line.
+_events = os.fdopen(os.dup(1), "w", buffering=1, encoding="utf-8")
+os.dup2(2, 1)
+
 
 def config():
     return json.loads(sys.argv[1]) if len(sys.argv) > 1 else {}
@@ -25,8 +32,8 @@ def emit(ev, **fields):
     fields.setdefault("t", time.time())
     line = json.dumps(fields)
     with _out_lock:
-        sys.stdout.write(line + "\n")
-        sys.stdout.flush()
+        _events.write(line + "\n")
+        _events.flush()
 
 
 def commands():
@@ -52,7 +59,7 @@ def exit_on_signals():
     """SIGTERM / SIGINT end the process at once (nothing to clean up)."""
     def handler(signum, frame):
         try:
-            sys.stdout.flush()
+            _events.flush()
         finally:
             os._exit(0)
     signal.signal(signal.SIGTERM, handler)
@@ -66,7 +73,7 @@ def exit_at_stdin_eof():
         for _ in sys.stdin:
             pass
         try:
-            sys.stdout.flush()
+            _events.flush()
         finally:
             os._exit(0)
     threading.Thread(target=watch, daemon=True).start()
