@@ -467,8 +467,8 @@ def ros1_problem():
     through the xmlrpc carrier: built in up to YARP 3.9, YARP's separate
     yarp-ros plugins in 3.10 to 3.12, gone in YARP 4. Without them a ROS 1
     port opens as a plain YARP port, and the module would publish into nothing."""
-    version = getattr(yarp, "YARP_VERSION", "")
-    if version[:1].isdigit() and int(version.split(".")[0]) >= 4:
+    version = yarp.YARP_VERSION
+    if yarp.YARP_VERSION_MAJOR >= 4:
         return ("YARP %s has no ROS 1 support (removed in YARP 4.0): set `via = ros2` in the "
                 "config and generate the ROS 2 node (ybgc CONFIG --backend ros2)" % version)
     master = yarp.Network.queryName("/ros")
