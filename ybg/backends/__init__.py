@@ -94,9 +94,11 @@ def template_environment(folders, filters: dict) -> "jinja2.Environment":
 @dataclass(frozen=True)
 class RenderOptions:
     """Options every backend accepts. ``package``: also emit the packaging
-    around the module (ament_python package for ``ros2``)."""
+    around the module (ament_python package for ``ros2``). ``single_file``:
+    the runtime inlined into the module, one file with no runtime beside it."""
 
     package: bool = False
+    single_file: bool = False
     extra: dict = field(default_factory=dict)
 
 
