@@ -1,2 +1,2 @@
 """ybgc: the YARP bottle generator compiler."""
-__version__ = "0.1.0"
+__version__ = "0.2.0"

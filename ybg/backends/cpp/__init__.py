@@ -1,13 +1,15 @@
-"""The ``cpp`` backend: one C++17 source and its CMakeLists.txt, a YARP
-module that reads YARP ports or ROS 1 topics and writes a Bottle on a YARP
-port or a ROS 1 topic (YARP's topic@node ports, with the type promised).
+"""The ``cpp`` backend: a C++17 YARP module and its CMakeLists.txt, which
+reads YARP ports or ROS 1 topics and writes a Bottle on a YARP port or a
+ROS 1 topic (YARP's topic@node ports, with the type promised).
 
-The source is made of two templates: ``_runtime.cpp.j2`` (inputs, layout
-checks, freshness, converters, timing, connections, shutdown; the same in
-every module) and ``module.cpp.j2`` (this bridge's description, its muxes,
-the message builder and the places for custom code). :mod:`.lower` makes
-every decision and escapes every value with :mod:`.escape`; the templates
-only print.
+The module (``module.cpp.j2``) holds this bridge's description, its muxes,
+the message builder and the places for custom code; it runs on the runtime
+library (``ybg/runtime/cpp/``: inputs, layout checks, freshness, matching,
+converters, timing, connections, shutdown), written beside it as
+``ybgc_runtime.hpp`` and ``ybgc_runtime.cpp`` or inlined with
+``--single-file`` (:mod:`ybg.backends.runtime`). :mod:`.lower` makes every
+decision and escapes every value with :mod:`.escape`; the templates only
+print.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import jinja2
 
 from ybg.backends import Backend, RenderOptions, code_filter, indent_line_filter, template_environment
 from ybg.backends.cpp.lower import LoweringError, lower
+from ybg.backends.runtime import CPP_SOURCE, cpp_files, runtime_text_filter, runtime_view
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
 
@@ -28,22 +31,28 @@ def environment() -> jinja2.Environment:
     return template_environment([TEMPLATE_DIR], {
         "code": code_filter,
         "indent_line": indent_line_filter,
+        "runtime_text": runtime_text_filter,
     })
 
 
 class CppBackend(Backend):
     name = "cpp"
-    description = "a C++17 YARP module (one source and its CMakeLists.txt)"
+    description = "a C++17 YARP module (its source, the runtime library and a CMakeLists.txt)"
     output_kinds = frozenset({"yarp", "ros1"})
     input_kinds = frozenset({"yarp", "ros1"})
 
     def render(self, program, options: RenderOptions = RenderOptions()) -> dict[str, str]:
         view = lower(program)
         env = environment()
-        return {
-            view.filename: env.get_template("module.cpp.j2").render(m=view),
-            "CMakeLists.txt": env.get_template("CMakeLists.txt.j2").render(m=view),
+        rt = runtime_view("cpp", options.single_file)
+        files = {
+            view.filename: env.get_template("module.cpp.j2").render(m=view, rt=rt),
+            "CMakeLists.txt": env.get_template("CMakeLists.txt.j2").render(
+                m=view, runtime_source=None if options.single_file else CPP_SOURCE),
         }
+        if not options.single_file:
+            files.update(cpp_files())
+        return files
 
 
 __all__ = ["CppBackend", "LoweringError", "TEMPLATE_DIR", "environment"]

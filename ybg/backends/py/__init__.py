@@ -1,12 +1,13 @@
-"""The ``py`` backend: one self-contained Python module (``yarp`` and the
-standard library only) that reads YARP ports or ROS 1 topics and writes a
-Bottle on a YARP port or a ROS 1 topic.
+"""The ``py`` backend: a Python module (``yarp`` and the standard library
+only) that reads YARP ports or ROS 1 topics and writes a Bottle on a YARP
+port or a ROS 1 topic.
 
-The generated module is made of three templates: ``_runtime.py.j2`` (inputs,
-freshness, converters, timing, message tree, shutdown; shared with other
-Python backends), ``_yarp_output.py.j2`` (the message tree as a Bottle) and
-``module.py.j2`` (this bridge's data, the message builder, the places for
-custom code). :mod:`.lower` makes every decision; the templates only print.
+The module (``module.py.j2``) holds this bridge's data, the message builder
+and the places for custom code; it runs on the runtime library
+(:mod:`ybg.runtime`: ``core`` and ``yarp_io``), written beside it as
+``ybgc_runtime/`` or inlined with ``--single-file``
+(:mod:`ybg.backends.runtime`). :mod:`.lower` makes every decision; the
+templates only print.
 """
 
 from __future__ import annotations
@@ -18,10 +19,9 @@ import jinja2
 
 from ybg.backends import Backend, RenderOptions, code_filter, indent_line_filter, template_environment
 from ybg.backends.py.lower import LoweringError, lower, py_literal
+from ybg.backends.runtime import python_files, runtime_text_filter, runtime_view
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
-#: the shared runtime, for other Python backends to include
-RUNTIME_TEMPLATE = "_runtime.py.j2"
 
 
 def _int_literal(value) -> str:
@@ -36,6 +36,7 @@ FILTERS = {
     "int_literal": _int_literal,
     "indent_line": indent_line_filter,
     "pyliteral": py_literal,
+    "runtime_text": runtime_text_filter,
 }
 
 
@@ -52,8 +53,11 @@ class PyBackend(Backend):
 
     def render(self, program, options: RenderOptions = RenderOptions()) -> dict[str, str]:
         view = lower(program)
-        text = environment().get_template("module.py.j2").render(m=view)
-        return {view.filename: text}
+        rt = runtime_view("py", options.single_file, ("core", "yarp_io"))
+        files = {view.filename: environment().get_template("module.py.j2").render(m=view, rt=rt)}
+        if not options.single_file:
+            files.update(python_files())
+        return files
 
 
-__all__ = ["PyBackend", "LoweringError", "TEMPLATE_DIR", "RUNTIME_TEMPLATE", "FILTERS", "environment"]
+__all__ = ["PyBackend", "LoweringError", "TEMPLATE_DIR", "FILTERS", "environment"]

@@ -1,14 +1,13 @@
 """The ``ros2`` backend: an rclpy node between YARP ports and ROS 2 topics.
 
-``<module>_node.py`` is one Python file (rclpy, the ``yarp`` bindings and the
-standard library). It is made of the ``py`` backend's shared runtime
-(``_runtime.py.j2``: inputs, freshness, converters, timing, shutdown), the
-ROS 2 side (``_ros2_node.py.j2``: topics as inputs, typed messages, the
-node's clock and parameters), for a Bottle output the ``py`` backend's
-``_yarp_output.py.j2``, and ``node.py.j2`` (this bridge's data and message
-builder). With ``RenderOptions(package=True)`` the files of an
-ament_python package are generated around it. :mod:`.lower` makes every
-decision; the templates only print.
+``<module>_node.py`` (``node.py.j2``) holds this bridge's data and message
+builder; it runs on the runtime library (:mod:`ybg.runtime`: ``core``,
+``yarp_io`` and ``ros2_io``, the node's side: topics as inputs, typed
+messages, the node's clock and parameters), written beside it as
+``ybgc_runtime/`` or inlined with ``--single-file``. With
+``RenderOptions(package=True)`` the files of an ament_python package are
+generated around it, the runtime inside the package. :mod:`.lower` makes
+every decision; the templates only print.
 """
 
 from __future__ import annotations
@@ -22,9 +21,9 @@ import jinja2
 
 from ybg.backends import Backend, RenderOptions, template_environment
 from ybg.backends.py import FILTERS as PY_FILTERS
-from ybg.backends.py import TEMPLATE_DIR as PY_TEMPLATE_DIR
 from ybg.backends.py.lower import LoweringError
 from ybg.backends.ros2.lower import lower, lower_package
+from ybg.backends.runtime import PY_PACKAGE, python_files, runtime_view
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
 
@@ -57,8 +56,8 @@ def _py_comment(text) -> str:
 
 @functools.lru_cache(maxsize=None)
 def environment() -> jinja2.Environment:
-    """Templates of this backend first, then the ``py`` backend's shared ones."""
-    return template_environment([TEMPLATE_DIR, PY_TEMPLATE_DIR], {
+    """The templates of this backend, with the ``py`` backend's filters."""
+    return template_environment([TEMPLATE_DIR], {
         **PY_FILTERS,
         "xml": _xml,
         "xml_comment": _xml_comment,
@@ -76,19 +75,30 @@ class Ros2Backend(Backend):
     def render(self, program, options: RenderOptions = RenderOptions()) -> dict[str, str]:
         view = lower(program)
         env = environment()
-        node = env.get_template("node.py.j2").render(m=view)
+        rt = runtime_view("py", options.single_file)
+        node = env.get_template("node.py.j2")
         if not options.package:
-            return {view.filename: node}
+            # a script: the runtime package beside it, on its sys.path
+            files = {view.filename: node.render(m=view, rt=rt, rt_import=f"import {PY_PACKAGE}",
+                                                rt_package=PY_PACKAGE)}
+            if not options.single_file:
+                files.update(python_files())
+            return files
         pkg = lower_package(program, view)
         files = {
-            f"{pkg.package}/{view.filename}": node,
+            # a module of the package: the runtime a subpackage of it
+            f"{pkg.package}/{view.filename}": node.render(m=view, rt=rt, rt_import=f"from . import {PY_PACKAGE}",
+                                                          rt_package=f".{PY_PACKAGE}"),
             f"{pkg.package}/__init__.py": env.get_template("package_init.py.j2").render(p=pkg),
             "package.xml": env.get_template("package.xml.j2").render(p=pkg),
-            "setup.py": env.get_template("setup.py.j2").render(p=pkg),
+            "setup.py": env.get_template("setup.py.j2").render(
+                p=pkg, runtime_package=None if options.single_file else PY_PACKAGE),
             "setup.cfg": env.get_template("setup.cfg.j2").render(p=pkg),
             f"resource/{pkg.package}": env.get_template("resource_marker.j2").render(p=pkg),
             f"launch/{pkg.launch_file}": env.get_template("launch.py.j2").render(p=pkg),
         }
+        if not options.single_file:
+            files.update(python_files(f"{pkg.package}/{PY_PACKAGE}"))
         return files
 
 

@@ -1,17 +1,47 @@
-{% raw %}
-// ===========================================================================
-// Runtime: the same in every module that ybgc generates (docs/runtime.md).
-// Inputs, layout checks, freshness, converters, timing, connections,
-// shutdown. This bridge's own data, message builder and the places for
-// custom code come after it, in namespace bridge.
-// ===========================================================================
+// The runtime library of the C++ modules ybgc generates: the behaviour
+// behind ybgc_runtime.hpp (docs/runtime.md). Inputs, layout checks,
+// freshness, matching, converters, timing, connections, shutdown.
+#include "ybgc_runtime.hpp"  // ybgc:runtime-import
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <csignal>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <deque>
+#include <functional>
+#include <initializer_list>
+#include <limits>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include <pthread.h>
+#include <signal.h>
+
+#include <yarp/conf/version.h>
+#include <yarp/os/Bottle.h>
+#include <yarp/os/BufferedPort.h>
+#include <yarp/os/Carriers.h>
+#include <yarp/os/Contact.h>
+#include <yarp/os/ContactStyle.h>
+#include <yarp/os/Network.h>
+#include <yarp/os/Stamp.h>
+#include <yarp/os/Type.h>
+#include <yarp/os/TypedReaderCallback.h>
+#include <yarp/os/Value.h>
+
 namespace ybgc {
 
-using SteadyClock = std::chrono::steady_clock;
-
-// --- messages to the user ---------------------------------------------------
-
-/// Name printed in front of every message ("<module>: ...").
 const char* gModule = "";
 
 std::mutex& printMutex()
@@ -80,112 +110,6 @@ std::string reprFloat(double x)
     return negative ? "-" + out : out;
 }
 
-// --- mux elements -------------------------------------------------------------
-
-/// One element of a mux: a real number, an integer, a bool or a string.
-struct Element
-{
-    enum class Kind { Real, Integer, Boolean, Text };
-
-    Kind kind = Kind::Real;
-    double real = 0.0;          // Kind::Real
-    std::int64_t integer = 0;   // Kind::Integer, Kind::Boolean (0 or 1)
-    std::string text;           // Kind::Text
-
-    static Element ofReal(double x)
-    {
-        Element e;
-        e.real = x;
-        return e;
-    }
-    static Element ofInteger(std::int64_t x)
-    {
-        Element e;
-        e.kind = Kind::Integer;
-        e.integer = x;
-        return e;
-    }
-    static Element ofBool(bool x)
-    {
-        Element e;
-        e.kind = Kind::Boolean;
-        e.integer = x ? 1 : 0;
-        return e;
-    }
-    static Element ofText(std::string x)
-    {
-        Element e;
-        e.kind = Kind::Text;
-        e.text = std::move(x);
-        return e;
-    }
-
-    bool isNumber() const { return kind != Kind::Text; }
-
-    /// The value as a double (0 for a string).
-    double asReal() const
-    {
-        return kind == Kind::Real ? real : (kind == Kind::Text ? 0.0 : static_cast<double>(integer));
-    }
-
-    /// The value as an integer: a real is truncated (NaN gives 0, and the
-    /// value saturates at the limits of int64).
-    std::int64_t asInteger() const
-    {
-        if (kind != Kind::Real) {
-            return kind == Kind::Text ? 0 : integer;
-        }
-        if (std::isnan(real)) {
-            return 0;
-        }
-        if (real >= 9223372036854775807.0) {
-            return std::numeric_limits<std::int64_t>::max();
-        }
-        if (real <= -9223372036854775808.0) {
-            return std::numeric_limits<std::int64_t>::min();
-        }
-        return static_cast<std::int64_t>(real);
-    }
-
-    /// The value as text, as Python's repr() prints it.
-    std::string repr() const
-    {
-        switch (kind) {
-        case Kind::Real:
-            return reprFloat(real);
-        case Kind::Integer:
-            return std::to_string(integer);
-        case Kind::Boolean:
-            return integer != 0 ? "True" : "False";
-        case Kind::Text:
-            break;
-        }
-        std::string out = "'";
-        for (char c : text) {
-            if (c == '\'' || c == '\\') {
-                out += '\\';
-            }
-            out += c;
-        }
-        return out + "'";
-    }
-
-    /// The value as the text of a string field.
-    std::string str() const
-    {
-        return kind == Kind::Text ? text : repr();
-    }
-};
-
-/// A mux: the elements of its inputs, in input order, then converted.
-using Mux = std::vector<Element>;
-
-/// "Up to the end" for a range of mux elements.
-constexpr std::size_t kToEnd = std::numeric_limits<std::size_t>::max();
-
-/// A converter: y = x * scale + offset on the elements [start, stop) of a mux.
-/// A string element is left as it is; an integer stays an integer (truncated)
-/// unless toFloat.
 void convert(Mux& mux, double scale, double offset, bool toFloat, std::size_t start, std::size_t stop)
 {
     if (scale == 1.0 && offset == 0.0 && !toFloat) {
@@ -215,11 +139,6 @@ void printMux(const char* name, const Mux& mux)
     }
     printLines(out);
 }
-
-// --- writing Bottles ------------------------------------------------------------
-
-/// How a value travels in the output Bottle (the Bottle tag).
-enum class Wire { Int8, Int16, Int32, Int64, Float32, Float64, String };
 
 void putInteger(yarp::os::Bottle& b, std::int64_t x, Wire wire)
 {
@@ -290,106 +209,6 @@ void putTime(yarp::os::Bottle& b, std::int64_t ns, Wire secWire, Wire nsecWire)
     putInteger(t, nsec, nsecWire);
 }
 
-// --- the bridge's description (filled in by namespace bridge) --------------------
-
-/// `count` consecutive elements of one type in an input Bottle
-/// ("float64", "int32", "bool", "string" ...).
-struct Group
-{
-    const char* type;
-    int count;
-};
-
-/// Where one element (or one array of elements) is in a ROS 1 message read
-/// as a Bottle: `name` is the field's path, `at` the index at each level.
-struct FieldPath
-{
-    const char* name;
-    std::vector<int> at;
-};
-
-enum class InputKind { Yarp, Ros1 };
-
-/// One input of a mux.
-struct InputSpec
-{
-    int mux;                        // index of its mux in BridgeSpec::muxes
-    int index;                      // its position in the mux
-    const char* source;             // the YARP port, or the ROS 1 topic, read
-    InputKind kind;
-    double timeout;                 // freshness timeout, seconds
-    bool declared;                  // false: any number of numbers, each a float64
-    std::vector<Group> layout;      // the declared elements
-    std::vector<FieldPath> fields;  // ROS 1 topic: the fields read (empty: every leaf)
-};
-
-struct MuxSpec
-{
-    const char* name;
-};
-
-enum class OutputKind { Yarp, Ros1 };
-
-struct OutputSpec
-{
-    OutputKind kind;
-    const char* port;        // the port opened (topic@node for ROS 1)
-    const char* msgType;     // ROS type promised on the port ("" for none)
-    const char* connectTo;   // a port to keep connected to ("" for none)
-};
-
-struct BridgeSpec
-{
-    const char* module;
-    const char* config;
-    std::vector<const char*> description;
-    const char* defaultPrefix;
-    std::vector<MuxSpec> muxes;
-    std::vector<InputSpec> inputs;
-    std::vector<int> needed;  // the muxes the message reads (their inputs gate publishing)
-    OutputSpec output;
-    double rate;              // Hz; 0 = event-driven
-    bool triggerAll;          // event-driven: every needed input has new data (else any)
-    std::size_t queue;        // unused Bottles kept per input (1: the newest, read non-strictly)
-    bool hold;                // on_stale = hold (else skip)
-    bool dropNan;             // on_nan = drop (else pass)
-};
-
-// --- reading and checking input Bottles -------------------------------------------
-
-/// The accepted values of one input that a message uses.
-struct Latest
-{
-    Mux values;
-    bool hasEnvelope = false;
-    double envelope = 0.0;  // envelope time stamp, seconds
-};
-
-/// An accepted Bottle that no message has used yet.
-struct Pending
-{
-    Latest data;
-    SteadyClock::time_point arrival;
-};
-
-/// Unread Bottles a port may hold before the oldest are skipped unread (a
-/// reader that fell this far behind catches up instead of lagging).
-constexpr int kBacklog = 64;
-
-/// The values a message uses, of every input in BridgeSpec::inputs order;
-/// read while the inputs are locked (a message is built with the lock held).
-class Inputs
-{
-public:
-    const Latest& operator[](std::size_t k) const { return *latest_[k]; }
-    std::size_t size() const { return latest_.size(); }
-    void add(const Latest& latest) { latest_.push_back(&latest); }
-
-private:
-    std::vector<const Latest*> latest_;
-};
-
-/// Appends the values of one input to a mux.
 void append(Mux& mux, const Latest& input)
 {
     mux.insert(mux.end(), input.values.begin(), input.values.end());
@@ -516,8 +335,6 @@ Expect expectOf(const std::string& type)
     return Expect::Integer;
 }
 
-/// Checks an input Bottle against the input's layout. On success `out`
-/// holds its values; else `why` says what is wrong. `in` is scratch space.
 bool parseBottle(const yarp::os::Bottle& b, const InputSpec& spec, bool dropNan, Mux& out, std::string& why,
                  std::vector<const yarp::os::Value*>& in)
 {
@@ -549,7 +366,8 @@ bool parseBottle(const yarp::os::Bottle& b, const InputSpec& spec, bool dropNan,
             const Expect expect = expectOf(g.type);
             for (int n = 0; n < g.count; ++n, ++k) {
                 const yarp::os::Value& v = *in[k];
-                const std::string at = "element " + std::to_string(k) + " is " + describe(v);
+                // the text of a failure, built only on failure (not per element)
+                const auto at = [&v, k] { return "element " + std::to_string(k) + " is " + describe(v); };
                 switch (expect) {
                 case Expect::Float:
                 case Expect::Float32:
@@ -561,14 +379,14 @@ bool parseBottle(const yarp::os::Bottle& b, const InputSpec& spec, bool dropNan,
                     break;
                 case Expect::Integer:
                     if (!isInteger(v)) {
-                        why = at + ", expected " + g.type;
+                        why = at() + ", expected " + g.type;
                         return false;
                     }
                     out.push_back(Element::ofInteger(v.asInt64()));
                     break;
                 case Expect::Text:
                     if (!v.isString()) {
-                        why = at + ", expected a string";
+                        why = at() + ", expected a string";
                         return false;
                     }
                     out.push_back(Element::ofText(v.asString()));
@@ -579,7 +397,7 @@ bool parseBottle(const yarp::os::Bottle& b, const InputSpec& spec, bool dropNan,
                     } else if (isInteger(v) && (v.asInt64() == 0 || v.asInt64() == 1)) {
                         out.push_back(Element::ofBool(v.asInt64() == 1));
                     } else {
-                        why = at + ", expected a bool (0 or 1)";
+                        why = at() + ", expected a bool (0 or 1)";
                         return false;
                     }
                     break;
@@ -1020,37 +838,6 @@ private:
     bool patient_ = true;
 };
 
-// --- the loop ---------------------------------------------------------------------------------
-
-/// What the message builder sees besides the muxes.
-struct Context
-{
-    std::uint64_t counter = 0;    // messages published before this one
-    std::int64_t wallNs = 0;      // wall clock, nanoseconds since the epoch
-    double seconds = 0.0;         // the same, in seconds
-    bool verbose = false;         // --verbose: print every mux
-    const Inputs* inputs = nullptr;
-
-    /// The newest envelope stamp of the given inputs, in nanoseconds (the
-    /// wall clock if none of them has one).
-    std::int64_t envelopeNs(std::initializer_list<int> which) const
-    {
-        bool found = false;
-        double newest = 0.0;
-        for (int i : which) {
-            const Latest& in = (*inputs)[static_cast<std::size_t>(i)];
-            if (in.hasEnvelope && (!found || in.envelope > newest)) {
-                newest = in.envelope;
-                found = true;
-            }
-        }
-        return found ? static_cast<std::int64_t>(std::nearbyint(newest * 1e9)) : wallNs;
-    }
-};
-
-/// Builds one message into `msg` from the newest input values; false (with
-/// the mux sizes in `failure`) when a mux is too short for the message.
-using MakeMessage = std::function<bool(const Inputs&, const Context&, yarp::os::Bottle& msg, std::string& failure)>;
 
 struct Options
 {
@@ -1645,4 +1432,3 @@ int run(const BridgeSpec& spec, int argc, char* argv[], MakeMessage make)
 }
 
 }  // namespace ybgc
-{% endraw %}

@@ -1,0 +1,226 @@
+// Unit tests of the C++ runtime library (ybg/runtime/cpp/), built against
+// one YARP by tests/test_runtime_cpp.py and run with no name server: the
+// values a module prints, the converters, the output Bottles and the
+// checks of input Bottles. Each failed check prints its line and what was
+// compared; the exit status is the number of failures.
+#include "ybgc_runtime.hpp"
+
+#include <yarp/conf/version.h>
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <string>
+
+namespace {
+
+int gFailures = 0;
+int gChecks = 0;
+
+void check(bool ok, const char* what, int line, const std::string& detail = "")
+{
+    ++gChecks;
+    if (!ok) {
+        ++gFailures;
+        std::printf("FAIL line %d: %s %s\n", line, what, detail.c_str());
+    }
+}
+
+#define CHECK(cond) check((cond), #cond, __LINE__)
+#define CHECK_EQ(a, b) check((a) == (b), #a " == " #b, __LINE__, "got [" + std::string(a) + "]")
+
+using ybgc::Element;
+using ybgc::Mux;
+using ybgc::Wire;
+
+ybgc::Mux reals(std::initializer_list<double> xs)
+{
+    Mux m;
+    for (double x : xs) {
+        m.push_back(Element::ofReal(x));
+    }
+    return m;
+}
+
+void testReprFloat()
+{
+    // as Python's repr(): the shortest digits that read back exactly
+    CHECK_EQ(ybgc::reprFloat(1.0), "1.0");
+    CHECK_EQ(ybgc::reprFloat(0.1), "0.1");
+    CHECK_EQ(ybgc::reprFloat(-2.5), "-2.5");
+    CHECK_EQ(ybgc::reprFloat(0.0001), "0.0001");
+    CHECK_EQ(ybgc::reprFloat(1e-05), "1e-05");
+    CHECK_EQ(ybgc::reprFloat(1e16), "1e+16");
+    CHECK_EQ(ybgc::reprFloat(123456789012345.0), "123456789012345.0");
+    CHECK_EQ(ybgc::reprFloat(1.0 / 3.0), "0.3333333333333333");
+    CHECK_EQ(ybgc::reprFloat(5e-324), "5e-324");
+    CHECK_EQ(ybgc::reprFloat(std::nan("")), "nan");
+    CHECK_EQ(ybgc::reprFloat(-std::numeric_limits<double>::infinity()), "-inf");
+}
+
+void testElements()
+{
+    CHECK(Element::ofReal(1e300).asInteger() == std::numeric_limits<std::int64_t>::max());
+    CHECK(Element::ofReal(-1e300).asInteger() == std::numeric_limits<std::int64_t>::min());
+    CHECK(Element::ofReal(std::nan("")).asInteger() == 0);
+    CHECK(Element::ofReal(-2.7).asInteger() == -2);
+    CHECK(Element::ofText("x").asReal() == 0.0 && !Element::ofText("x").isNumber());
+    CHECK_EQ(Element::ofBool(true).repr(), "True");
+    CHECK_EQ(Element::ofInteger(-7).repr(), "-7");
+    CHECK_EQ(Element::ofText("it's").repr(), "'it\\'s'");
+    CHECK_EQ(Element::ofReal(2.0).str(), "2.0");
+    CHECK_EQ(Element::ofText("plain").str(), "plain");
+}
+
+void testConvert()
+{
+    const double deg = M_PI / 180.0;
+    Mux m = reals({180.0, 90.0, 45.0});
+    ybgc::convert(m, deg, 0.0, false, 1, ybgc::kToEnd);
+    CHECK(m[0].real == 180.0 && m[1].real == 90.0 * deg && m[2].real == 45.0 * deg);
+    // an integer stays an integer (truncated), unless toFloat
+    Mux ints{Element::ofInteger(3), Element::ofInteger(7), Element::ofText("s")};
+    ybgc::convert(ints, 0.5, 0.0, false, 0, ybgc::kToEnd);
+    CHECK(ints[0].kind == Element::Kind::Integer && ints[0].integer == 1 && ints[1].integer == 3);
+    CHECK(ints[2].kind == Element::Kind::Text && ints[2].text == "s");  // a string is left alone
+    Mux floats{Element::ofInteger(3)};
+    ybgc::convert(floats, 0.5, 0.0, true, 0, ybgc::kToEnd);
+    CHECK(floats[0].kind == Element::Kind::Real && floats[0].real == 1.5);
+    // a range past the end is cut; exactly x * scale + offset (no contraction)
+    Mux r = reals({1.0, 1.0});
+    ybgc::convert(r, 3.0, 0.1, false, 1, 99);
+    CHECK(r[0].real == 1.0 && r[1].real == 1.0 * 3.0 + 0.1);
+}
+
+void testPut()
+{
+    yarp::os::Bottle b;
+    ybgc::putInteger(b, 300, Wire::Int8);
+    ybgc::putInteger(b, (std::int64_t{1} << 32) + 5, Wire::Int32);
+    ybgc::put(b, Element::ofReal(2.5), Wire::Float64);
+    ybgc::put(b, Element::ofReal(-3.9), Wire::Int64);
+    ybgc::put(b, Element::ofReal(0.1), Wire::Float32);
+    ybgc::put(b, Element::ofInteger(42), Wire::String);
+    CHECK(b.size() == 6);
+    CHECK(b.get(0).isInt8() && b.get(0).asInt8() == 44);        // 300 mod 256
+    CHECK(b.get(1).isInt32() && b.get(1).asInt32() == 5);       // two's complement cut
+    CHECK(b.get(2).isFloat64() && b.get(2).asFloat64() == 2.5);
+    CHECK(b.get(3).isInt64() && b.get(3).asInt64() == -3);
+    CHECK(b.get(4).isFloat32() && b.get(4).asFloat32() == 0.1f);
+    CHECK(b.get(5).isString() && b.get(5).asString() == "42");
+
+    yarp::os::Bottle r;
+    ybgc::putRange(r, reals({1.0, 2.0, 3.0, 4.0}), 1, 3, Wire::Float64);
+    CHECK(r.size() == 2 && r.get(0).asFloat64() == 2.0 && r.get(1).asFloat64() == 3.0);
+    yarp::os::Bottle end;
+    ybgc::putRange(end, reals({1.0, 2.0}), 1, ybgc::kToEnd, Wire::Float64);
+    CHECK(end.size() == 1);
+
+    yarp::os::Bottle t;
+    ybgc::putTime(t, 12'500'000'007, Wire::Int32, Wire::Int32);
+    CHECK(t.size() == 1 && t.get(0).isList());
+    const yarp::os::Bottle* time = t.get(0).asList();
+    CHECK(time->size() == 2 && time->get(0).asInt32() == 12 && time->get(1).asInt32() == 500'000'007);
+}
+
+ybgc::InputSpec yarpInput(bool declared, std::vector<ybgc::Group> layout)
+{
+    return ybgc::InputSpec{0, 0, "/src:o", ybgc::InputKind::Yarp, 0.5, declared, std::move(layout), {}};
+}
+
+bool parse(const std::string& text, const ybgc::InputSpec& spec, bool dropNan, Mux& out, std::string& why)
+{
+    yarp::os::Bottle b;
+    b.fromString(text);
+    std::vector<const yarp::os::Value*> scratch;
+    return ybgc::parseBottle(b, spec, dropNan, out, why, scratch);
+}
+
+void testParseBottle()
+{
+    Mux out;
+    std::string why;
+    const auto undeclared = yarpInput(false, {});
+    CHECK(parse("1 2.5 -3", undeclared, false, out, why));
+    CHECK(out.size() == 3 && out[0].kind == Element::Kind::Real && out[0].real == 1.0 && out[2].real == -3.0);
+    CHECK(!parse("1 hello", undeclared, false, out, why));
+    CHECK_EQ(why, "element 1 is a string, not a number");
+
+    const auto mixed = yarpInput(true, {{"int32", 1}, {"float64", 1}, {"string", 1}, {"bool", 1}});
+    CHECK(parse("7 2.5 \"x\" 1", mixed, false, out, why));
+    CHECK(out.size() == 4 && out[0].integer == 7 && out[1].real == 2.5 && out[2].text == "x"
+          && out[3].kind == Element::Kind::Boolean && out[3].integer == 1);
+    CHECK(!parse("7 2.5 \"x\"", mixed, false, out, why));
+    CHECK_EQ(why, "3 elements, expected 4");
+    CHECK(!parse("1.5 2.5 \"x\" 1", mixed, false, out, why));
+    CHECK_EQ(why, "element 0 is a float, expected int32");
+    CHECK(!parse("7 2.5 3 1", mixed, false, out, why));
+    CHECK_EQ(why, "element 2 is an integer, expected a string");
+    CHECK(!parse("7 2.5 \"x\" 2", mixed, false, out, why));
+    CHECK_EQ(why, "element 3 is an integer, expected a bool (0 or 1)");
+
+    // NaN dropped only when told
+    CHECK(parse("1.0 nan", undeclared, false, out, why) && std::isnan(out[1].real));
+    CHECK(!parse("1.0 nan", undeclared, true, out, why));
+    CHECK_EQ(why, "element 1 is NaN");
+
+    // a float32 element: on YARP 4 it is what a YARP 3 producer's float64
+    // reads as, so it is taken only where float32 is declared
+    yarp::os::Bottle f32;
+    f32.addFloat32(1.5f);
+    std::vector<const yarp::os::Value*> scratch;
+    const bool took = ybgc::parseBottle(f32, undeclared, false, out, why, scratch);
+    CHECK(took == (YARP_VERSION_MAJOR < 4));
+    if (!took) {
+        CHECK(why.find("YARP 4 changed the Bottle tags") != std::string::npos);
+    }
+    CHECK(ybgc::parseBottle(f32, yarpInput(true, {{"float32", 1}}), false, out, why, scratch));
+    CHECK(out.size() == 1 && out[0].real == 1.5);
+
+    // a ROS 1 topic read as a Bottle: every leaf, or the fields named
+    ybgc::InputSpec ros = yarpInput(false, {});
+    ros.kind = ybgc::InputKind::Ros1;
+    CHECK(parse("(1 2) 3.5 (4 (5 6))", ros, false, out, why) && out.size() == 6 && out[5].real == 6.0);
+    ros.fields = {{"y", {1}}, {"deep", {2, 1}}};
+    CHECK(parse("(1 2) 3.5 (4 (5 6))", ros, false, out, why));
+    CHECK(out.size() == 3 && out[0].real == 3.5 && out[1].real == 5.0 && out[2].real == 6.0);
+    ros.fields = {{"missing", {9}}};
+    CHECK(!parse("(1 2) 3.5", ros, false, out, why));
+    CHECK_EQ(why, "the message has no field missing");
+}
+
+void testAppendAndEnvelope()
+{
+    ybgc::Latest a;
+    a.values = reals({1.0, 2.0});
+    a.hasEnvelope = true;
+    a.envelope = 3.25;
+    ybgc::Latest b;
+    b.values = reals({3.0});
+    Mux m;
+    ybgc::append(m, a);
+    ybgc::append(m, b);
+    CHECK(m.size() == 3 && m[2].real == 3.0);
+    ybgc::Inputs inputs;
+    inputs.add(a);
+    inputs.add(b);
+    ybgc::Context ctx;
+    ctx.inputs = &inputs;
+    ctx.wallNs = 99;
+    CHECK(ctx.envelopeNs({0, 1}) == 3'250'000'000);
+    CHECK(ctx.envelopeNs({1}) == 99);  // none of them has one: the wall clock
+}
+
+}  // namespace
+
+int main()
+{
+    testReprFloat();
+    testElements();
+    testConvert();
+    testPut();
+    testParseBottle();
+    testAppendAndEnvelope();
+    std::printf("%d checks, %d failed (YARP %s)\n", gChecks, gFailures, YARP_VERSION);
+    return gFailures;
+}

@@ -1,0 +1,476 @@
+"""The runtime library (ybg/runtime/), tested as code.
+
+- The Python logic (``ybg.runtime.core``) with no middleware at all: the
+  converters, slices, counters, times, and the bridge's matching of Bottles
+  into messages, its queues and its freshness, driven by hand with the
+  arrival times and envelopes a test chooses (nothing waits on a clock).
+- The reading of input Bottles (``ybg.runtime.yarp_io.parse_bottle``) on
+  real YARP Bottles, with no name server.
+- How the runtime reaches a module: its files beside the module (against
+  their golden files), its version, a module refusing a runtime of another
+  version (Python at start, C++ at build), ``--single-file``.
+
+The C++ runtime's own unit tests are tests/runtime/test_runtime.cpp, built
+and run by tests/test_runtime_cpp.py.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import ybg
+import ybg.runtime
+from generated import module_file
+from ybg.backends import RenderOptions, get_backend
+from ybg.backends.runtime import CPP_DIR, cpp_files, python_files, python_inline
+from ybg.compiler.pipeline import compile_path
+from ybg.runtime import core
+from ybg.runtime.core import (Array, BridgeSpec, ConverterSpec, Context, InputSpec, InputState, Msg,
+                              MuxSpec, Scalar, convert, take, time_msg)
+
+ROOT = Path(__file__).resolve().parent.parent
+GOLDEN = Path(__file__).resolve().parent / "golden" / "runtime"
+EXAMPLE = ROOT / "examples" / "yarp_to_yarp_end_effector.ini"
+
+
+# --------------------------------------------------------------------------
+# converters, slices, counters, times
+
+
+def conv(scale=1.0, offset=0.0, to_float=False, start=0, stop=None):
+    return ConverterSpec("c", scale=scale, offset=offset, to_float=to_float, start=start, stop=stop)
+
+
+def test_converter_is_scale_then_offset_on_its_range():
+    deg = math.pi / 180
+    assert convert([180.0, 90.0, 45.0], (conv(deg, start=1),)) == [180.0, 90.0 * deg, 45.0 * deg]
+    assert convert([1.0, 2.0], (conv(2.0, 1.0),)) == [3.0, 5.0]
+    # applied in order, each on its own range; a range past the end is cut
+    assert convert([1.0, 1.0, 1.0], (conv(10.0, stop=2), conv(offset=1.0, start=1, stop=99))) == [10.0, 11.0, 2.0]
+    # an empty range changes nothing; no converter returns the same list
+    values = [1.0, 2.0]
+    assert convert(values, (conv(5.0, start=2),)) == values
+    assert convert(values, ()) is values
+
+
+def test_converter_keeps_integers_unless_told():
+    out = convert([3, 7, 2.5], (conv(0.5),))
+    assert out == [1, 3, 1.25] and isinstance(out[0], int) and isinstance(out[1], int)
+    out = convert([3, 7], (conv(0.5, to_float=True),))
+    assert out == [1.5, 3.5] and all(isinstance(x, float) for x in out)
+    # the identity converter with to_float turns integers into floats
+    assert [type(x) for x in convert([1, 2], (conv(to_float=True),))] == [float, float]
+
+
+def test_slices_are_never_silently_shortened():
+    assert take([1, 2, 3, 4], 1, 3) == [2, 3]
+    assert take([1, 2, 3], 0, None) == [1, 2, 3]
+    assert take([1, 2, 3], 3, None) == []
+    for start, stop in ((0, 4), (4, None), (2, 5)):
+        with pytest.raises(IndexError, match="slice"):
+            take([1, 2, 3], start, stop)
+
+
+@pytest.mark.parametrize("type_,counter,want", [
+    ("uint32", 2**32 + 3, 3), ("uint32", 7, 7), ("int32", 2**31, -2**31), ("int8", 130, -126),
+    ("uint8", 256, 0), ("char", 300, 44), ("int64", 2**63, -2**63), ("float64", 12345, 12345),
+])
+def test_counter_wraps_like_its_ros_type(type_, counter, want):
+    assert Context({}, counter, {}).count(type_) == want
+
+
+def test_times_in_both_ros_styles():
+    ros1 = time_msg(1_500_000_123, "ros1")
+    assert ros1.type == "time"
+    assert [(n, s.type, s.value) for n, s in ros1.fields] == [("secs", "uint32", 1), ("nsecs", "uint32", 500_000_123)]
+    ros2 = time_msg(2_000_000_001, "ros2")
+    assert ros2.type == "builtin_interfaces/Time"
+    assert [(n, s.value) for n, s in ros2.fields] == [("sec", 2), ("nanosec", 1)]
+
+
+def test_envelope_time_of_a_mux_else_the_wall_clock():
+    ctx = Context({}, 0, {"a": 12.25, "b": None})
+    assert [s.value for _, s in ctx.envelope_time("a", "ros2").fields] == [12, 250_000_000]
+    wall = [s.value for _, s in ctx.envelope_time("b", "ros2").fields]
+    assert wall == [s.value for _, s in ctx.wall_time("ros2").fields]
+    assert abs(wall[0] - ctx.seconds) <= 1
+
+
+# --------------------------------------------------------------------------
+# the bridge's logic, driven by hand
+
+
+class Recorder:
+    """An output that keeps what it is given."""
+
+    port_name = "/test/out:o"
+
+    def __init__(self):
+        self.messages = []
+
+    def publish(self, tree):
+        self.messages.append(tree)
+
+
+class HandInput(InputState):
+    """An input with no port: the test calls the bridge as a port would."""
+
+    def __init__(self, bridge, spec, local, timeout):
+        self.init_state(bridge, spec, timeout)
+        self.local = local
+
+
+class HandBridge(core.Bridge):
+    def make_input(self, mux, spec, local, timeout):
+        return HandInput(self, spec, local, timeout)
+
+    def log(self, text):
+        self.logged.append(text)
+
+
+def bridge(muxes=("a", "b"), rate=None, trigger="all", queue=64, on_stale="skip", timeout=0.5,
+           needed=None, build=None):
+    specs = tuple(MuxSpec(m, (InputSpec(m, 0, f"/src/{m}:o", "yarp", types=None, timeout=timeout),),
+                          (), False, None) for m in muxes)
+    spec = BridgeSpec("test", "test.ini", ("test",), specs, tuple(needed if needed is not None else muxes),
+                      rate, trigger, queue, on_stale, "pass")
+    options = argparse.Namespace(prefix="/test", rate=None, timeout=None, verbose=False)
+    out = Recorder()
+
+    def default_build(ctx):
+        return {m: list(ctx.values[m]) for m in muxes}
+
+    b = HandBridge.__new__(HandBridge)
+    b.logged = []
+    core.Bridge.__init__(b, spec, options, out, build or default_build, lambda v: None)
+    return b, out
+
+
+def arrive(b, mux, values, now, envelope=None, reason=None):
+    inp = b.mux_inputs[mux][0]
+    b.on_bottle(inp, values, reason, now, envelope)
+    return inp
+
+
+def test_event_driven_trigger_all_pairs_bottles_by_envelope():
+    """Each message takes one Bottle of every needed input, matched by
+    envelope stamp to the newest of the oldest: a Bottle of tick 2 that
+    arrives before tick 1's partner is paired with tick 2's."""
+    b, out = bridge()
+    b.publishing = True
+    arrive(b, "a", [1.0], now=10.0, envelope=1.0)
+    arrive(b, "a", [2.0], now=10.1, envelope=2.0)
+    assert out.messages == []  # b has delivered nothing
+    arrive(b, "b", [20.0], now=10.2, envelope=2.0)
+    # reference: the newest of the oldest = b's 2.0; a's nearest is 2.0, its 1.0 unused
+    assert out.messages == [{"a": [2.0], "b": [20.0]}]
+    assert b.mux_inputs["a"][0].unused == 1
+    arrive(b, "b", [30.0], now=10.3, envelope=3.0)
+    arrive(b, "a", [3.0], now=10.35, envelope=3.0)
+    assert out.messages[-1] == {"a": [3.0], "b": [30.0]}
+    assert b.published == 2
+
+
+def test_event_driven_without_envelopes_matches_by_arrival():
+    b, out = bridge()
+    b.publishing = True
+    arrive(b, "a", [1.0], now=1.00)
+    arrive(b, "a", [2.0], now=1.50)
+    arrive(b, "b", [9.0], now=1.45)
+    assert out.messages == [{"a": [2.0], "b": [9.0]}]  # 1.50 is nearer to 1.45 than 1.00
+
+
+def test_trigger_any_publishes_each_bottle_once_with_the_others_newest():
+    b, out = bridge(trigger="any")
+    b.publishing = True
+    arrive(b, "a", [1.0], now=1.0)
+    assert out.messages == []  # b never delivered: skip holds nothing back, b is waiting
+    arrive(b, "b", [5.0], now=1.1)
+    arrive(b, "a", [2.0], now=1.2)
+    assert out.messages == [{"a": [1.0], "b": [5.0]}, {"a": [2.0], "b": [5.0]}]
+
+
+def test_queue_is_bounded_and_counts_what_it_drops():
+    b, out = bridge(queue=3)
+    for k in range(10):
+        arrive(b, "a", [float(k)], now=float(k), envelope=float(k))
+    inp = b.mux_inputs["a"][0]
+    assert [e[0] for e in inp.queue] == [[7.0], [8.0], [9.0]]
+    assert (inp.received, inp.unused) == (10, 7)
+    assert out.messages == []  # nothing published before the output is open
+
+
+def test_queue_of_one_keeps_the_newest():
+    b, _ = bridge(queue=1)
+    for k in range(3):
+        arrive(b, "a", [float(k)], now=float(k))
+    inp = b.mux_inputs["a"][0]
+    assert [e[0] for e in inp.queue] == [[2.0]] and inp.unused == 2
+
+
+def test_dropped_bottles_are_counted_and_reported_once():
+    b, out = bridge()
+    b.publishing = True
+    for k in range(3):
+        arrive(b, "a", None, now=float(k), reason="element 0 is a string, expected float64")
+    inp = b.mux_inputs["a"][0]
+    assert (inp.received, inp.dropped, len(inp.queue)) == (3, 3, 0)
+    assert [t for t in b.logged if "dropped" in t] == [
+        "input /src/a:o: dropped a Bottle (element 0 is a string, expected float64); "
+        "further drops are only counted"]
+
+
+def test_freshness_transitions_are_reported_once_each():
+    b, _ = bridge(timeout=0.5)
+    b._check_freshness(0.0)
+    b._check_freshness(0.1)
+    assert b.logged == ["waiting for /src/a:o", "waiting for /src/b:o"]
+    arrive(b, "a", [1.0], now=1.0)
+    assert b._check_freshness(1.2) == 1.5  # the next deadline: when a would go stale
+    b._check_freshness(1.6)
+    b._check_freshness(1.7)
+    assert [t for t in b.logged if "stale" in t] == ["input /src/a:o is stale (no data for 0.6 s)"]
+    arrive(b, "a", [2.0], now=2.0)
+    arrive(b, "a", [3.0], now=2.1)
+    assert [t for t in b.logged if "fresh again" in t] == ["input /src/a:o is fresh again"]
+    assert b.mux_inputs["a"][0].stale_periods == 1
+
+
+def test_on_stale_skip_waits_for_every_needed_input_to_be_fresh():
+    b, out = bridge(rate=10.0, on_stale="skip")
+    arrive(b, "a", [1.0], now=0.0)
+    arrive(b, "b", [2.0], now=0.0)
+    assert b._ready(False)
+    b._check_freshness(1.0)  # both stale
+    assert not b._ready(False)
+
+
+def test_on_stale_hold_publishes_the_last_values():
+    b, out = bridge(rate=10.0, on_stale="hold")
+    assert not b._ready(False)  # nothing delivered yet
+    arrive(b, "a", [1.0], now=0.0)
+    assert not b._ready(False)  # b still waiting
+    arrive(b, "b", [2.0], now=0.0)
+    b._check_freshness(5.0)
+    assert b._ready(False)
+    raw, envelopes = b._snapshot(False)
+    b._publish(raw, envelopes)
+    assert out.messages == [{"a": [1.0], "b": [2.0]}]
+
+
+def test_fixed_rate_takes_the_newest_and_leaves_the_rest_unused():
+    b, out = bridge(rate=100.0)
+    for k in range(4):
+        arrive(b, "a", [float(k)], now=float(k) / 100)
+    arrive(b, "b", [9.0], now=0.0)
+    raw, _ = b._snapshot(False)
+    assert raw == {"a": [3.0], "b": [9.0]}
+    assert b.mux_inputs["a"][0].unused == 3
+
+
+def test_inputs_not_needed_are_sampled_not_waited_for():
+    b, out = bridge(needed=("a",))
+    b.publishing = True
+    arrive(b, "b", [7.0], now=0.0)
+    assert out.messages == []
+    arrive(b, "a", [1.0], now=0.1)
+    arrive(b, "a", [2.0], now=0.2)
+    assert out.messages == [{"a": [1.0], "b": [7.0]}, {"a": [2.0], "b": [7.0]}]
+
+
+def test_a_message_that_cannot_be_built_is_counted_not_raised():
+    def short(ctx):
+        return take(ctx.values["a"], 0, 3)
+
+    b, out = bridge(muxes=("a",), build=short)
+    b.publishing = True
+    arrive(b, "a", [1.0], now=0.0)
+    arrive(b, "a", [2.0], now=0.1)
+    assert out.messages == [] and b.build_errors == 2
+    assert len([t for t in b.logged if "cannot build the message" in t]) == 1
+
+
+def test_converters_and_compute_run_before_the_builder():
+    spec_conv = (ConverterSpec("x10", 10.0, 0.0, False, 0, None),)
+    b, out = bridge(muxes=("a",))
+    b.spec = b.spec._replace(muxes=(b.spec.muxes[0]._replace(converters=spec_conv),))
+    b.compute = lambda v: v["a"].append(-1.0)
+    b.publishing = True
+    arrive(b, "a", [1.5], now=0.0)
+    assert out.messages == [{"a": [15.0, -1.0]}]
+
+
+def test_message_tree_nodes():
+    tree = Msg("geometry_msgs/Point", (("x", Scalar("float64", 1.0)), ("v", Array("int32", (1, 2)))))
+    assert tree.fields[1][1].values == (1, 2)
+    assert "Scalar('float64', 1.0)" in repr(tree)
+
+
+def test_command_line_options():
+    spec = BridgeSpec("m", "m.ini", ("about m",), (), (), 10.0, "all", 64, "skip", "pass")
+    o = core.parse_options(spec, ["--rate", "0", "--prefix", "/x", "--timeout", "2"], "/m")
+    assert (o.prefix, o.rate, o.timeout, o.verbose) == ("/x", 0.0, 2.0, False)
+    for bad in (["--rate", "-1"], ["--prefix", "x"], ["--timeout", "0"]):
+        with pytest.raises(SystemExit):
+            core.parse_options(spec, bad, "/m")
+
+
+def test_core_imports_no_middleware():
+    """The logic imports only the standard library (run in a fresh process:
+    this one has YARP and rclpy loaded by other tests)."""
+    code = ("import sys; import ybg.runtime.core; "
+            "print(' '.join(sorted(m for m in ('yarp', 'rclpy') if m in sys.modules)))")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                       env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert r.stdout.strip() == ""
+
+
+# --------------------------------------------------------------------------
+# input Bottles, on real YARP Bottles (no name server)
+
+
+def bottle(text):
+    import yarp
+    b = yarp.Bottle()
+    b.fromString(text)
+    return b
+
+
+def test_parse_bottle_layouts():
+    from ybg.runtime.yarp_io import parse_bottle
+
+    # undeclared: any number of numbers, each a float
+    assert parse_bottle(bottle("1 2.5 -3"), None, False, False) == ([1.0, 2.5, -3.0], None)
+    values, why = parse_bottle(bottle("1 hello"), None, False, False)
+    assert values is None and why == "element 1 is a string, not a number"
+    # declared: count and type of every element
+    assert parse_bottle(bottle('7 2.5 "x" 1'), ("int32", "float64", "string", "bool"), False, False) == \
+        ([7, 2.5, "x", True], None)
+    assert parse_bottle(bottle("1 2"), ("float64",), False, False) == (None, "2 elements, expected 1")
+    assert parse_bottle(bottle("1.5"), ("int32",), False, False) == \
+        (None, "element 0 is a float, expected int32")
+    assert parse_bottle(bottle("2"), ("bool",), False, False)[1] == "element 0 is an integer, expected a bool (0 or 1)"
+    # NaN dropped only when told
+    assert parse_bottle(bottle("1.0 nan"), None, False, True) == (None, "element 1 is NaN")
+    assert math.isnan(parse_bottle(bottle("1.0 nan"), None, False, False)[0][1])
+    # a ROS 1 message read as a Bottle: nested lists, flattened or picked
+    nested = bottle("(1 2) 3.5 (4 (5 6))")
+    assert parse_bottle(nested, None, True, False) == ([1.0, 2.0, 3.5, 4.0, 5.0, 6.0], None)
+    assert parse_bottle(nested, ("float64", "float64"), False, False, positions=((1,), (2, 1, 0)))[0] == [3.5, 5.0]
+    assert parse_bottle(nested, ("float64",), False, False, positions=((9,),))[1] == \
+        "not laid out as its message type (a field is missing)"
+
+
+# --------------------------------------------------------------------------
+# how the runtime reaches a module
+
+
+def test_versions_agree():
+    assert ybg.runtime.VERSION == ybg.__version__
+    header = (CPP_DIR / "ybgc_runtime.hpp").read_text()
+    assert f'#define YBGC_RUNTIME_VERSION "{ybg.__version__}"' in header
+
+
+def runtime_files() -> dict[str, str]:
+    return {**python_files(), **cpp_files()}
+
+
+@pytest.mark.parametrize("name", sorted(runtime_files()))
+def test_runtime_golden_files(name, update_goldens):
+    """One golden file per runtime file: the runtime as written beside a module."""
+    text = runtime_files()[name]
+    path = GOLDEN / name
+    if update_goldens or os.environ.get("YBG_UPDATE_GOLDENS") == "1":
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text, encoding="utf-8")
+    assert path.read_text(encoding="utf-8") == text, f"{path} differs; run pytest --update-goldens"
+
+
+def test_runtime_files_are_the_library_verbatim():
+    for name, text in runtime_files().items():
+        first, second, rest = text.split("\n", 2)
+        assert first.endswith(f"ybgc runtime {ybg.__version__}, generated by ybgc beside the modules it writes:")
+        assert "do not edit" in second
+        source = CPP_DIR / name if name.endswith("pp") else Path(ybg.runtime.__file__).parent / Path(name).name
+        assert rest == source.read_text(encoding="utf-8")
+
+
+@pytest.mark.parametrize("backend", ["cpp", "py", "ros2"])
+def test_every_backend_writes_the_runtime_beside_or_inlines_it(backend):
+    path = ROOT / "examples" / ("vizzy_rviz_joint_states.ini" if backend == "ros2" else EXAMPLE.name)
+    program = compile_path(path).program
+    files = get_backend(backend).render(program)
+    expected = cpp_files() if backend == "cpp" else python_files()
+    assert {k: v for k, v in files.items() if k in expected} == expected
+    single = get_backend(backend).render(program, RenderOptions(single_file=True))
+    assert not set(single) & set(expected)
+    suffix = ".cpp" if backend == "cpp" else ".py"
+    _, text = module_file(single, suffix)
+    assert f"ybgc runtime {ybg.__version__}, inlined (--single-file)" in text
+    if backend != "cpp":
+        assert "ybgc:runtime-import" not in text and "from ." not in text
+        compile(text, "single", "exec")
+
+
+def test_inlined_python_runtime_defines_what_the_modules_import():
+    text = python_inline()
+    namespace_names = set(re.findall(r"^(?:class|def) (\w+)", text, re.M))
+    for name in ("BridgeSpec", "Msg", "take", "YarpOutput", "run", "Ros2Output", "run_node", "floats"):
+        assert name in namespace_names or re.search(rf"^{name} = ", text, re.M), name
+
+
+def _generate(tmp_path: Path, backend: str, config: Path = EXAMPLE) -> Path:
+    r = subprocess.run([sys.executable, "-m", "ybg.cli", str(config), "--backend", backend, "-o", str(tmp_path)],
+                       capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert r.returncode == 0, r.stderr + r.stdout
+    return tmp_path
+
+
+def test_python_module_refuses_a_runtime_of_another_version(tmp_path):
+    folder = _generate(tmp_path, "py")
+    module = folder / "end_effector_compare.py"
+    ok = subprocess.run([sys.executable, str(module), "--help"], capture_output=True, text=True, cwd="/")
+    assert ok.returncode == 0 and "usage" in ok.stdout, ok.stderr
+    init = folder / "ybgc_runtime" / "__init__.py"
+    init.write_text(init.read_text().replace(f'VERSION = "{ybg.__version__}"', 'VERSION = "0.1.9"'))
+    bad = subprocess.run([sys.executable, str(module), "--help"], capture_output=True, text=True, cwd="/")
+    assert bad.returncode == 1 and "Traceback" not in bad.stderr
+    assert f"needs ybgc's runtime library {ybg.__version__} beside it" in bad.stderr
+    assert "found: 0.1.9" in bad.stderr and "generate the module again" in bad.stderr
+    # and with no runtime at all
+    for f in (folder / "ybgc_runtime").iterdir():
+        f.unlink()
+    (folder / "ybgc_runtime").rmdir()
+    gone = subprocess.run([sys.executable, str(module), "--help"], capture_output=True, text=True, cwd="/")
+    assert gone.returncode == 1 and "found: none" in gone.stderr and "Traceback" not in gone.stderr
+
+
+def test_regenerating_brings_the_runtime_of_this_version(tmp_path):
+    folder = _generate(tmp_path, "py")
+    core_file = folder / "ybgc_runtime" / "core.py"
+    core_file.write_text(core_file.read_text().replace("ybgc runtime " + ybg.__version__, "ybgc runtime 0.1.9"))
+    _generate(tmp_path, "py")
+    assert core_file.read_text() == python_files()["ybgc_runtime/core.py"]
+
+
+def test_thesis_demonstrations_give_thin_modules():
+    """The module files of the thesis' three demonstrations are at most 200
+    lines in every backend, and docs/runtime.md shows their measured table."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("module_lines", ROOT / "scripts" / "module_lines.py")
+    lines = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(lines)
+    for demo in lines.DEMOS:
+        for backend in lines.BACKENDS:
+            name, count = lines.module_lines(demo, backend)
+            assert 40 < count <= lines.LIMIT, (demo, backend, name, count)
+    assert lines.table() in (ROOT / "docs" / "runtime.md").read_text(encoding="utf-8")

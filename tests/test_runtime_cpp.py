@@ -1,0 +1,54 @@
+"""The C++ runtime library's unit tests (tests/runtime/test_runtime.cpp),
+built against each YARP of the matrix and run with no name server: the
+runtime's logic (values printed, converters, output Bottles, checks of input
+Bottles, whose float32 rule differs between YARP 3 and 4) as plain code.
+
+Beyond it, for a module generated for another runtime version: its build
+stops with a message that says what to do."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import ybg
+from ybg.backends.runtime import CPP_DIR
+
+ROOT = Path(__file__).resolve().parent.parent
+SOURCE = Path(__file__).resolve().parent / "runtime"
+
+
+def cmake_build(src: Path, build: Path, install, target: str | None = None) -> subprocess.CompletedProcess:
+    r = subprocess.run(["cmake", "-S", str(src), "-B", str(build),
+                        f"-DCMAKE_PREFIX_PATH={install.cmake_prefix_path()}"],
+                       capture_output=True, text=True, timeout=300)
+    if r.returncode != 0:
+        return r
+    cmd = ["cmake", "--build", str(build), "-j2"] + (["--target", target] if target else [])
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=900)
+
+
+def test_runtime_unit_tests(yarp, tmp_path):
+    built = cmake_build(SOURCE, tmp_path / "build", yarp)
+    assert built.returncode == 0, built.stdout[-4000:] + built.stderr[-4000:]
+    run = subprocess.run([str(tmp_path / "build" / "test_runtime")], capture_output=True, text=True, timeout=60)
+    assert run.returncode == 0, run.stdout + run.stderr
+    checks, = [line for line in run.stdout.splitlines() if " checks, " in line]
+    assert checks.startswith(tuple(f"{n} checks, 0 failed" for n in range(60, 1000))), checks
+    assert f"(YARP {yarp.version}" in checks or yarp.version == "3.5", checks
+
+
+def test_module_build_refuses_a_runtime_of_another_version(yarp, tmp_path):
+    out = tmp_path / "module"
+    r = subprocess.run([sys.executable, "-m", "ybg.cli", str(ROOT / "examples" / "yarp_to_yarp_end_effector.ini"), "--backend", "cpp",
+                        "-o", str(out)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    header = out / "ybgc_runtime.hpp"
+    header.write_text(header.read_text().replace(f'#define YBGC_RUNTIME_VERSION "{ybg.__version__}"',
+                                                 '#define YBGC_RUNTIME_VERSION "0.1.9"'))
+    built = cmake_build(out, out / "build", yarp)
+    assert built.returncode != 0
+    assert (f"this module was generated for ybgc's runtime library {ybg.__version__}: generate it again"
+            in built.stdout + built.stderr), built.stdout[-3000:]
+    assert (CPP_DIR / "ybgc_runtime.hpp").read_text().count("YBGC_RUNTIME_VERSION") >= 1

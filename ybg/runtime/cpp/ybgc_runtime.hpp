@@ -1,0 +1,329 @@
+// The runtime library of the C++ modules ybgc generates (docs/runtime.md):
+// what a module's own code uses. A module holds its spec tables (BridgeSpec),
+// its gather/compute/buildMessage functions and main(), which calls run();
+// the behaviour is in ybgc_runtime.cpp (inputs, layout checks, freshness,
+// matching, converters, timing, connections, shutdown), plain code with its
+// own tests (tests/runtime/). ybgc writes both files beside each module it
+// generates, or inlines them into it with --single-file.
+#ifndef YBGC_RUNTIME_HPP
+#define YBGC_RUNTIME_HPP
+
+/// The version of this runtime: a module generated for another one refuses
+/// to build (its #error says so).
+#define YBGC_RUNTIME_VERSION "0.2.0"
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <csignal>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <deque>
+#include <functional>
+#include <initializer_list>
+#include <limits>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include <yarp/os/Bottle.h>
+#include <yarp/os/Value.h>
+
+namespace ybgc {
+
+using SteadyClock = std::chrono::steady_clock;
+
+// --- messages to the user ---------------------------------------------------
+
+/// Name printed in front of every message ("<module>: ...").
+extern const char* gModule;
+
+/// Prints "<module>: <text>" on stdout, at once.
+void say(const std::string& text);
+
+/// Prints lines as they are (totals, verbose values).
+void printLines(const std::string& text);
+
+/// A float written as Python's repr() writes it: the shortest digits that
+/// read back exactly, "1.0", "0.0001", "1e-05", "1e+16", "nan", "-inf".
+std::string reprFloat(double x);
+
+// --- mux elements -------------------------------------------------------------
+
+/// One element of a mux: a real number, an integer, a bool or a string.
+struct Element
+{
+    enum class Kind { Real, Integer, Boolean, Text };
+
+    Kind kind = Kind::Real;
+    double real = 0.0;          // Kind::Real
+    std::int64_t integer = 0;   // Kind::Integer, Kind::Boolean (0 or 1)
+    std::string text;           // Kind::Text
+
+    static Element ofReal(double x)
+    {
+        Element e;
+        e.real = x;
+        return e;
+    }
+    static Element ofInteger(std::int64_t x)
+    {
+        Element e;
+        e.kind = Kind::Integer;
+        e.integer = x;
+        return e;
+    }
+    static Element ofBool(bool x)
+    {
+        Element e;
+        e.kind = Kind::Boolean;
+        e.integer = x ? 1 : 0;
+        return e;
+    }
+    static Element ofText(std::string x)
+    {
+        Element e;
+        e.kind = Kind::Text;
+        e.text = std::move(x);
+        return e;
+    }
+
+    bool isNumber() const { return kind != Kind::Text; }
+
+    /// The value as a double (0 for a string).
+    double asReal() const
+    {
+        return kind == Kind::Real ? real : (kind == Kind::Text ? 0.0 : static_cast<double>(integer));
+    }
+
+    /// The value as an integer: a real is truncated (NaN gives 0, and the
+    /// value saturates at the limits of int64).
+    std::int64_t asInteger() const
+    {
+        if (kind != Kind::Real) {
+            return kind == Kind::Text ? 0 : integer;
+        }
+        if (std::isnan(real)) {
+            return 0;
+        }
+        if (real >= 9223372036854775807.0) {
+            return std::numeric_limits<std::int64_t>::max();
+        }
+        if (real <= -9223372036854775808.0) {
+            return std::numeric_limits<std::int64_t>::min();
+        }
+        return static_cast<std::int64_t>(real);
+    }
+
+    /// The value as text, as Python's repr() prints it.
+    std::string repr() const
+    {
+        switch (kind) {
+        case Kind::Real:
+            return reprFloat(real);
+        case Kind::Integer:
+            return std::to_string(integer);
+        case Kind::Boolean:
+            return integer != 0 ? "True" : "False";
+        case Kind::Text:
+            break;
+        }
+        std::string out = "'";
+        for (char c : text) {
+            if (c == '\'' || c == '\\') {
+                out += '\\';
+            }
+            out += c;
+        }
+        return out + "'";
+    }
+
+    /// The value as the text of a string field.
+    std::string str() const
+    {
+        return kind == Kind::Text ? text : repr();
+    }
+};
+
+/// A mux: the elements of its inputs, in input order, then converted.
+using Mux = std::vector<Element>;
+
+/// "Up to the end" for a range of mux elements.
+constexpr std::size_t kToEnd = std::numeric_limits<std::size_t>::max();
+
+/// A converter: y = x * scale + offset on the elements [start, stop) of a mux.
+/// A string element is left as it is; an integer stays an integer (truncated)
+/// unless toFloat.
+void convert(Mux& mux, double scale, double offset, bool toFloat, std::size_t start, std::size_t stop);
+
+/// Prints every element of a mux: "[<mux>] <index>: <value>".
+void printMux(const char* name, const Mux& mux);
+
+// --- writing Bottles ------------------------------------------------------------
+
+/// How a value travels in the output Bottle (the Bottle tag).
+enum class Wire { Int8, Int16, Int32, Int64, Float32, Float64, String };
+
+/// Appends an integer with the given tag (truncated to its width).
+void putInteger(yarp::os::Bottle& b, std::int64_t x, Wire wire);
+/// Appends one element with the given tag.
+void put(yarp::os::Bottle& b, const Element& e, Wire wire);
+/// Appends the elements [start, stop) of a mux, each with the given tag.
+void putRange(yarp::os::Bottle& b, const Mux& mux, std::size_t start, std::size_t stop, Wire wire);
+/// Appends a time as a nested list (sec, nsec) with the given tags.
+void putTime(yarp::os::Bottle& b, std::int64_t ns, Wire secWire, Wire nsecWire);
+
+// --- the bridge's description (filled in by namespace bridge) --------------------
+
+/// `count` consecutive elements of one type in an input Bottle
+/// ("float64", "int32", "bool", "string" ...).
+struct Group
+{
+    const char* type;
+    int count;
+};
+
+/// Where one element (or one array of elements) is in a ROS 1 message read
+/// as a Bottle: `name` is the field's path, `at` the index at each level.
+struct FieldPath
+{
+    const char* name;
+    std::vector<int> at;
+};
+
+enum class InputKind { Yarp, Ros1 };
+
+/// One input of a mux.
+struct InputSpec
+{
+    int mux;                        // index of its mux in BridgeSpec::muxes
+    int index;                      // its position in the mux
+    const char* source;             // the YARP port, or the ROS 1 topic, read
+    InputKind kind;
+    double timeout;                 // freshness timeout, seconds
+    bool declared;                  // false: any number of numbers, each a float64
+    std::vector<Group> layout;      // the declared elements
+    std::vector<FieldPath> fields;  // ROS 1 topic: the fields read (empty: every leaf)
+};
+
+struct MuxSpec
+{
+    const char* name;
+};
+
+enum class OutputKind { Yarp, Ros1 };
+
+struct OutputSpec
+{
+    OutputKind kind;
+    const char* port;        // the port opened (topic@node for ROS 1)
+    const char* msgType;     // ROS type promised on the port ("" for none)
+    const char* connectTo;   // a port to keep connected to ("" for none)
+};
+
+struct BridgeSpec
+{
+    const char* module;
+    const char* config;
+    std::vector<const char*> description;
+    const char* defaultPrefix;
+    std::vector<MuxSpec> muxes;
+    std::vector<InputSpec> inputs;
+    std::vector<int> needed;  // the muxes the message reads (their inputs gate publishing)
+    OutputSpec output;
+    double rate;              // Hz; 0 = event-driven
+    bool triggerAll;          // event-driven: every needed input has new data (else any)
+    std::size_t queue;        // unused Bottles kept per input (1: the newest, read non-strictly)
+    bool hold;                // on_stale = hold (else skip)
+    bool dropNan;             // on_nan = drop (else pass)
+};
+
+// --- reading and checking input Bottles -------------------------------------------
+
+/// The accepted values of one input that a message uses.
+struct Latest
+{
+    Mux values;
+    bool hasEnvelope = false;
+    double envelope = 0.0;  // envelope time stamp, seconds
+};
+
+/// An accepted Bottle that no message has used yet.
+struct Pending
+{
+    Latest data;
+    SteadyClock::time_point arrival;
+};
+
+/// Unread Bottles a port may hold before the oldest are skipped unread (a
+/// reader that fell this far behind catches up instead of lagging).
+constexpr int kBacklog = 64;
+
+/// The values a message uses, of every input in BridgeSpec::inputs order;
+/// read while the inputs are locked (a message is built with the lock held).
+class Inputs
+{
+public:
+    const Latest& operator[](std::size_t k) const { return *latest_[k]; }
+    std::size_t size() const { return latest_.size(); }
+    void add(const Latest& latest) { latest_.push_back(&latest); }
+
+private:
+    std::vector<const Latest*> latest_;
+};
+
+/// Appends the values of one input to a mux.
+void append(Mux& mux, const Latest& input);
+
+/// Checks an input Bottle against the input's layout. On success `out`
+/// holds its values; else `why` says what is wrong. `in` is scratch space.
+bool parseBottle(const yarp::os::Bottle& b, const InputSpec& spec, bool dropNan, Mux& out, std::string& why,
+                 std::vector<const yarp::os::Value*>& in);
+
+// --- the loop ---------------------------------------------------------------------------------
+
+/// What the message builder sees besides the muxes.
+struct Context
+{
+    std::uint64_t counter = 0;    // messages published before this one
+    std::int64_t wallNs = 0;      // wall clock, nanoseconds since the epoch
+    double seconds = 0.0;         // the same, in seconds
+    bool verbose = false;         // --verbose: print every mux
+    const Inputs* inputs = nullptr;
+
+    /// The newest envelope stamp of the given inputs, in nanoseconds (the
+    /// wall clock if none of them has one).
+    std::int64_t envelopeNs(std::initializer_list<int> which) const
+    {
+        bool found = false;
+        double newest = 0.0;
+        for (int i : which) {
+            const Latest& in = (*inputs)[static_cast<std::size_t>(i)];
+            if (in.hasEnvelope && (!found || in.envelope > newest)) {
+                newest = in.envelope;
+                found = true;
+            }
+        }
+        return found ? static_cast<std::int64_t>(std::nearbyint(newest * 1e9)) : wallNs;
+    }
+};
+
+/// Builds one message into `msg` from the newest input values; false (with
+/// the mux sizes in `failure`) when a mux is too short for the message.
+using MakeMessage = std::function<bool(const Inputs&, const Context&, yarp::os::Bottle& msg, std::string& failure)>;
+
+/// Parses the command line and runs the bridge until SIGINT or SIGTERM; the
+/// exit status.
+int run(const BridgeSpec& spec, int argc, char* argv[], MakeMessage make);
+
+}  // namespace ybgc
+
+#endif  // YBGC_RUNTIME_HPP

@@ -1,0 +1,416 @@
+"""The ROS 2 side of the ros2 backend's nodes: the bridge run inside an
+rclpy node. ROS 2 topics as mux inputs, a typed message filled field by
+field and published with the config's QoS, stamps from the node's clock
+(use_sim_time is respected), the node's parameters in place of the
+command-line options (docs/runtime.md)."""
+
+import argparse
+import operator
+import os
+import signal
+import sys
+import threading
+import time
+
+import rclpy
+import rclpy.time
+import rclpy.utilities
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.event_handler import (PublisherEventCallbacks, SubscriptionEventCallbacks,
+                                 UnsupportedEventTypeError)
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
+
+from .core import _FLOAT_TYPES, _INT_TYPES, InputState  # ybgc:runtime-import
+from .yarp_io import YarpBridge  # ybgc:runtime-import
+
+
+#: Subscriptions keep only the newest message (like the YARP inputs); best
+#: effort matches reliable and best-effort publishers alike.
+INPUT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
+                       reliability=ReliabilityPolicy.BEST_EFFORT,
+                       durability=DurabilityPolicy.VOLATILE)
+
+
+class FillError(ValueError):
+    """The converted values do not fit a field of the message."""
+
+
+# --- values of the right Python type for each field ----------------------------
+
+def floats(values):
+    return [float(x) for x in values]
+
+
+def ints(values):
+    return [int(x) for x in values]
+
+
+def bools(values):
+    return [bool(x) for x in values]
+
+
+def strs(values):
+    return [str(x) for x in values]
+
+
+def byte(x):
+    return bytes((int(x),))
+
+
+def byte_list(values):
+    return [bytes((int(x),)) for x in values]
+
+
+def sized(values, size, field):
+    if len(values) != size:
+        raise FillError("field %s holds exactly %d values, got %d" % (field, size, len(values)))
+    return values
+
+
+def bounded(values, bound, field):
+    if len(values) > bound:
+        raise FillError("field %s holds at most %d values, got %d" % (field, bound, len(values)))
+    return values
+
+
+class Stamps:
+    """The times of one message: the node's clock read once (ROS time, so
+    simulated time with use_sim_time), and the newest envelope stamp of
+    each mux's inputs."""
+
+    def __init__(self, now, envelopes):
+        self._now = now
+        self._envelopes = envelopes
+        self.seconds = now.nanoseconds / 1e9
+
+    def now(self):
+        return self._now.to_msg()
+
+    def envelope(self, mux):
+        """The newest envelope stamp of ``mux``'s inputs (the node's clock if none has one)."""
+        t = self._envelopes.get(mux)
+        if t is None:
+            return self._now.to_msg()
+        return rclpy.time.Time(nanoseconds=round(t * 1e9)).to_msg()
+
+
+# --- ROS 2 topics as mux inputs ------------------------------------------------
+
+def _leaf_numbers(value):
+    if isinstance(value, (bool, int, float)):
+        return [value]
+    if hasattr(value, "tolist"):  # array.array, numpy arrays
+        value = value.tolist()
+    if isinstance(value, (list, tuple)):
+        return list(value)
+    return None
+
+
+def message_values(msg, getters, types, drop_nan):
+    """(values, None) from the numeric leaves of ``msg`` if they match the
+    input's layout, else (None, reason); the same checks as a Bottle's."""
+    items = []
+    for path, get in getters:
+        found = _leaf_numbers(get(msg))
+        if found is None:
+            return None, "field %s is not a number" % path
+        items.extend(found)
+    out = []
+    if types is None:
+        for k, x in enumerate(items):
+            if isinstance(x, bool) or not isinstance(x, (int, float)):
+                return None, "element %d is not a number" % k
+            out.append(float(x))
+    else:
+        if len(items) != len(types):
+            return None, "%d elements, expected %d" % (len(items), len(types))
+        for k, (x, t) in enumerate(zip(items, types)):
+            if t in _FLOAT_TYPES:
+                if isinstance(x, bool) or not isinstance(x, (int, float)):
+                    return None, "element %d is not a number, expected %s" % (k, t)
+                out.append(float(x))
+            elif t in _INT_TYPES:
+                if isinstance(x, bool) or not isinstance(x, int):
+                    return None, "element %d is not an integer, expected %s" % (k, t)
+                out.append(int(x))
+            elif t == "bool":
+                if isinstance(x, bool) or (isinstance(x, int) and x in (0, 1)):
+                    out.append(bool(x))
+                else:
+                    return None, "element %d is not a bool (0 or 1)" % k
+            else:
+                return None, "element %d has the type %s, not read from ROS 2" % (k, t)
+    if drop_nan:
+        for k, x in enumerate(out):
+            if isinstance(x, float) and x != x:
+                return None, "element %d is NaN" % k
+    return out, None
+
+
+class Ros2Input(InputState):
+    """A ROS 2 topic read by a mux: the same state as a YARP input (envelope =
+    the message's header.stamp if it has one); the subscription's callback
+    runs on the node's executor thread."""
+
+    def __init__(self, bridge, spec, node, msg_class, leaves, timeout):
+        self.init_state(bridge, spec, timeout)
+        self.local = spec.source
+        self.node = node
+        self.msg_class = msg_class
+        self.getters = tuple((path, operator.attrgetter(path)) for path in leaves)
+        self.subscription = None
+
+    def open(self):
+        try:
+            try:
+                events = SubscriptionEventCallbacks(matched=self._on_matched)
+                self.subscription = self.node.create_subscription(
+                    self.msg_class, self.source, self._on_message, INPUT_QOS,
+                    event_callbacks=events)
+            except UnsupportedEventTypeError:  # an rmw without matched events
+                self.subscription = self.node.create_subscription(
+                    self.msg_class, self.source, self._on_message, INPUT_QOS)
+        except Exception as e:  # an rclpy error: report it, never a traceback
+            self.bridge.log("cannot subscribe to %s: %s" % (self.source, e))
+            return False
+        return True
+
+    def _on_matched(self, info):
+        n = info.current_count
+        self.bridge.log("%s: %d publisher%s" % (self.source, n, "" if n == 1 else "s"))
+
+    def _on_message(self, msg):
+        now = time.monotonic()
+        try:
+            values, reason = message_values(msg, self.getters, self.spec.types,
+                                            self.bridge.spec.on_nan == "drop")
+        except Exception as e:
+            values, reason = None, "cannot read its fields (%s)" % e
+        envelope = None
+        stamp = getattr(getattr(msg, "header", None), "stamp", None)
+        if stamp is not None and (stamp.sec or stamp.nanosec):
+            envelope = stamp.sec + stamp.nanosec * 1e-9
+        self.bridge.on_bottle(self, values, reason, now, envelope)
+
+    def interrupt(self):
+        pass
+
+    def close(self):
+        pass  # destroyed with the node, once its executor has stopped
+
+
+class Ros2Output:
+    """Publishes each message on a ROS 2 topic; says when subscribers come
+    and go (a message published before a subscriber is matched is not
+    delivered to it)."""
+
+    def __init__(self, node, msg_class, type_name, topic, qos):
+        self.node = node
+        self.msg_class = msg_class
+        self.type_name = type_name
+        self.port_name = topic
+        self.qos = qos
+        self.publisher = None
+        self.log = lambda text: print(text, flush=True)
+
+    def open(self):
+        try:
+            try:
+                events = PublisherEventCallbacks(matched=self._on_matched)
+                self.publisher = self.node.create_publisher(self.msg_class, self.port_name, self.qos,
+                                                            event_callbacks=events)
+            except UnsupportedEventTypeError:  # an rmw without matched events
+                self.publisher = self.node.create_publisher(self.msg_class, self.port_name, self.qos)
+        except Exception as e:
+            self.log("cannot advertise %s: %s" % (self.port_name, e))
+            return False
+        return True
+
+    def _on_matched(self, info):
+        n = info.current_count
+        self.log("%s: %d subscriber%s" % (self.port_name, n, "" if n == 1 else "s"))
+
+    def connections(self):
+        return []
+
+    def describe(self):
+        return "%s on the ROS 2 topic %s" % (self.type_name, self.port_name)
+
+    def publish(self, message):
+        self.publisher.publish(message)
+
+    def stalled(self):
+        return False  # rclpy never waits for a subscriber
+
+    def close(self):
+        pass  # destroyed with the node
+
+
+class Spinner(threading.Thread):
+    """Runs the node's executor (subscriptions, the /clock of simulated
+    time) until stopped."""
+
+    def __init__(self, node, log):
+        threading.Thread.__init__(self, name="ros 2 executor", daemon=True)
+        self.executor = SingleThreadedExecutor()
+        self.executor.add_node(node)
+        self.log = log
+        self.done = threading.Event()
+
+    def run(self):
+        reported = False
+        while not self.done.is_set():
+            try:
+                self.executor.spin_once(timeout_sec=0.1)
+            except Exception as e:
+                if self.done.is_set() or not rclpy.ok():
+                    break
+                if not reported:
+                    reported = True
+                    self.log("ROS 2 executor: %s" % e)
+
+    def stop(self, timeout=1.0):
+        self.done.set()
+        if self.is_alive():
+            self.join(timeout)
+        self.executor.shutdown(timeout_sec=0.1)
+
+
+class NodeBridge(YarpBridge):
+    """The runtime's Bridge, with ROS 2 topics for the inputs of kind ros2
+    and the message stamped from the node's clock."""
+
+    def __init__(self, spec, options, node, output, build, compute, topic_inputs):
+        self.node = node
+        self.topic_inputs = topic_inputs
+        self.make_message = build
+        self.stamps = None
+        self.fill_reported = False
+        YarpBridge.__init__(self, spec, options, output, self._build, compute)
+        if isinstance(output, Ros2Output):
+            output.log = self.log
+
+    def make_input(self, mux, spec, local, timeout):
+        if spec.kind == "ros2":
+            msg_class, leaves = self.topic_inputs[(mux.name, spec.index)]
+            return Ros2Input(self, spec, self.node, msg_class, leaves, timeout)
+        return YarpBridge.make_input(self, mux, spec, local, timeout)
+
+    def _build(self, ctx):
+        return self.make_message(ctx, self.stamps)
+
+    def _publish(self, raw, envelopes):
+        self.stamps = Stamps(self.node.get_clock().now(), envelopes)
+        try:
+            YarpBridge._publish(self, raw, envelopes)
+        except (FillError, AssertionError, TypeError, ValueError, OverflowError) as e:
+            # a value that the message's field refuses: count it, never crash
+            self.build_errors += 1
+            if not self.fill_reported:
+                self.fill_reported = True
+                text = str(e)
+                if len(text) > 200:
+                    text = text[:200] + "..."
+                self.log("cannot fill the message (%s: %s); further failures are only counted"
+                         % (type(e).__name__, text))
+
+
+# --- parameters, start and shutdown ----------------------------------------------
+
+class ParameterError(ValueError):
+    pass
+
+
+def _parameter_number(value, name):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ParameterError("parameter %s must be a number, got %r" % (name, value))
+    return float(value)
+
+
+def node_options(node, default_prefix, default_rate):
+    """The options of docs/runtime.md from the node's parameters."""
+    def declare(name, default, text):
+        descriptor = ParameterDescriptor(description=text, dynamic_typing=True)
+        return node.declare_parameter(name, default, descriptor).value
+
+    rate = _parameter_number(declare("rate", default_rate, "fixed output rate in Hz; 0 = event-driven"),
+                   "rate")
+    if rate < 0:
+        raise ParameterError("parameter rate must be 0 (event-driven) or positive")
+    timeout = _parameter_number(declare("timeout", 0.0, "freshness timeout of every input in seconds; "
+                                              "0 = each input's own from the config"), "timeout")
+    if timeout < 0:
+        raise ParameterError("parameter timeout must be positive (or 0: the config's)")
+    prefix = declare("prefix", default_prefix, "prefix of the node's own YARP port names")
+    if not isinstance(prefix, str) or not prefix.startswith("/"):
+        raise ParameterError("parameter prefix must be a string starting with /")
+    verbose = declare("verbose", False, "print every value after conversion, for every mux")
+    if not isinstance(verbose, bool):
+        raise ParameterError("parameter verbose must be true or false")
+    return argparse.Namespace(prefix=prefix, rate=rate, timeout=timeout or None, verbose=verbose)
+
+
+def _parse_command_line(spec, args, default_prefix, default_rate):
+    parser = argparse.ArgumentParser(
+        prog=os.path.basename(sys.argv[0]) if sys.argv and sys.argv[0] else spec.module,
+        description="\n".join(spec.description),
+        epilog="ROS parameters (--ros-args -p NAME:=VALUE):\n"
+               "  rate          fixed output rate in Hz, 0 for event-driven (default: %g)\n"
+               "  timeout       freshness timeout of every input in seconds, 0 for the\n"
+               "                config's (default: 0)\n"
+               "  prefix        prefix of the node's own YARP port names (default: %s)\n"
+               "  verbose       print every value after conversion (default: false)\n"
+               "  use_sim_time  stamp messages with the simulated time of /clock\n"
+               "Generated by ybgc from %s." % (default_rate, default_prefix, spec.config),
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.parse_args(args)
+
+
+def run_node(spec, argv, node_name, default_prefix, default_rate, topic_inputs,
+             make_output, build, compute):
+    """Start rclpy and the node, run the bridge until SIGINT/SIGTERM; the exit status."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    started = []
+    pending = []
+
+    def on_signal(signum, frame):
+        # until the bridge runs (it installs its own handlers): remember the request
+        if started:
+            started[0].request_stop()
+        else:
+            pending.append(signum)
+
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
+    prog = sys.argv[0] if sys.argv and sys.argv[0] else spec.module
+    _parse_command_line(spec, rclpy.utilities.remove_ros_args([prog] + argv)[1:],
+                        default_prefix, default_rate)
+    try:
+        rclpy.init(args=[prog] + argv, signal_handler_options=SignalHandlerOptions.NO)
+    except Exception as e:
+        print("%s: cannot start ROS 2: %s" % (spec.module, e), flush=True)
+        return 2
+    node = None
+    spinner = None
+    try:
+        node = rclpy.create_node(node_name)
+        try:
+            options = node_options(node, default_prefix, default_rate)
+        except ParameterError as e:
+            print("%s: %s" % (spec.module, e), flush=True)
+            return 2
+        bridge = NodeBridge(spec, options, node, make_output(node), build, compute, topic_inputs)
+        started.append(bridge)
+        if pending:
+            bridge.request_stop()
+        spinner = Spinner(node, bridge.log)
+        spinner.start()
+        return bridge.run()
+    finally:
+        if spinner is not None:
+            spinner.stop()
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()

@@ -1,0 +1,568 @@
+"""The YARP side of the Python modules: input Bottles read and checked,
+ports opened and watched, the output message tree written as a Bottle on a
+YARP port or a ROS 1 topic, and the shutdown within 2 s (docs/runtime.md)."""
+
+import os
+import signal
+import sys
+import threading
+import time
+import xmlrpc.client
+
+import yarp
+
+from .core import _FLOAT_TYPES, _INT_TYPES, BACKLOG, Bridge, InputState  # ybgc:runtime-import
+from .core import Array, Msg, Scalar, Splice, parse_options  # ybgc:runtime-import
+
+# --- reading and checking input Bottles --------------------------------------
+
+def _describe(value):
+    if value.isList():
+        return "a list"
+    if value.isString():
+        return "a string"
+    if value.isFloat64() or value.isFloat32():
+        return "a float"
+    if value.isInt8() or value.isInt16() or value.isInt32() or value.isInt64():
+        return "an integer"
+    if value.isVocab32():
+        return "a vocab"
+    return "a " + value.toString()
+
+
+def _not_a(k, value, wanted):
+    """Why element ``k`` is not the number wanted."""
+    if _FLOAT32_AMBIGUOUS and value.isFloat32():
+        return "element %d is %s" % (k, _MIXED_VERSIONS)
+    return "element %d is %s, %s" % (k, _describe(value), wanted)
+
+
+def _leaves(bottle, out):
+    """The Bottle's elements, nested lists flattened depth-first (ROS topics)."""
+    for k in range(bottle.size()):
+        value = bottle.get(k)
+        if value.isList():
+            _leaves(value.asList(), out)
+        else:
+            out.append(value)
+    return out
+
+
+#: YARP 4 gave float32 the Bottle tag that YARP 3 gives float64, so on YARP 4
+#: a float32 element is most likely a YARP 3 producer's float64, read as
+#: other values: taken only where the input declares float32
+_FLOAT32_AMBIGUOUS = yarp.YARP_VERSION_MAJOR >= 4
+_MIXED_VERSIONS = ("a float32 (on YARP %s, what a YARP 3 producer's float64 reads as: "
+                   "YARP 4 changed the Bottle tags; declare the port (float32 xN) if it "
+                   "really sends float32)" % yarp.YARP_VERSION)
+
+
+def _number(value, float32=False):
+    """The value as a Python number, or None. ``float32``: a float32 element
+    is wanted (never ambiguous then)."""
+    if value.isFloat64():
+        return value.asFloat64()
+    if value.isFloat32():
+        return value.asFloat64() if float32 or not _FLOAT32_AMBIGUOUS else None
+    if value.isInt32() or value.isInt64() or value.isInt8() or value.isInt16():
+        return value.asInt64()
+    return None
+
+
+def _at(bottle, path):
+    """The value at an index path of nested lists, or None."""
+    value = None
+    for k in path:
+        if bottle is None or not 0 <= k < bottle.size():
+            return None
+        value = bottle.get(k)
+        bottle = value.asList() if value.isList() else None
+    return value
+
+
+def _picked(bottle, positions):
+    """The values at ``positions`` (a one-field array input: its elements)."""
+    items = []
+    for path in positions:
+        value = _at(bottle, path)
+        if value is None:
+            return None
+        if value.isList():
+            items.extend(value.asList().get(k) for k in range(value.asList().size()))
+        else:
+            items.append(value)
+    return items
+
+
+#: Bottle.getSpecialization() of a Bottle whose items are all float64: from
+#: the bindings, never a literal (YARP 4 changed the tags: 10 became float32)
+_TAG_FLOAT64 = yarp.BOTTLE_TAG_FLOAT64
+
+
+def parse_bottle(bottle, types, flatten, drop_nan, positions=None, floats=False):
+    """(values, None) for a Bottle that matches the input's layout, else
+    (None, reason). ``types`` None: any number of numbers, each as a float.
+    ``positions``: take the values at these index paths (typed ROS 1 topics);
+    ``flatten``: nested lists flattened depth-first (untyped ROS 1 topics);
+    ``floats``: every element is read as a float (undeclared, or declared
+    float32/float64 only), so a Bottle of float64 only is taken whole."""
+    if floats and bottle.getSpecialization() == _TAG_FLOAT64:
+        # one binding call for the whole Bottle, not two per element: each
+        # call lets the GIL go, and input threads reading at once would take
+        # turns at it for every element. YARP prints a float64 with 21
+        # significant digits (exact), "nan" and "inf" as float() reads them.
+        n = bottle.size()
+        if types is None or n == len(types):
+            try:
+                out = list(map(float, bottle.toString().split()))
+            except ValueError:
+                out = None
+            if out is not None and len(out) == n:
+                if drop_nan:
+                    for k, x in enumerate(out):
+                        if x != x:
+                            return None, "element %d is NaN" % k
+                return out, None
+    if positions is not None:
+        items = _picked(bottle, positions)
+        if items is None:
+            return None, "not laid out as its message type (a field is missing)"
+    elif flatten:
+        items = _leaves(bottle, [])
+    else:
+        items = [bottle.get(k) for k in range(bottle.size())]
+    out = []
+    if types is None:
+        for k, value in enumerate(items):
+            x = _number(value)
+            if x is None:
+                return None, _not_a(k, value, "not a number")
+            out.append(float(x))
+    else:
+        if len(items) != len(types):
+            return None, "%d elements, expected %d" % (len(items), len(types))
+        for k, (value, t) in enumerate(zip(items, types)):
+            if t in _FLOAT_TYPES:
+                x = _number(value, t == "float32")
+                if x is None:
+                    return None, _not_a(k, value, "expected " + t)
+                out.append(float(x))
+            elif t in _INT_TYPES:
+                if not (value.isInt32() or value.isInt64() or value.isInt8() or value.isInt16()):
+                    return None, "element %d is %s, expected %s" % (k, _describe(value), t)
+                out.append(value.asInt64())
+            elif t == "string":
+                if not value.isString():
+                    return None, "element %d is %s, expected a string" % (k, _describe(value))
+                out.append(value.asString())
+            elif t == "bool":
+                if value.isBool():
+                    out.append(value.asBool())
+                elif (value.isInt32() or value.isInt64() or value.isInt8() or value.isInt16()) \
+                        and value.asInt64() in (0, 1):
+                    out.append(value.asInt64() == 1)
+                else:
+                    return None, "element %d is %s, expected a bool (0 or 1)" % (k, _describe(value))
+            else:
+                return None, "element %d has the unknown type %s" % (k, t)
+    if drop_nan:
+        for k, x in enumerate(out):
+            if isinstance(x, float) and x != x:
+                return None, "element %d is NaN" % k
+    return out, None
+
+class _Reader(yarp.BottleCallback):
+    """What YARP calls for each Bottle of an input, in YARP's own thread."""
+
+    def __init__(self, inp):
+        yarp.BottleCallback.__init__(self)
+        self.inp = inp
+
+    def onRead(self, bottle, *reader):
+        self.inp.on_read(bottle)
+
+
+class Input(InputState):
+    """One input of a mux: its own port, read strictly (every Bottle, in
+    order) through a callback in YARP's reader thread. Never a blocking
+    read(): from YARP 3.12.1 the bindings' BufferedPortBottle keeps the
+    interpreter lock in read(), so a thread blocked there stops every other."""
+
+    def __init__(self, bridge, spec, local, timeout):
+        self.init_state(bridge, spec, timeout)
+        self.local = local
+        self.port = yarp.BufferedPortBottle()
+        self.reader = None
+        self.stamp = yarp.Stamp()
+        self.flatten = spec.kind == "ros1"
+        self.floats = spec.kind != "ros1" and (spec.types is None
+                                               or all(t in _FLOAT_TYPES for t in spec.types))
+        self.busy = False   # inside a callback
+        self.failed = False
+
+    def open(self):
+        # queue > 1: every Bottle, in order (BACKLOG bounds it); 1: the
+        # newest only, as YARP reads by default
+        self.port.setStrict(self.bridge.spec.queue > 1)
+        if self.spec.kind == "ros1":
+            self.port.setReadOnly()
+        self.reader = _Reader(self)
+        self.port.useCallback(self.reader)
+        return self.port.open(self.local)
+
+    def on_read(self, bottle):
+        self.calls += 1
+        if self.bridge.stopping:
+            return
+        self.busy = True
+        try:
+            now = time.monotonic()
+            if self.port.getPendingReads() > BACKLOG:
+                self.bridge.on_skipped(self)
+                return
+            envelope = None
+            if self.port.getEnvelope(self.stamp) and self.stamp.isValid():
+                envelope = self.stamp.getTime()
+            values, reason = parse_bottle(bottle, self.spec.types, self.flatten,
+                                          self.bridge.spec.on_nan == "drop",
+                                          self.spec.positions, self.floats)
+            self.bridge.on_bottle(self, values, reason, now, envelope)
+        except Exception as e:  # never a traceback out of YARP's thread
+            if not self.failed:
+                self.failed = True
+                self.bridge.log("input %s: %s: %s" % (self.source, type(e).__name__, e))
+        finally:
+            self.busy = False
+
+    def interrupt(self):
+        self.port.interrupt()
+
+    def settled(self):
+        """No Bottle waits for the callback and none is being handled."""
+        return not self.busy and self.port.getPendingReads() == 0
+
+    def close(self):
+        self.port.close()
+
+
+# --- connections ---------------------------------------------------------------
+
+class Watcher(threading.Thread):
+    """Every 0.5 s, connects each (source, destination, linked) link whose
+    source exists and is not connected, so that a source that starts late or
+    is restarted is picked up. ``linked``, when given, tells from the
+    module's own port, without asking the network, that the link is up: only
+    a missing one costs name-server queries. The main loop never waits for it."""
+
+    PERIOD = 0.5
+
+    def __init__(self, pairs, log):
+        threading.Thread.__init__(self, name="connection watcher", daemon=True)
+        self.pairs = list(pairs)
+        self.log = log
+        self.done = threading.Event()
+        self.connected = {}
+
+    def run(self):
+        while not self.done.is_set():
+            for src, dst, linked in self.pairs:
+                if self.done.is_set():
+                    break
+                # a link this watcher made and that the port still shows is up;
+                # any other input connection (a query) does not count for it
+                if linked is not None and self.connected.get((src, dst)) and linked():
+                    continue
+                self._check(src, dst)
+            self.done.wait(self.PERIOD)
+
+    def _check(self, src, dst):
+        up = yarp.Network.exists(src, True) and yarp.Network.exists(dst, True)
+        if up and yarp.Network.isConnected(src, dst, True):
+            return
+        if up and yarp.Network.connect(src, dst, "", True):
+            self.log("connected %s -> %s" % (src, dst))
+            self.connected[(src, dst)] = True
+        elif self.connected.get((src, dst)):
+            self.log("lost %s -> %s; reconnecting when it is back" % (src, dst))
+            self.connected[(src, dst)] = False
+
+    def stop(self, timeout=1.0):
+        self.done.set()
+        if self.is_alive():
+            self.join(timeout)
+        return not self.is_alive()
+
+
+def ros1_problem():
+    """None when this YARP carries ROS 1 topics, else why it cannot. It needs
+    a name server started with `--ros` (its ROS master contact, /ros) reached
+    through the xmlrpc carrier: built in up to YARP 3.9, YARP's separate
+    yarp-ros plugins in 3.10 to 3.12, gone in YARP 4. Without them a ROS 1
+    port opens as a plain YARP port, and the module would publish into nothing."""
+    version = yarp.YARP_VERSION
+    if yarp.YARP_VERSION_MAJOR >= 4:
+        return ("YARP %s has no ROS 1 support (removed in YARP 4.0): set `via = ros2` in the "
+                "config and generate the ROS 2 node (ybgc CONFIG --backend ros2)" % version)
+    master = yarp.Network.queryName("/ros")
+    if not master.isValid():
+        return ("the YARP name server does not speak ROS: start it as `yarpserver --ros` with "
+                "ROS_MASTER_URI set (YARP 3.10 and later: with YARP's yarp-ros plugins)")
+    style = yarp.ContactStyle()
+    style.quiet = True
+    style.timeout = 2.0
+    style.carrier = "xmlrpc"
+    cmd = yarp.Bottle()
+    cmd.addString("getPid")
+    cmd.addString("/ybgc")
+    if not yarp.Network.write(master, cmd, yarp.Bottle(), style):
+        return ("YARP %s cannot reach the ROS master through its xmlrpc carrier (YARP 3.10 and "
+                "later need YARP's yarp-ros plugins)" % version)
+    return None
+
+
+class YarpBridge(Bridge):
+    """The bridge on YARP: its inputs are YARP ports (or ROS 1 topics
+    through YARP); it opens them, watches the connections and closes them."""
+
+    def make_input(self, mux, spec, local, timeout):
+        return Input(self, spec, local, timeout)
+
+    def run(self):
+        """Open everything, loop until SIGINT/SIGTERM, close; the exit status."""
+        yarp.Network.init()
+        signal.signal(signal.SIGINT, self.request_stop)
+        signal.signal(signal.SIGTERM, self.request_stop)
+        if not yarp.Network.checkNetwork(3.0):
+            self.log("cannot reach the YARP name server (is yarpserver running?)")
+            return 1
+        if getattr(self.output, "kind", None) == "ros1" or any(i.spec.kind == "ros1" for i in self.inputs):
+            problem = ros1_problem()
+            if problem is not None:
+                self.log("cannot use ROS 1 topics: " + problem)
+                return 1
+        opened = []
+        self.status = 1
+        try:
+            for inp in self.inputs:
+                if not inp.open():
+                    self.log("cannot open the port %s" % inp.local)
+                    return 1
+                opened.append(inp)
+            if not self.output.open():
+                self.log("cannot open the output %s" % self.output.port_name)
+                return 1
+            pairs = [(i.source, i.local, i.port.getInputCount) for i in self.inputs
+                     if i.spec.kind == "yarp"]
+            pairs.extend((src, dst, None) for src, dst in self.output.connections())
+            self.watcher = Watcher(pairs, self.log)
+            self.watcher.start()
+            self.log("publishing %s on %s" % (self.output.describe(),
+                                              "event-driven" if self.rate is None
+                                              else "%g Hz" % self.rate))
+            if self.rate is None:
+                self._loop_event_driven()
+            else:
+                self._loop_fixed_rate()
+            self.status = 0
+            return 0
+        finally:
+            # under the lock: a message being published by an input thread is
+            # finished, and none starts after this, before the ports close
+            with self.cond:
+                self.stopping = True
+            self._shut_down(opened)
+
+    def _shut_down(self, opened):
+        """Close every port (which unregisters it) within the 2 s budget: a
+        port whose reader stalls can hang in close(); it is then unregistered
+        by name and the process exits at once."""
+        watcher_done = self.watcher.stop() if self.watcher is not None else True
+        names = [inp.local for inp in opened] + [self.output.port_name]
+        closed = []
+
+        def close_all():
+            # interrupted first, so that no new Bottle comes in; closed once
+            # YARP's reader threads have handed every Bottle they hold to the
+            # callbacks (which return at once now): YARP 3.12's bindings keep
+            # the interpreter lock in close(), which waits for those threads
+            for inp in opened:
+                inp.interrupt()
+            end = time.monotonic() + 0.5
+            while time.monotonic() < end and not all(inp.settled() for inp in opened):
+                time.sleep(0.005)
+            calls = [inp.calls for inp in opened]
+            time.sleep(0.02)  # and none started since: a callback waiting for the lock shows here
+            while time.monotonic() < end and [inp.calls for inp in opened] != calls:
+                calls = [inp.calls for inp in opened]
+                time.sleep(0.02)
+            for inp in opened:
+                inp.close()
+                closed.append(inp.local)
+            if not self.output.stalled():  # else unregistered by name below
+                self.output.close()
+                closed.append(self.output.port_name)
+
+        closer = threading.Thread(target=close_all, name="close ports", daemon=True)
+        closer.start()
+        closer.join(1.0)
+        self._print_totals()
+        if closer.is_alive() or len(closed) < len(names):
+            for name in names:
+                if name not in closed:
+                    self.log("%s did not close in time (a stalled reader?); unregistering it" % name)
+                    yarp.Network.unregisterName(name)
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(self.status)
+        if watcher_done:
+            yarp.Network.fini()
+
+
+# ===========================================================================
+# Output side: the message tree as a Bottle on a YARP port (or on a ROS 1
+# topic through YARP's topic@node ports).
+# ===========================================================================
+
+def _signed(x, bits):
+    """``x`` as the two's complement integer of ``bits`` bits (a uint32
+    above 2**31 on an int32 wire keeps its bits, as in C++)."""
+    half = 1 << (bits - 1)
+    return ((int(x) + half) % (half << 1)) - half
+
+
+_ADD = {
+    "float64": lambda b, x: b.addFloat64(float(x)),
+    "float32": lambda b, x: b.addFloat32(float(x)),
+    "int64": lambda b, x: b.addInt64(_signed(x, 64)),
+    "int32": lambda b, x: b.addInt32(_signed(x, 32)),
+    "int16": lambda b, x: b.addInt16(_signed(x, 16)),
+    "int8": lambda b, x: b.addInt8(_signed(x, 8)),
+    "string": lambda b, x: b.addString(str(x)),
+}
+
+
+def _add_values(bottle, types, values, wire):
+    if isinstance(types, tuple):
+        for t, x in zip(types, values):
+            _ADD[wire[t]](bottle, x)
+    else:
+        add = _ADD[wire[types]]
+        for x in values:
+            add(bottle, x)
+
+
+def add_node(bottle, node, wire):
+    """Append ``node`` to ``bottle`` with YARP's ROS 1 wire mapping: a
+    message is a nested list of its fields, a time is (sec nsec)."""
+    if isinstance(node, Scalar):
+        _ADD[wire[node.type]](bottle, node.value)
+    elif isinstance(node, Splice):
+        _add_values(bottle, node.type, node.values, wire)
+    elif isinstance(node, Array):
+        _add_values(bottle.addList(), node.type, node.values, wire)
+    elif isinstance(node, Msg):
+        inner = bottle.addList()
+        for _name, child in node.fields:
+            add_node(inner, child, wire)
+    else:
+        raise TypeError("not a message node: %r" % (node,))
+
+
+def fill_bottle(bottle, message, wire):
+    """The top-level message's fields are the items of the Bottle."""
+    bottle.clear()
+    for _name, child in message.fields:
+        add_node(bottle, child, wire)
+    return bottle
+
+
+class YarpOutput:
+    """Writes each message on a BufferedPortBottle, never waiting for a
+    slow reader (a reader that lags misses messages)."""
+
+    def __init__(self, kind, port_name, connect_to, msg_type, wire):
+        self.kind = kind
+        self.port_name = port_name
+        self.connect_to = connect_to
+        self.msg_type = msg_type
+        self.wire = wire
+        self.port = yarp.BufferedPortBottle()
+        self.patient = True
+
+    def open(self):
+        self.port.setWriteOnly()
+        return self.port.open(self.port_name)
+
+    def connections(self):
+        return [(self.port_name, self.connect_to)] if self.connect_to else []
+
+    def describe(self):
+        what = self.msg_type or "untyped Bottles"
+        return "%s on %s" % (what, self.port_name)
+
+    #: how long a message waits for the previous one to be sent
+    PATIENCE = 0.05
+
+    def publish(self, message):
+        # A message written while the previous one is still being sent is
+        # dropped for the connections that are still busy; so wait for it a
+        # little, unless a reader has already shown it stalls.
+        if self.port.isWriting():
+            if self.patient:
+                deadline = time.monotonic() + self.PATIENCE
+                while self.port.isWriting() and time.monotonic() < deadline:
+                    time.sleep(0.0002)
+                self.patient = not self.port.isWriting()
+        else:
+            self.patient = True
+        fill_bottle(self.port.prepare(), message, self.wire)
+        self.port.write()
+
+    def stalled(self, grace=0.2):
+        """A reader still takes a message after ``grace`` seconds. close()
+        would then wait for it up to YARP's own limit (5 s), and from YARP
+        3.12.1 the bindings keep the interpreter lock all that time."""
+        deadline = time.monotonic() + grace
+        while self.port.isWriting():
+            if time.monotonic() >= deadline:
+                return True
+            time.sleep(0.002)
+        return False
+
+    def close(self):
+        self.port.interrupt()
+        self.port.close()
+        if self.kind == "ros1":
+            self._unregister_ros1()
+
+    def _unregister_ros1(self):
+        """YARP 3.5 leaves a closed topic@node publisher registered with the
+        ROS master; withdraw it, so that nothing points at this process."""
+        topic, _, node = self.port_name.partition("@")
+        contact = yarp.Network.queryName("/ros")
+        if not contact.isValid():
+            return
+        master = xmlrpc.client.ServerProxy("http://%s:%d/" % (contact.getHost(), contact.getPort()),
+                                           transport=_QuickTransport())
+        try:
+            code, _msg, api = master.lookupNode(node, node)
+            if code == 1:
+                master.unregisterPublisher(node, topic, api)
+        except (OSError, xmlrpc.client.Error, ValueError):
+            pass
+
+
+class _QuickTransport(xmlrpc.client.Transport):
+    """XML-RPC to the ROS master with a short timeout (shutdown has 2 s)."""
+
+    def make_connection(self, host):
+        connection = xmlrpc.client.Transport.make_connection(self, host)
+        connection.timeout = 0.4
+        return connection
+
+
+def run(spec, argv, default_prefix, make_output, build, compute):
+    """Parse the command line, run the bridge until SIGINT/SIGTERM."""
+    options = parse_options(spec, argv, default_prefix)
+    bridge = YarpBridge(spec, options, make_output(), build, compute)
+    return bridge.run()
