@@ -64,12 +64,13 @@ def cmake_build(src: Path, build: Path, target: Optional[str] = None) -> None:
 
 
 def build_tools(build_root: Path) -> dict:
-    """bench_producer, bench_consumer and the reference relay; returns their paths."""
+    """bench_producer, bench_consumer and the reference relays; returns their paths."""
     cmake_build(BENCH / "tools", build_root / "tools")
     cmake_build(BENCH / "relay", build_root / "relay")
     return {"producer": build_root / "tools" / "bench_producer",
             "consumer": build_root / "tools" / "bench_consumer",
-            "relay": build_root / "relay" / "relay"}
+            "relay": build_root / "relay" / "relay",
+            "relay-strict": build_root / "relay" / "strict_relay"}
 
 
 def generate(config: Path, backend: str, out: Path) -> Path:

@@ -3,12 +3,13 @@ bench/findings.md come from this).
 
     .venv/bin/python bench/profile.py py   [--shape joints] [--rate 1000] [--seconds 5]
     .venv/bin/python bench/profile.py cpp  ...      (perf, cpu-clock, call graphs)
+    .venv/bin/python bench/profile.py relay-strict ...   (the floor, perf likewise)
     .venv/bin/python bench/profile.py ros2 ...
 
 Wires the subject as bench/run.py does (own yarpserver, C++ producer and
 consumer, event-driven unless --fixed), drives it at --rate and samples the
 module process: py-spy (Python: py, ros2; the thread holding the GIL, so waiting is left out) or perf
-(C++: cpp, relay). Prints the functions with the most samples, self and
+(C++: cpp, relay, relay-strict). Prints the functions with the most samples, self and
 inclusive, and writes the raw profile next to the build (bench/build/profile/).
 """
 from __future__ import annotations
@@ -74,7 +75,7 @@ def collapse_perf(script_text: str) -> str:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("subject", choices=["relay", "cpp", "py", "ros2"])
+    ap.add_argument("subject", choices=["relay", "relay-strict", "cpp", "py", "ros2"])
     ap.add_argument("--shape", choices=list(bench.SHAPES), default="joints")
     ap.add_argument("--rate", type=int, default=1000)
     ap.add_argument("--seconds", type=float, default=5.0)
@@ -83,8 +84,8 @@ def main() -> int:
     args = ap.parse_args()
     out_dir = bench.BENCH / "build" / "profile"
     out_dir.mkdir(parents=True, exist_ok=True)
-    built = bench.prepare(bench.BENCH / "build", (args.subject,) if args.subject != "relay" else (),
-                          [args.shape])
+    built = bench.prepare(bench.BENCH / "build",
+                          () if args.subject in bench.FLOORS else (args.subject,), [args.shape])
     info = built["subjects"].get(args.subject, {"ok": True})
     if not info.get("ok", True):
         print(info["error"])

@@ -7,8 +7,9 @@
                                              run builds the C++ peers and modules;
                                              2 x 15 at 1 kHz only, memory for 20 s):
                                              bench/results/quick/
-    .venv/bin/python bench/run.py --smoke    the floors only (direct + relay, a
-                                             few hundred messages), for the tests
+    .venv/bin/python bench/run.py --smoke    the floors only (direct, relay,
+                                             relay-strict, a few hundred
+                                             messages), for the tests
 
 Everything runs on 127.0.0.1 with its own yarpserver and ROS 2 domain (the test
 suite's helpers, tests/middleware.py). The producer and the consumer are C++
@@ -18,6 +19,8 @@ generated module; the ROS 2 peers are rclpy (bench/peers/).
 Subjects, on the same workloads in the same run:
   direct   producer -> consumer (one hop)
   relay    the hand-written C++ relay, bench/relay/relay.cpp (two hops: the floor)
+  relay-strict  the hand-written C++ relay that reads as strictly as the C++
+           module, bench/relay/strict_relay.cpp (the floor of the same work)
   cpp      the generated C++ module         (ybgc CONFIG --backend cpp)
   py       the generated Python module      (ybgc CONFIG --backend py)
   ros2     the generated ROS 2 node, YARP in, ROS 2 out (--backend ros2)
@@ -64,12 +67,17 @@ SHAPES = {
                     "2 ports x 15 float64 (30-joint state)"),
     "wide": Shape("wide", "wide_4x50.ini", "wide_4x50_ros2.ini", 4, 50, "4 ports x 50 float64"),
 }
-SUBJECTS = ("direct", "relay", "cpp", "py", "ros2", "rclpy")
-MODULES = ("relay", "cpp", "py", "ros2")   # the subjects that are a module process
+SUBJECTS = ("direct", "relay", "relay-strict", "cpp", "py", "ros2", "rclpy")
+# the subjects of the fixed-rate and memory stages (relay-strict is
+# event-driven only: it is the floor of the latency stage's CPU)
+MODULES = ("relay", "cpp", "py", "ros2")
+FLOORS = ("direct", "relay", "relay-strict")  # nothing generated: always available
 ROS2_OUT = ("ros2", "rclpy")
 DESCRIPTION = {
     "direct": "producer -> consumer, one YARP hop (no bridge)",
     "relay": "hand-written C++ relay (bench/relay/relay.cpp), two YARP hops: the floor",
+    "relay-strict": "hand-written C++ relay reading as strictly as the C++ module "
+                    "(bench/relay/strict_relay.cpp): the floor of the same work",
     "cpp": "generated C++ module (--backend cpp)",
     "py": "generated Python module (--backend py)",
     "ros2": "generated ROS 2 node (--backend ros2): YARP in, ROS 2 JointState out",
@@ -98,7 +106,7 @@ MODES = {
                   [("joints_1khz", "joints", 1000, 1.0)],
                   [("joints", 1000, 1.0)],
                   20.0, SUBJECTS, 50, 2),
-    "smoke": Mode("smoke", [("joints_500hz", "joints", 500, 0.6)], [], 0.0, ("direct", "relay"), 20, 1),
+    "smoke": Mode("smoke", [("joints_500hz", "joints", 500, 0.6)], [], 0.0, FLOORS, 20, 1),
 }
 STALL_EVERY, STALL_FOR = 3.0, 2.0   # the stalling consumer of the memory stage
 
@@ -198,6 +206,8 @@ class Rig:
                     sources = self.src_ports()
                 elif s == "relay":
                     sources = ["/bench/relay/out:o"]
+                elif s == "relay-strict":
+                    sources = ["/bench/relay_strict/out:o"]
                 else:
                     sources = [f"/bench_{sh.name}/out:o"]
                 argv = [tools["consumer"], "--port", "/bench/sink:i", "--width", sh.width,
@@ -213,6 +223,12 @@ class Rig:
                 if self.rate:
                     argv += ["--rate", self.rate]
                 self.module = mw.Proc(argv, env=yenv, name=f"relay{tag}", die_with_parent=True)
+            elif s == "relay-strict":
+                argv = [tools["relay-strict"], "--inputs", ",".join(self.src_ports()),
+                        "--width", sh.width, "--output", "/bench/relay_strict/out:o",
+                        "--prefix", "/bench/relay_strict"]
+                self.module = mw.Proc(argv, env=yenv, name=f"relay_strict{tag}",
+                                      die_with_parent=True)
             elif s == "cpp":
                 if self.rate:
                     rate_args = ["--rate", self.rate]
@@ -357,7 +373,7 @@ def available(ctx: dict, subject: str) -> Optional[str]:
     """None when the subject can run, else why not."""
     if subject.split("+")[0] in ROS2_OUT and not ctx.get("ros2_ok"):
         return ctx.get("ros2_error") or "ROS 2 not available"
-    if subject in ("direct", "relay", "rclpy"):
+    if subject in FLOORS or subject == "rclpy":
         return None
     info = ctx["subjects"].get(subject, {})
     return None if info.get("ok") else (info.get("error") or "not available")
@@ -738,8 +754,8 @@ def main(argv=None) -> int:
                                              "(latency, rate, CPU, memory) against the floor.")
     g = ap.add_mutually_exclusive_group()
     g.add_argument("--quick", action="store_true", help="short runs (under a minute once built)")
-    g.add_argument("--smoke", action="store_true", help="floors only (direct, relay), a few "
-                   "hundred messages; no report unless --docs is given")
+    g.add_argument("--smoke", action="store_true", help="floors only (direct, relay, "
+                   "relay-strict), a few hundred messages; no report unless --docs is given")
     ap.add_argument("--subjects", help="comma-separated subset of " + ",".join(SUBJECTS))
     ap.add_argument("--skip-memory", action="store_true", help="leave out the memory stage")
     ap.add_argument("--skip-fixed", action="store_true", help="leave out the fixed-rate stage")
