@@ -1,8 +1,10 @@
 // Unit tests of the C++ runtime library (ybg/runtime/cpp/), built against
 // one YARP by tests/test_runtime_cpp.py and run with no name server: the
-// values a module prints, the converters, the output Bottles and the
-// checks of input Bottles. Each failed check prints its line and what was
-// compared; the exit status is the number of failures.
+// values a module prints, the converters, the output Bottles, the checks of
+// input Bottles, and which Bottles a message uses (queues, matching,
+// freshness), driven by hand with the arrival times the test chooses. Each
+// failed check prints its line and what was compared; the exit status is the
+// number of failures.
 #include "ybgc_runtime.hpp"
 
 #include <yarp/conf/version.h>
@@ -10,6 +12,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <memory>
 #include <string>
 
 namespace {
@@ -211,6 +214,156 @@ void testAppendAndEnvelope()
     CHECK(ctx.envelopeNs({1}) == 99);  // none of them has one: the wall clock
 }
 
+
+// --- which Bottles a message uses, driven by hand ------------------------------
+
+using Clock = ybgc::SteadyClock;
+
+Clock::time_point at(double seconds)
+{
+    return Clock::time_point(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds)));
+}
+
+/// A bridge's spec and inputs (one input a mux, undeclared), no ports.
+struct Rig
+{
+    Rig(int muxes, bool triggerAll, bool hold, std::vector<int> needed, std::size_t queue = 64, double rate = 0.0)
+    {
+        static const char* names[] = {"a", "b", "c"};
+        static const char* sources[] = {"/src/a:o", "/src/b:o", "/src/c:o"};
+        spec.module = "test";
+        spec.config = "test.ini";
+        spec.defaultPrefix = "/test";
+        for (int k = 0; k < muxes; ++k) {
+            spec.muxes.push_back({names[k]});
+            spec.inputs.push_back(ybgc::InputSpec{k, 0, sources[k], ybgc::InputKind::Yarp, 0.5, false, {}, {}});
+        }
+        spec.needed = std::move(needed);
+        spec.output = {ybgc::OutputKind::Yarp, "/test/out:o", "", ""};
+        spec.rate = rate;
+        spec.triggerAll = triggerAll;
+        spec.queue = queue;
+        spec.hold = hold;
+        spec.dropNan = false;
+        std::vector<ybgc::InputState*> states;
+        for (const auto& in : spec.inputs) {
+            inputs.push_back(std::make_unique<ybgc::InputState>(in, in.timeout));
+            states.push_back(inputs.back().get());
+        }
+        matcher = std::make_unique<ybgc::Matcher>(spec, states, rate <= 0);
+    }
+
+    /// A Bottle of one value arrives on input k.
+    bool arrive(std::size_t k, double value, double when, bool hasEnvelope = false, double envelope = 0.0)
+    {
+        Mux values = reals({value});
+        ++inputs[k]->received;
+        return ybgc::accept(*inputs[k], values, hasEnvelope, envelope, at(when), spec.queue);
+    }
+
+    double used(std::size_t k) const { return matcher->latest()[k].values.at(0).real; }
+
+    ybgc::BridgeSpec spec;
+    std::vector<std::unique_ptr<ybgc::InputState>> inputs;
+    std::unique_ptr<ybgc::Matcher> matcher;
+};
+
+void testMatchingTriggerAllByEnvelope()
+{
+    Rig r(2, true, false, {});
+    r.arrive(0, 1.0, 10.0, true, 1.0);
+    r.arrive(0, 2.0, 10.1, true, 2.0);
+    CHECK(!r.matcher->ready(at(10.15), true));  // b has delivered nothing
+    r.arrive(1, 20.0, 10.2, true, 2.0);
+    CHECK(r.matcher->ready(at(10.2), true));
+    r.matcher->take();
+    // matched to the newest of the oldest stamps (b's 2.0): a's 1.0 is unused
+    CHECK(r.used(0) == 2.0 && r.used(1) == 20.0 && r.inputs[0]->unused == 1);
+    CHECK(!r.matcher->ready(at(10.2), true));  // both queues empty again
+}
+
+void testMatchingByArrival()
+{
+    Rig r(2, true, false, {});
+    r.arrive(0, 1.0, 1.00);
+    r.arrive(0, 2.0, 1.50);
+    r.arrive(1, 9.0, 1.45);
+    CHECK(r.matcher->ready(at(1.5), true));
+    r.matcher->take();
+    CHECK(r.used(0) == 2.0 && r.used(1) == 9.0);  // 1.50 is nearer to 1.45 than 1.00
+}
+
+void testTriggerAnyAndSampledInputs()
+{
+    Rig any(2, false, false, {});
+    any.arrive(0, 1.0, 1.0);
+    CHECK(!any.matcher->ready(at(1.0), true));  // b is waiting (on_stale = skip)
+    any.arrive(1, 5.0, 1.1);
+    CHECK(any.matcher->ready(at(1.1), true));
+    any.matcher->take();
+    CHECK(any.used(0) == 1.0 && any.used(1) == 5.0);
+    any.arrive(0, 2.0, 1.2);
+    CHECK(any.matcher->ready(at(1.2), true));
+    any.matcher->take();
+    CHECK(any.used(0) == 2.0 && any.used(1) == 5.0);
+
+    // only mux a needed: b is sampled (its newest), never waited for
+    Rig some(2, true, false, {0});
+    some.arrive(1, 7.0, 0.0);
+    CHECK(!some.matcher->ready(at(0.0), true));
+    some.arrive(1, 8.0, 0.05);
+    some.arrive(0, 1.0, 0.1);
+    CHECK(some.matcher->ready(at(0.1), true));
+    some.matcher->take();
+    CHECK(some.used(0) == 1.0 && some.used(1) == 8.0 && some.inputs[1]->unused == 1);
+}
+
+void testQueueBound()
+{
+    Rig r(2, true, false, {}, 3);
+    for (int k = 0; k < 10; ++k) {
+        r.arrive(0, k, k, true, k);
+    }
+    CHECK(r.inputs[0]->queue.size() == 3 && r.inputs[0]->queue.front().data.values[0].real == 7.0);
+    CHECK(r.inputs[0]->received == 10 && r.inputs[0]->unused == 7);
+    Rig one(1, true, false, {}, 1);
+    one.arrive(0, 1.0, 0.0);
+    one.arrive(0, 2.0, 0.1);
+    CHECK(one.inputs[0]->queue.size() == 1 && one.inputs[0]->unused == 1);
+}
+
+void testFreshness()
+{
+    Rig r(1, true, false, {});
+    CHECK(r.matcher->checkFreshness(at(0.0)) == Clock::time_point::max());  // waiting: no deadline
+    CHECK(r.inputs[0]->state == ybgc::Freshness::Waiting && r.inputs[0]->reportedWaiting);
+    CHECK(!r.arrive(0, 1.0, 1.0));  // was not fresh before
+    CHECK(r.arrive(0, 1.5, 1.1));   // was
+    const Clock::time_point deadline = r.matcher->checkFreshness(at(1.2));
+    CHECK(deadline > at(1.5999) && deadline < at(1.6001));  // when it would go stale
+    r.matcher->checkFreshness(at(1.7));
+    r.matcher->checkFreshness(at(1.8));
+    CHECK(r.inputs[0]->state == ybgc::Freshness::Stale && r.inputs[0]->stalePeriods == 1);
+    CHECK(!r.matcher->ready(at(1.8), false));  // skip: a stale input holds the message back
+    CHECK(!r.arrive(0, 2.0, 2.0));
+    CHECK(r.inputs[0]->state == ybgc::Freshness::Fresh && r.matcher->ready(at(2.0), false));
+}
+
+void testHoldAndFixedRate()
+{
+    Rig r(2, true, true, {}, 64, 100.0);
+    CHECK(!r.matcher->ready(at(0.0), false));  // nothing delivered yet
+    r.arrive(0, 1.0, 0.0);
+    r.arrive(0, 2.0, 0.01);
+    r.arrive(0, 3.0, 0.02);
+    CHECK(!r.matcher->ready(at(0.02), false));  // b still waiting
+    r.arrive(1, 9.0, 0.02);
+    r.matcher->checkFreshness(at(5.0));  // both stale: hold publishes the last values
+    CHECK(r.matcher->ready(at(5.0), false));
+    r.matcher->take();
+    CHECK(r.used(0) == 3.0 && r.used(1) == 9.0 && r.inputs[0]->unused == 2);  // the newest, the rest unused
+}
+
 }  // namespace
 
 int main()
@@ -221,6 +374,12 @@ int main()
     testPut();
     testParseBottle();
     testAppendAndEnvelope();
+    testMatchingTriggerAllByEnvelope();
+    testMatchingByArrival();
+    testTriggerAnyAndSampledInputs();
+    testQueueBound();
+    testFreshness();
+    testHoldAndFixedRate();
     std::printf("%d checks, %d failed (YARP %s)\n", gChecks, gFailures, YARP_VERSION);
     return gFailures;
 }

@@ -418,6 +418,179 @@ bool parseBottle(const yarp::os::Bottle& b, const InputSpec& spec, bool dropNan,
     return true;
 }
 
+// --- what is kept of each input, and which Bottles a message uses ----------------------
+
+bool accept(InputState& in, Mux& values, bool hasEnvelope, double envelope, SteadyClock::time_point arrival,
+            std::size_t queue)
+{
+    in.queue.emplace_back();
+    Pending& entry = in.queue.back();
+    entry.data.values.swap(values);
+    entry.data.hasEnvelope = hasEnvelope;
+    entry.data.envelope = hasEnvelope ? envelope : 0.0;
+    entry.arrival = arrival;
+    if (in.queue.size() > queue) {
+        in.queue.pop_front();
+        ++in.unused;
+    }
+    in.arrival = arrival;
+    const bool wasFresh = in.state == Freshness::Fresh;
+    if (in.state == Freshness::Stale) {
+        say("input " + std::string(in.spec.source) + " is fresh again");
+    }
+    in.state = Freshness::Fresh;
+    return wasFresh;
+}
+
+void refuse(InputState& in, const std::string& why)
+{
+    ++in.dropped;
+    if (!in.reportedDrop) {
+        in.reportedDrop = true;
+        say("input " + std::string(in.spec.source) + ": dropped a Bottle (" + why + "); further drops are only counted");
+    }
+}
+
+Matcher::Matcher(const BridgeSpec& spec, std::vector<InputState*> inputs, bool eventDriven) :
+        spec_(spec), inputs_(std::move(inputs)), eventDriven_(eventDriven)
+{
+    for (std::size_t k = 0; k < inputs_.size(); ++k) {
+        const int mux = spec.inputs[k].mux;
+        if (spec.needed.empty() || std::find(spec.needed.begin(), spec.needed.end(), mux) != spec.needed.end()) {
+            needed_.push_back(inputs_[k]);
+        }
+    }
+    for (InputState* in : inputs_) {
+        latest_.add(in->latest);
+        if (!eventDriven_ || std::find(needed_.begin(), needed_.end(), in) == needed_.end()) {
+            sampled_.push_back(in);
+        }
+    }
+}
+
+SteadyClock::time_point Matcher::checkFreshness(SteadyClock::time_point now)
+{
+    SteadyClock::time_point deadline = SteadyClock::time_point::max();
+    for (InputState* in : inputs_) {
+        if (in->state == Freshness::Waiting) {
+            if (!in->reportedWaiting) {
+                in->reportedWaiting = true;
+                say("waiting for " + std::string(in->spec.source));
+            }
+            continue;
+        }
+        if (in->state != Freshness::Fresh) {
+            continue;
+        }
+        if (!in->isFresh(now)) {
+            in->state = Freshness::Stale;
+            ++in->stalePeriods;
+            char text[64];
+            std::snprintf(text, sizeof text, "%.1f", std::chrono::duration<double>(now - in->arrival).count());
+            say("input " + std::string(in->spec.source) + " is stale (no data for " + text + " s)");
+        } else {
+            const auto limit = std::chrono::duration_cast<SteadyClock::duration>(
+                std::chrono::duration<double>(in->timeout));
+            deadline = std::min(deadline, in->arrival + limit + std::chrono::microseconds(1));
+        }
+    }
+    return deadline;
+}
+
+bool Matcher::ready(SteadyClock::time_point now, bool eventDriven) const
+{
+    for (const InputState* in : needed_) {
+        if (spec_.hold ? in->state == Freshness::Waiting : !in->isFresh(now)) {
+            return false;
+        }
+    }
+    if (!eventDriven) {
+        return true;
+    }
+    if (needed_.empty()) {
+        return false;  // nothing arrives to publish for
+    }
+    std::size_t updated = 0;
+    for (const InputState* in : needed_) {
+        updated += in->queue.empty() ? 0 : 1;
+    }
+    return spec_.triggerAll ? updated == needed_.size() : updated > 0;
+}
+
+/// A queued Bottle's time: its envelope stamp, or its arrival.
+double Matcher::when(const Pending& p, bool byEnvelope)
+{
+    return byEnvelope ? p.data.envelope : std::chrono::duration<double>(p.arrival.time_since_epoch()).count();
+}
+
+/// The index of the input's queued Bottle nearest in time to
+/// `reference` (the older one on a tie).
+std::size_t Matcher::nearest(const InputState& in, double reference, bool byEnvelope)
+{
+    std::size_t best = 0;
+    double gap = std::fabs(when(in.queue[0], byEnvelope) - reference);
+    for (std::size_t k = 1; k < in.queue.size(); ++k) {
+        const double g = std::fabs(when(in.queue[k], byEnvelope) - reference);
+        if (g < gap) {
+            gap = g;
+            best = k;
+        }
+    }
+    return best;
+}
+
+/// Queued Bottle `k` becomes what messages use; the older ones are unused.
+void Matcher::use(InputState& in, std::size_t k)
+{
+    in.unused += k;
+    in.queue.erase(in.queue.begin(), in.queue.begin() + static_cast<std::ptrdiff_t>(k));
+    in.latest = std::move(in.queue.front().data);
+    in.hasLatest = true;
+    in.queue.pop_front();
+}
+
+void Matcher::take()
+{
+    if (eventDriven_ && spec_.triggerAll) {
+        // one Bottle of every needed input, matched in time to the newest
+        // of the oldest ones: by envelope stamps when all of them have one
+        bool byEnvelope = true;
+        for (const InputState* in : needed_) {
+            for (const Pending& p : in->queue) {
+                byEnvelope = byEnvelope && p.data.hasEnvelope;
+            }
+        }
+        double reference = when(needed_.front()->queue.front(), byEnvelope);
+        for (const InputState* in : needed_) {
+            reference = std::max(reference, when(in->queue.front(), byEnvelope));
+        }
+        for (InputState* in : needed_) {
+            use(*in, nearest(*in, reference, byEnvelope));
+        }
+    } else if (eventDriven_) {
+        // the oldest unused Bottle of any needed input; an input no message
+        // used yet joins with its Bottle nearest in time to it
+        InputState* first = nullptr;
+        for (InputState* in : needed_) {
+            if (!in->queue.empty() && (first == nullptr || in->queue.front().arrival < first->queue.front().arrival)) {
+                first = in;
+            }
+        }
+        const double reference = when(first->queue.front(), false);
+        use(*first, 0);
+        for (InputState* in : needed_) {
+            if (!in->hasLatest && !in->queue.empty()) {
+                use(*in, nearest(*in, reference, false));
+            }
+        }
+    }
+    for (InputState* in : sampled_) {
+        if (!in->queue.empty()) {
+            use(*in, in->queue.size() - 1);
+        }
+    }
+}
+
 // --- inputs -------------------------------------------------------------------------
 
 class Input;
@@ -442,15 +615,13 @@ struct Shared
     ArrivalListener* listener = nullptr;
 };
 
-enum class Freshness { Waiting, Fresh, Stale };
-
 /// One input: its own port, read by YARP's callback thread, keeping only
 /// the newest accepted Bottle with its arrival time and envelope.
-class Input : public yarp::os::TypedReaderCallback<yarp::os::Bottle>
+class Input : public InputState, public yarp::os::TypedReaderCallback<yarp::os::Bottle>
 {
 public:
     Input(Shared& shared, const InputSpec& spec, std::string local, double timeout) :
-            spec(spec), local(std::move(local)), timeout(timeout), shared_(shared)
+            InputState(spec, timeout), local(std::move(local)), shared_(shared)
     {
     }
 
@@ -499,59 +670,19 @@ public:
             std::lock_guard<std::mutex> lock(shared_.mutex);
             ++received;
             if (!ok) {
-                ++dropped;
-                if (!reportedDrop) {
-                    reportedDrop = true;
-                    say("input " + std::string(spec.source) + ": dropped a Bottle (" + why
-                        + "); further drops are only counted");
-                }
+                refuse(*this, why);
                 return;
             }
-            queue.emplace_back();
-            Pending& entry = queue.back();
-            entry.data.values.swap(scratch_);
-            entry.data.hasEnvelope = hasEnvelope;
-            entry.data.envelope = hasEnvelope ? stamp.getTime() : 0.0;
-            entry.arrival = now;
-            if (queue.size() > shared_.queue) {
-                queue.pop_front();
-                ++unused;
-            }
-            arrival = now;
-            const bool wasFresh = state == Freshness::Fresh;
-            if (state == Freshness::Stale) {
-                say("input " + std::string(spec.source) + " is fresh again");
-            }
-            state = Freshness::Fresh;
+            const bool wasFresh = accept(*this, scratch_, hasEnvelope, hasEnvelope ? stamp.getTime() : 0.0, now,
+                                         shared_.queue);
             if (shared_.listener != nullptr) {
                 shared_.listener->arrived(*this, wasFresh);
             }
         }
     }
 
-    /// Fresh now: its last Bottle arrived less than `timeout` ago.
-    bool isFresh(SteadyClock::time_point now) const
-    {
-        return state != Freshness::Waiting && std::chrono::duration<double>(now - arrival).count() < timeout;
-    }
-
-    const InputSpec& spec;
     const std::string local;  // this module's own port
-    const double timeout;
     std::string registered;   // its name in the name server (topic-@node for ROS)
-
-    // guarded by Shared::mutex
-    std::deque<Pending> queue;     // accepted, not used yet (oldest first)
-    Latest latest;                 // what messages use (hasLatest: there is one)
-    bool hasLatest = false;
-    SteadyClock::time_point arrival;  // of the newest accepted Bottle
-    std::atomic<std::uint64_t> received{0};      // atomic: the totals are read without the lock
-    std::atomic<std::uint64_t> dropped{0};
-    std::atomic<std::uint64_t> unused{0};        // accepted (or skipped unread), never in a message
-    std::atomic<std::uint64_t> stalePeriods{0};
-    Freshness state = Freshness::Waiting;
-    bool reportedWaiting = false;
-    bool reportedDrop = false;
 
 private:
     Shared& shared_;
@@ -882,18 +1013,11 @@ public:
             inputs_.push_back(std::make_unique<Input>(shared_, in, local,
                                                       options.hasTimeout ? options.timeout : in.timeout));
         }
-        for (std::size_t k = 0; k < spec.inputs.size(); ++k) {
-            const int mux = spec.inputs[k].mux;
-            if (spec.needed.empty() || std::find(spec.needed.begin(), spec.needed.end(), mux) != spec.needed.end()) {
-                needed_.push_back(inputs_[k].get());
-            }
-        }
+        std::vector<InputState*> states;
         for (const auto& in : inputs_) {
-            latest_.add(in->latest);
-            if (!eventDriven_ || std::find(needed_.begin(), needed_.end(), in.get()) == needed_.end()) {
-                sampled_.push_back(in.get());
-            }
+            states.push_back(in.get());
         }
+        matcher_ = std::make_unique<Matcher>(spec, std::move(states), eventDriven_);
     }
 
     void requestStop()
@@ -971,7 +1095,7 @@ public:
         if (!eventDriven_ || !publishing_ || shared_.stopping) {
             return;
         }
-        while (!shared_.stopping && ready(SteadyClock::now(), true)) {
+        while (!shared_.stopping && matcher_->ready(SteadyClock::now(), true)) {
             publish();
         }
     }
@@ -1034,151 +1158,21 @@ private:
         }
     }
 
-    /// Says each freshness transition once; returns the next time an input
-    /// would go stale (or SteadyClock::time_point::max()).
-    SteadyClock::time_point checkFreshness(SteadyClock::time_point now)
-    {
-        SteadyClock::time_point deadline = SteadyClock::time_point::max();
-        for (auto& in : inputs_) {
-            if (in->state == Freshness::Waiting) {
-                if (!in->reportedWaiting) {
-                    in->reportedWaiting = true;
-                    say("waiting for " + std::string(in->spec.source));
-                }
-                continue;
-            }
-            if (in->state != Freshness::Fresh) {
-                continue;
-            }
-            if (!in->isFresh(now)) {
-                in->state = Freshness::Stale;
-                ++in->stalePeriods;
-                char text[64];
-                std::snprintf(text, sizeof text, "%.1f", std::chrono::duration<double>(now - in->arrival).count());
-                say("input " + std::string(in->spec.source) + " is stale (no data for " + text + " s)");
-            } else {
-                const auto limit = std::chrono::duration_cast<SteadyClock::duration>(
-                    std::chrono::duration<double>(in->timeout));
-                deadline = std::min(deadline, in->arrival + limit + std::chrono::microseconds(1));
-            }
-        }
-        return deadline;
-    }
-
-    /// Every needed input fresh (on_stale = skip) or delivered once (hold);
-    /// event-driven, also the trigger: every (all) or one (any) needed input
-    /// has a Bottle that no message used yet.
-    bool ready(SteadyClock::time_point now, bool eventDriven) const
-    {
-        for (const Input* in : needed_) {
-            if (spec_.hold ? in->state == Freshness::Waiting : !in->isFresh(now)) {
-                return false;
-            }
-        }
-        if (!eventDriven) {
-            return true;
-        }
-        if (needed_.empty()) {
-            return false;  // nothing arrives to publish for
-        }
-        std::size_t updated = 0;
-        for (const Input* in : needed_) {
-            updated += in->queue.empty() ? 0 : 1;
-        }
-        return spec_.triggerAll ? updated == needed_.size() : updated > 0;
-    }
-
-    /// A queued Bottle's time: its envelope stamp, or its arrival.
-    static double when(const Pending& p, bool byEnvelope)
-    {
-        return byEnvelope ? p.data.envelope : std::chrono::duration<double>(p.arrival.time_since_epoch()).count();
-    }
-
-    /// The index of the input's queued Bottle nearest in time to
-    /// `reference` (the older one on a tie).
-    static std::size_t nearest(const Input& in, double reference, bool byEnvelope)
-    {
-        std::size_t best = 0;
-        double gap = std::fabs(when(in.queue[0], byEnvelope) - reference);
-        for (std::size_t k = 1; k < in.queue.size(); ++k) {
-            const double g = std::fabs(when(in.queue[k], byEnvelope) - reference);
-            if (g < gap) {
-                gap = g;
-                best = k;
-            }
-        }
-        return best;
-    }
-
-    /// Queued Bottle `k` becomes what messages use; the older ones are unused.
-    static void use(Input& in, std::size_t k)
-    {
-        in.unused += k;
-        in.queue.erase(in.queue.begin(), in.queue.begin() + static_cast<std::ptrdiff_t>(k));
-        in.latest = std::move(in.queue.front().data);
-        in.hasLatest = true;
-        in.queue.pop_front();
-    }
-
-    /// Moves the Bottles the next message uses from the queues
-    /// (docs/runtime.md, "Which Bottles a message uses").
-    void take()
-    {
-        if (eventDriven_ && spec_.triggerAll) {
-            // one Bottle of every needed input, matched in time to the newest
-            // of the oldest ones: by envelope stamps when all of them have one
-            bool byEnvelope = true;
-            for (const Input* in : needed_) {
-                for (const Pending& p : in->queue) {
-                    byEnvelope = byEnvelope && p.data.hasEnvelope;
-                }
-            }
-            double reference = when(needed_.front()->queue.front(), byEnvelope);
-            for (const Input* in : needed_) {
-                reference = std::max(reference, when(in->queue.front(), byEnvelope));
-            }
-            for (Input* in : needed_) {
-                use(*in, nearest(*in, reference, byEnvelope));
-            }
-        } else if (eventDriven_) {
-            // the oldest unused Bottle of any needed input; an input no message
-            // used yet joins with its Bottle nearest in time to it
-            Input* first = nullptr;
-            for (Input* in : needed_) {
-                if (!in->queue.empty() && (first == nullptr || in->queue.front().arrival < first->queue.front().arrival)) {
-                    first = in;
-                }
-            }
-            const double reference = when(first->queue.front(), false);
-            use(*first, 0);
-            for (Input* in : needed_) {
-                if (!in->hasLatest && !in->queue.empty()) {
-                    use(*in, nearest(*in, reference, false));
-                }
-            }
-        }
-        for (Input* in : sampled_) {
-            if (!in->queue.empty()) {
-                use(*in, in->queue.size() - 1);
-            }
-        }
-    }
-
     /// Builds and writes one message from the values taken; Shared::mutex
     /// held, so no input changes meanwhile (and nothing is copied).
     void publish()
     {
-        take();
+        matcher_->take();
         Context ctx;
         ctx.counter = published_;
         ctx.wallNs = std::chrono::duration_cast<std::chrono::nanoseconds>(
                          std::chrono::system_clock::now().time_since_epoch()).count();
         ctx.seconds = static_cast<double>(ctx.wallNs) / 1e9;
         ctx.verbose = options_.verbose;
-        ctx.inputs = &latest_;
+        ctx.inputs = &matcher_->latest();
         yarp::os::Bottle& msg = output_.prepare();
         std::string failure;
-        if (!make_(latest_, ctx, msg, failure)) {
+        if (!make_(matcher_->latest(), ctx, msg, failure)) {
             output_.unprepare();
             if (++buildFailures_ == 1) {
                 say("cannot build the message: a mux has fewer elements than the message needs ("
@@ -1195,11 +1189,11 @@ private:
         std::unique_lock<std::mutex> lock(shared_.mutex);
         publishing_ = true;
         // Bottles that came before the output was open
-        while (ready(SteadyClock::now(), true)) {
+        while (matcher_->ready(SteadyClock::now(), true)) {
             publish();
         }
         while (!shared_.stopping) {
-            const SteadyClock::time_point deadline = checkFreshness(SteadyClock::now());
+            const SteadyClock::time_point deadline = matcher_->checkFreshness(SteadyClock::now());
             if (deadline == SteadyClock::time_point::max()) {
                 shared_.wake.wait(lock);
             } else {
@@ -1234,8 +1228,8 @@ private:
                 cycle += missed;
             }
             ++cycle;
-            checkFreshness(now);
-            if (!ready(now, false)) {
+            matcher_->checkFreshness(now);
+            if (!matcher_->ready(now, false)) {
                 continue;
             }
             publish();
@@ -1260,12 +1254,10 @@ private:
     MakeMessage make_;
     Shared shared_;
     std::vector<std::unique_ptr<Input>> inputs_;
-    std::vector<Input*> needed_;
-    std::vector<Input*> sampled_;  // newest Bottle each message: all at a fixed rate, else those not needed
+    std::unique_ptr<Matcher> matcher_;  // which Bottles each message uses
     Output output_;
     const bool eventDriven_;
     bool publishing_ = false;  // guarded by Shared::mutex
-    Inputs latest_;            // every input's newest values
     std::atomic<std::uint64_t> published_{0};
     std::atomic<std::uint64_t> skippedCycles_{0};
     std::atomic<std::uint64_t> buildFailures_{0};

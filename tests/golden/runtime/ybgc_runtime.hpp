@@ -290,6 +290,87 @@ void append(Mux& mux, const Latest& input);
 bool parseBottle(const yarp::os::Bottle& b, const InputSpec& spec, bool dropNan, Mux& out, std::string& why,
                  std::vector<const yarp::os::Value*>& in);
 
+// --- what is kept of each input, and which Bottles a message uses --------------
+
+enum class Freshness { Waiting, Fresh, Stale };
+
+/// What the bridge keeps of one input: the Bottles no message used yet, the
+/// values messages use, its freshness and its totals. Guarded by the
+/// bridge's lock (the totals are atomic: they are printed without it).
+struct InputState
+{
+    InputState(const InputSpec& spec, double timeout) : spec(spec), timeout(timeout) {}
+    InputState(const InputState&) = delete;
+    InputState& operator=(const InputState&) = delete;
+    virtual ~InputState() = default;
+
+    /// Fresh now: its last Bottle arrived less than `timeout` ago.
+    bool isFresh(SteadyClock::time_point now) const
+    {
+        return state != Freshness::Waiting && std::chrono::duration<double>(now - arrival).count() < timeout;
+    }
+
+    const InputSpec& spec;
+    const double timeout;               // freshness timeout, seconds
+    std::deque<Pending> queue;          // accepted, not used yet (oldest first)
+    Latest latest;                      // what messages use (hasLatest: there is one)
+    bool hasLatest = false;
+    SteadyClock::time_point arrival;    // of the newest accepted Bottle
+    std::atomic<std::uint64_t> received{0};
+    std::atomic<std::uint64_t> dropped{0};
+    std::atomic<std::uint64_t> unused{0};        // accepted (or skipped unread), never in a message
+    std::atomic<std::uint64_t> stalePeriods{0};
+    Freshness state = Freshness::Waiting;
+    bool reportedWaiting = false;
+    bool reportedDrop = false;
+};
+
+/// A Bottle the input accepted, its values moved out of `values`: queued
+/// (at most `queue` kept: the oldest is then unused), the input fresh (said
+/// when it was stale). True when the input was fresh before it.
+bool accept(InputState& in, Mux& values, bool hasEnvelope, double envelope, SteadyClock::time_point arrival,
+            std::size_t queue);
+
+/// A Bottle the input refused (`why`): counted, said the first time only.
+void refuse(InputState& in, const std::string& why);
+
+/// Which Bottles each message uses and when an input goes stale
+/// (docs/runtime.md, "Which Bottles a message uses", "Freshness"): plain
+/// logic on the inputs' state, with no port; the caller holds the lock.
+class Matcher
+{
+public:
+    /// `inputs` in BridgeSpec::inputs order; `eventDriven`: no fixed rate.
+    Matcher(const BridgeSpec& spec, std::vector<InputState*> inputs, bool eventDriven);
+
+    /// Says each freshness transition once; returns the next time an input
+    /// would go stale (or SteadyClock::time_point::max()).
+    SteadyClock::time_point checkFreshness(SteadyClock::time_point now);
+
+    /// Every needed input fresh (on_stale = skip) or delivered once (hold);
+    /// event-driven, also the trigger: every (all) or one (any) needed input
+    /// has a Bottle that no message used yet.
+    bool ready(SteadyClock::time_point now, bool eventDriven) const;
+
+    /// Moves the Bottles the next message uses from the queues.
+    void take();
+
+    /// The values messages use, of every input in BridgeSpec::inputs order.
+    const Inputs& latest() const { return latest_; }
+
+private:
+    static double when(const Pending& p, bool byEnvelope);
+    static std::size_t nearest(const InputState& in, double reference, bool byEnvelope);
+    static void use(InputState& in, std::size_t k);
+
+    const BridgeSpec& spec_;
+    std::vector<InputState*> inputs_;
+    std::vector<InputState*> needed_;
+    std::vector<InputState*> sampled_;  // newest Bottle each message: all at a fixed rate, else those not needed
+    const bool eventDriven_;
+    Inputs latest_;
+};
+
 // --- the loop ---------------------------------------------------------------------------------
 
 /// What the message builder sees besides the muxes.
