@@ -12,7 +12,7 @@ import pytest
 
 from ybg.cli import _formatted
 from ybg.compiler import ir
-from ybg.compiler.check import Options
+from ybg.compiler.options import Options
 from ybg.compiler.fmt import format_document
 from ybg.compiler.parser import parse_text
 from ybg.compiler.diagnostics import Sink

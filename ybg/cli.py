@@ -83,7 +83,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _options(args):
-    from ybg.compiler.check import Options
+    from ybg.compiler.options import Options
     from ybg.compiler.msgtypes import DISTROS
 
     if args.distro is not None and args.distro not in DISTROS:

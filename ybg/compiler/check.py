@@ -12,12 +12,13 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass, field
-from typing import Callable, Mapping
+from typing import Callable
 
 from ybg.compiler import ast, ir
 from ybg.compiler.diagnostics import Sink, Span, did_you_mean
 from ybg.compiler.msgtypes import DISTROS, MsgDef, TypeStore, load_store, normalize_name, numeric_leaves
 from ybg.compiler.names import identifier_problem, port_problem, sanitize_identifier, topic_problem
+from ybg.compiler.options import Options
 
 SECTION_KEYS: dict[str, tuple[str, ...]] = {
     "module": ("name", "distro"),
@@ -65,18 +66,6 @@ _INT_RANGE = {
     "int32": (-2**31, 2**31 - 1), "uint32": (0, 2**32 - 1),
     "int64": (-2**63, 2**63 - 1), "uint64": (0, 2**64 - 1),
 }
-
-
-@dataclass(frozen=True)
-class Options:
-    """What the command line adds to a config: ``distro`` overrides
-    ``[module] distro``; ``msg_path`` directories of user ``.msg`` files;
-    ``yarp`` the YARP version the module is for ("3.12", "4.0.0"; None: any)."""
-
-    distro: str | None = None
-    msg_path: tuple[str, ...] = ()
-    environ: Mapping[str, str] | None = None
-    yarp: str | None = None
 
 
 @dataclass

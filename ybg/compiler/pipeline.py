@@ -16,11 +16,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ybg.compiler import ast, ir
-from ybg.compiler.check import Options, check_named
+from ybg.compiler.check import check_named
 from ybg.compiler.diagnostics import Diagnostic, Severity, Sink
 from ybg.compiler.legacy import is_legacy, is_named, to_named
 from ybg.compiler.msgtypes import DISTROS, load_store
 from ybg.compiler.names import sanitize_identifier
+from ybg.compiler.options import Options
 from ybg.compiler.parser import parse_text
 
 
