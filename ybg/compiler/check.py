@@ -12,9 +12,8 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass, field
-from typing import Callable
 
-from ybg.compiler import ast, ir
+from ybg.compiler import ast, ir, values
 from ybg.compiler.diagnostics import Sink, Span, did_you_mean
 from ybg.compiler.msgtypes import DISTROS, MsgDef, TypeStore, load_store, normalize_name, numeric_leaves
 from ybg.compiler.names import identifier_problem, port_problem, sanitize_identifier, topic_problem
@@ -82,97 +81,6 @@ class _Stores:
 
 
 # --------------------------------------------------------------------------
-# small readers of entry values
-
-
-def _one(entry: ast.Entry, sink: Sink, what: str) -> ast.Item | None:
-    if len(entry.items) != 1:
-        sink.error("E208", f"`{entry.key}` takes one {what}, not {len(entry.items) or 'no'} values",
-                   entry.span, f"write `{entry.key} = <{what}>`")
-        return None
-    return entry.items[0]
-
-
-def _word(entry: ast.Entry, sink: Sink, what: str = "name") -> str | None:
-    item = _one(entry, sink, what)
-    if item is None:
-        return None
-    if isinstance(item, (ast.Word, ast.Str)):
-        return item.text if isinstance(item, ast.Word) else item.value
-    sink.error("E208", f"`{entry.key}` takes a {what}", item.span)
-    return None
-
-
-def _choice(entry: ast.Entry, sink: Sink) -> str | None:
-    value = _word(entry, sink, "word")
-    choices = CHOICES[entry.key]
-    if value is None:
-        return None
-    if value not in choices:
-        sink.error("E208", f"`{entry.key}` is one of {', '.join(choices)}, not `{value}`",
-                   entry.items[0].span, did_you_mean(value, choices))
-        return None
-    return value
-
-
-def _number(entry: ast.Entry, sink: Sink, minimum: float = 0.0, allow_zero: bool = False) -> float | None:
-    item = _one(entry, sink, "number")
-    if item is None:
-        return None
-    num = item.number() if isinstance(item, ast.Word) else None
-    if num is None or isinstance(num, bool) or math.isnan(num) or math.isinf(num):
-        sink.error("E208", f"`{entry.key}` takes a number", item.span)
-        return None
-    if num < minimum or (num == 0 and not allow_zero):
-        sink.error("E208", f"`{entry.key}` must be {'at least' if allow_zero else 'greater than'} {minimum:g}",
-                   item.span)
-        return None
-    return float(num)
-
-
-def _whole(entry: ast.Entry, sink: Sink, minimum: int, maximum: int | None = None,
-           hint: str | None = None) -> int | None:
-    """A whole number from ``minimum`` (to ``maximum``), or None (reported)."""
-    num = _number(entry, sink, float(minimum))
-    if num is None:
-        return None
-    if num != int(num) or (maximum is not None and num > maximum):
-        where = f" from {minimum} to {maximum}" if maximum is not None else ""
-        sink.error("E208", f"`{entry.key}` is a whole number{where}", entry.items[0].span, hint)
-        return None
-    return int(num)
-
-
-def _bool(entry: ast.Entry, sink: Sink) -> bool | None:
-    item = _one(entry, sink, "true or false")
-    if item is None:
-        return None
-    b = item.boolean() if isinstance(item, ast.Word) else None
-    if b is None:
-        sink.error("E208", f"`{entry.key}` takes true or false", item.span)
-    return b
-
-
-def check_keys(section: ast.Section, allowed: tuple[str, ...], sink: Sink,
-               extra: Callable[[str], bool] | None = None) -> dict[str, ast.Entry]:
-    """Entries of ``section`` by key; unknown keys (neither ``allowed`` nor
-    accepted by ``extra``) and duplicate keys reported. Empty ``allowed`` and
-    no ``extra``: any key."""
-    out: dict[str, ast.Entry] = {}
-    for e in section.entries:
-        if (allowed or extra) and e.key not in allowed and not (extra and extra(e.key)):
-            sink.error("E202", f"unknown key `{e.key}` in [{section.title}]", e.key_span,
-                       did_you_mean(e.key, allowed) or f"keys of [{section.name}]: {', '.join(allowed)}")
-            continue
-        if e.key in out:
-            sink.error("E206", f"`{e.key}` is given twice in [{section.title}]", e.key_span,
-                       f"first given on line {out[e.key].span.line}")
-            continue
-        out[e.key] = e
-    return out
-
-
-# --------------------------------------------------------------------------
 # the pass
 
 
@@ -228,10 +136,10 @@ class _Checker:
     def run(self) -> ir.Program | None:
         secs = self.sections()
         module_sec = secs.get("module")
-        module_keys = check_keys(module_sec, SECTION_KEYS["module"], self.sink) if module_sec else {}
+        module_keys = values.check_keys(module_sec, SECTION_KEYS["module"], self.sink) if module_sec else {}
         module = self.module_default
         if "name" in module_keys:
-            name = _word(module_keys["name"], self.sink)
+            name = values.word(module_keys["name"], self.sink)
             if name is not None:
                 problem = identifier_problem(name)
                 if problem:
@@ -240,22 +148,22 @@ class _Checker:
                 else:
                     module = name
         out_sec = secs.get("output")
-        out_keys = check_keys(out_sec, SECTION_KEYS["output"], self.sink) if out_sec else {}
-        mux_keys = {name: check_keys(sec, SECTION_KEYS["mux"], self.sink)
+        out_keys = values.check_keys(out_sec, SECTION_KEYS["output"], self.sink) if out_sec else {}
+        mux_keys = {name: values.check_keys(sec, SECTION_KEYS["mux"], self.sink)
                     for name, sec in self.mux_sections.items()}
 
         # dialect: ROS 2 if the output or any input lives there, else ROS 1
         via = self.output_via(out_keys)
         mux_via = {}
         for name, keys in mux_keys.items():
-            mux_via[name] = _choice(keys["via"], self.sink) if "via" in keys else None
+            mux_via[name] = values.choice(keys["via"], self.sink, CHOICES["via"]) if "via" in keys else None
             if mux_via[name] == "yarp" and "topics" in keys:
                 self.sink.error("E208", "topics are read from ROS: `via` is ros1 or ros2",
                                 keys["via"].span)
         ros = "ros2" if via == "ros2" or "ros2" in mux_via.values() else "ros1"
         distro = self.options.distro
         if distro is None and "distro" in module_keys:
-            distro = _word(module_keys["distro"], self.sink)
+            distro = values.word(module_keys["distro"], self.sink)
             if distro is not None and distro not in DISTROS:
                 self.sink.error("E208", f"unknown distro `{distro}`", module_keys["distro"].items[0].span,
                                 did_you_mean(distro, DISTROS) or f"known: {', '.join(DISTROS)}")
@@ -294,12 +202,12 @@ class _Checker:
             return None
         timing = ir.Timing(
             rate=self.rate(out_keys),
-            trigger=_choice(out_keys["trigger"], self.sink) if "trigger" in out_keys else "all",
+            trigger=values.choice(out_keys["trigger"], self.sink, CHOICES["trigger"]) if "trigger" in out_keys else "all",
             queue=self.queue(out_keys),
         )
         policy = ir.Policy(
-            on_stale=(_choice(out_keys["on_stale"], self.sink) if "on_stale" in out_keys else None) or "skip",
-            on_nan=(_choice(out_keys["on_nan"], self.sink) if "on_nan" in out_keys else None) or "pass",
+            on_stale=(values.choice(out_keys["on_stale"], self.sink, CHOICES["on_stale"]) if "on_stale" in out_keys else None) or "skip",
+            on_nan=(values.choice(out_keys["on_nan"], self.sink, CHOICES["on_nan"]) if "on_nan" in out_keys else None) or "pass",
         )
         if self.sink.has_errors:
             return None
@@ -315,7 +223,7 @@ class _Checker:
         """[output] queue: a whole number from 1 (the newest Bottle only) to MAX_QUEUE."""
         if "queue" not in keys:
             return ir.DEFAULT_QUEUE
-        n = _whole(keys["queue"], self.sink, 1, MAX_QUEUE,
+        n = values.whole(keys["queue"], self.sink, 1, MAX_QUEUE,
                    "1 keeps only the newest Bottle of each input; the default, "
                    f"{ir.DEFAULT_QUEUE}, relays a burst whole")
         return ir.DEFAULT_QUEUE if n is None else n
@@ -323,7 +231,7 @@ class _Checker:
     # ---- output
     def output_via(self, keys: dict[str, ast.Entry]) -> str | None:
         if "via" in keys:
-            return _choice(keys["via"], self.sink)
+            return values.choice(keys["via"], self.sink, CHOICES["via"])
         if "port" in keys:
             return "yarp"
         if "topic" in keys:
@@ -333,14 +241,14 @@ class _Checker:
     def rate(self, keys: dict[str, ast.Entry]) -> float | None:
         if "rate" not in keys:
             return None
-        r = _number(keys["rate"], self.sink, 0.0, allow_zero=True)
+        r = values.number(keys["rate"], self.sink, 0.0, allow_zero=True)
         return None if not r else r
 
     def output(self, module: str, via: str | None, keys: dict[str, ast.Entry]):
         s = self.sink
         for k in ("timeout",):
             if k in keys:
-                _number(keys[k], s)
+                values.number(keys[k], s)
         if "topic" in keys and "port" in keys:
             s.error("E208", "give either `topic` (ROS) or `port` (YARP), not both", keys["port"].key_span)
             return None, None, False
@@ -351,7 +259,7 @@ class _Checker:
             return None, None, False
         kind = via
         name_entry = keys.get("topic") or keys.get("port")
-        name = _word(name_entry, s, "name")
+        name = values.word(name_entry, s, "name")
         if name is None or kind is None:
             return None, None, False
         if "topic" in keys:
@@ -374,7 +282,7 @@ class _Checker:
                         "e.g. `/my_module/out:o`")
         connect = None
         if "connect" in keys:
-            connect = _word(keys["connect"], s, "port")
+            connect = values.word(keys["connect"], s, "port")
             if kind != "yarp":
                 s.error("E208", "`connect` is for YARP outputs", keys["connect"].key_span)
             elif connect is not None and port_problem(connect):
@@ -384,7 +292,7 @@ class _Checker:
         if kind == "ros1":
             node = f"/yarp/{module}"
             if "node" in keys:
-                node = _word(keys["node"], s)
+                node = values.word(keys["node"], s)
                 if node is not None and topic_problem(node):
                     s.error("E402", f"invalid ROS node name `{node}`: {topic_problem(node)}",
                             keys["node"].items[0].span)
@@ -395,9 +303,9 @@ class _Checker:
         qos = None
         if kind == "ros2":
             sensor = msg_type in SENSOR_DATA_TYPES
-            rel = _choice(keys["reliability"], s) if "reliability" in keys else None
-            dur = _choice(keys["durability"], s) if "durability" in keys else None
-            depth = _whole(keys["depth"], s, 1) if "depth" in keys else None
+            rel = values.choice(keys["reliability"], s, CHOICES["reliability"]) if "reliability" in keys else None
+            dur = values.choice(keys["durability"], s, CHOICES["durability"]) if "durability" in keys else None
+            depth = values.whole(keys["depth"], s, 1) if "depth" in keys else None
             qos = ir.QoS(rel or ("best_effort" if sensor else "reliable"), dur or "volatile",
                          depth if depth else (5 if sensor else 10))
         else:
@@ -414,7 +322,7 @@ class _Checker:
                 s.error("E204", "[output] needs `type` for a ROS 2 topic", self.out_span,
                         "e.g. `type = sensor_msgs/JointState`")
             return None, None, False
-        text = _word(entry, s, "message type")
+        text = values.word(entry, s, "message type")
         if text is None:
             return None, None, False
         span = entry.items[0].span
@@ -459,9 +367,9 @@ class _Checker:
             return None
         timeout = DEFAULT_TIMEOUT
         if "timeout" in out_keys:
-            timeout = _number(out_keys["timeout"], Sink()) or DEFAULT_TIMEOUT
+            timeout = values.number(out_keys["timeout"], Sink()) or DEFAULT_TIMEOUT
         if "timeout" in keys:
-            timeout = _number(keys["timeout"], s) or timeout
+            timeout = values.number(keys["timeout"], s) or timeout
         if "ports" in keys and "topics" in keys:
             s.error("E208", "a mux reads either `ports` (YARP) or `topics` (ROS), not both",
                     keys["topics"].key_span, "split them into two muxes")
@@ -490,7 +398,7 @@ class _Checker:
             return None
         verbose = False
         if "verbose" in keys:
-            verbose = bool(_bool(keys["verbose"], s))
+            verbose = bool(values.boolean(keys["verbose"], s))
         mux = ir.Mux(name, tuple(inputs), (), verbose)
         convs = self.converters(mux, keys.get("convert"))
         return ir.Mux(name, tuple(inputs), tuple(convs), verbose)

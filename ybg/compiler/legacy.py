@@ -14,9 +14,9 @@ from __future__ import annotations
 import re
 
 from ybg.compiler import ast
-from ybg.compiler.check import check_keys
 from ybg.compiler.diagnostics import Sink, Span, did_you_mean
 from ybg.compiler.msgtypes import MsgDef, TypeStore
+from ybg.compiler.values import check_keys
 
 GENERAL_KEYS = ("output_name", "to_ros", "num_mux", "rate", "ros_msg_name", "from_ros_topics")
 MUX_KEYS = ("num_ports", "ports", "function", "verbose")
