@@ -12,6 +12,8 @@ import importlib
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+from ybg.backends.wire import WIRE_ROS1, WIRE_YARP  # noqa: F401  (re-exported: the lowerings import them from here)
+
 if TYPE_CHECKING:
     import jinja2
 
@@ -21,31 +23,6 @@ if TYPE_CHECKING:
 class LoweringError(ValueError):
     """A program that a backend cannot build; the message says why. The CLI
     reports it as an error (exit status 1), never as a traceback."""
-
-
-#: Bottle tag of each element type on a YARP port or an untyped Bottle
-#: (docs/runtime.md, "Value types on the wire"). Every backend writes these.
-WIRE_YARP: dict[str, str] = {
-    "float32": "float64", "float64": "float64",
-    "int64": "int64", "uint32": "int64", "uint64": "int64",
-    "int8": "int32", "uint8": "int32", "int16": "int32", "uint16": "int32",
-    "int32": "int32", "byte": "int32", "char": "int32", "bool": "int32",
-    "string": "string",
-}
-
-#: Bottle tag of each element type on a ROS 1 output. YARP's tcpros carrier
-#: turns the Bottle into the ROS message by a fixed layout (WireTwiddler)
-#: that compares the tags byte for byte: a uint32 must be an int32 (an int64
-#: is refused, "Structure of message is unexpected"), a float32 a float32 (a
-#: float64 in a float32 field arrives as garbage), a bool an int8.
-WIRE_ROS1: dict[str, str] = {
-    "float32": "float32", "float64": "float64",
-    "int64": "int64", "uint64": "int64",
-    "int32": "int32", "uint32": "int32",
-    "int16": "int16", "uint16": "int16",
-    "int8": "int8", "uint8": "int8", "byte": "int8", "char": "int8", "bool": "int8",
-    "string": "string",
-}
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from ybg.compiler import ast, ir
 from ybg.compiler.diagnostics import Sink, Span, did_you_mean
-from ybg.compiler.msgtypes import DISTROS, MsgDef, TypeStore, normalize_name, numeric_leaves
+from ybg.compiler.msgtypes import DISTROS, MsgDef, field_positions, normalize_name, numeric_leaves
 from ybg.compiler.names import identifier_problem, port_problem, sanitize_identifier, topic_problem
 from ybg.compiler.passes.context import Context
 from ybg.compiler.values import boolean, number
@@ -97,8 +97,8 @@ def _input(ctx: Context, item: ast.Item, is_topic: bool, via: str, timeout: floa
             ros_type, fields, layout = _topic_decl(ctx, name, decl, item.span, via)
             if ros_type is None:
                 return None
-            if via == "ros1" and fields:
-                positions = bottle_positions(ctx.stores.get("ros1", None), ros_type, fields)
+            if via == "ros1" and fields:  # YARP gives a ROS 1 message as a Bottle laid out like its definition
+                positions = field_positions(ctx.stores.get("ros1", None), ros_type, fields)
         elif via == "ros2":
             s.error("E319", f"ROS 2 topic `{name}` needs its message type", head.span,
                     f"write `{name} (geometry_msgs/Point)`, or `{name} (sensor_msgs/JointState position)` "
@@ -199,25 +199,3 @@ def _topic_decl(ctx: Context, name: str, decl, span: Span, via: str):
         return None, None, None
     return norm, tuple(p for p, _ in leaves), tuple(ir.ElementGroup(t, 1) for _, t in leaves)
 
-
-def bottle_positions(store: TypeStore, msg_type: str, fields) -> tuple[tuple[int, ...], ...]:
-    """Index path of each field (``point.x``, ``position``, ``covariance[3]``)
-    in the Bottle of a ROS 1 message: YARP's wire mapping, a message is a list
-    of its fields in order."""
-    out = []
-    for path in fields:
-        cur = store.resolve(msg_type)
-        at: list[int] = []
-        for part in path.split("."):
-            name, _, rest = part.partition("[")
-            assert cur is not None, (msg_type, path)
-            names = [f.name for f in cur.fields]
-            k = names.index(name)
-            at.append(k)
-            t = cur.fields[k].type
-            if rest:
-                at.append(int(rest.rstrip("]")))
-                t = t.element()
-            cur = store.resolve(t.base) if t.is_message and t.array is None else None
-        out.append(tuple(at))
-    return tuple(out)
