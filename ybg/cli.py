@@ -138,11 +138,20 @@ def _print(results, fmt: str, verbose: bool = False) -> None:
     report(fmt, diags, sources, sys.stdout if fmt != "text" else sys.stderr, notes=verbose)
 
 
-def cmd_check(args) -> int:
+def _compile(path: str, args, options):
+    """The front end, then, with ``--backend``, that backend's check."""
     from ybg.compiler.pipeline import compile_path
 
+    result = compile_path(path, options)
+    if args.backend is None:
+        return result
+    from ybg.backends import check_result
+    return check_result(result, args.backend)
+
+
+def cmd_check(args) -> int:
     options = _options(args)
-    results = [compile_path(f, args.backend, options) for f in _select(args)]
+    results = [_compile(f, args, options) for f in _select(args)]
     _print(results, args.format, args.verbose)
     if any(_io_error(r) for r in results):
         return EXIT_USAGE
@@ -229,9 +238,8 @@ def cmd_fmt(args) -> int:
 
 def cmd_ir(args) -> int:
     from ybg.compiler import ir
-    from ybg.compiler.pipeline import compile_path
 
-    result = compile_path(args.file, args.backend, _options(args))
+    result = _compile(args.file, args, _options(args))
     _print([result], "text")
     if result.program is None:
         return EXIT_USAGE if _io_error(result) else EXIT_PROBLEMS
@@ -241,10 +249,9 @@ def cmd_ir(args) -> int:
 
 def cmd_generate(args) -> int:
     from ybg.backends import LoweringError, RenderOptions, get_backend
-    from ybg.compiler.pipeline import compile_path
     from ybg.writer import WriteError, write_files
 
-    result = compile_path(args.file, args.backend, _options(args))
+    result = _compile(args.file, args, _options(args))
     _print([result], "text")
     if result.program is None:
         return EXIT_USAGE if _io_error(result) else EXIT_PROBLEMS

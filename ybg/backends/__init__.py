@@ -8,16 +8,20 @@ Lowering decisions are made in Python; templates only print.
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from ybg.backends.wire import WIRE_ROS1, WIRE_YARP  # noqa: F401  (re-exported: the lowerings import them from here)
+from ybg.compiler.diagnostics import Diagnostic, Sink
 
 if TYPE_CHECKING:
     import jinja2
 
+    from ybg.compiler.diagnostics import Span
     from ybg.compiler.ir import Program
+    from ybg.compiler.pipeline import Result
 
 
 class LoweringError(ValueError):
@@ -80,8 +84,9 @@ class RenderOptions:
 
 
 class Backend:
-    """Base class of a backend. Subclasses set ``name``/``description`` and
-    implement :meth:`render`."""
+    """Base class of a backend. Subclasses set ``name`` and implement
+    :meth:`render`; what they build and their description are the
+    registry's (:data:`REGISTRY`), set on the subclass from there."""
 
     name: str = ""
     description: str = ""
@@ -89,16 +94,25 @@ class Backend:
     output_kinds: frozenset[str] = frozenset()
     input_kinds: frozenset[str] = frozenset()
 
+    def __init_subclass__(cls, **kwargs) -> None:
+        super().__init_subclass__(**kwargs)
+        info = REGISTRY[cls.name]
+        cls.description = info.description
+        cls.output_kinds = info.output_kinds
+        cls.input_kinds = info.input_kinds
+
     def render(self, program: "Program", options: RenderOptions = RenderOptions()) -> dict[str, str]:
         raise NotImplementedError
 
 
 @dataclass(frozen=True)
 class BackendInfo:
-    """What the registry knows of a backend without importing it: where it is,
-    and which IR output and input kinds it builds (``ybgc check --backend``)."""
+    """What the registry knows of a backend without importing it: where it
+    is, what it makes (the command's help) and which IR output and input
+    kinds it builds (:func:`check`)."""
 
     target: str  # "module:Class"
+    description: str
     output_kinds: frozenset[str]
     input_kinds: frozenset[str]
 
@@ -107,10 +121,13 @@ _YARP = frozenset({"yarp", "ros1"})
 
 #: name -> backend, imported on first use so ``ybgc check`` stays quick
 REGISTRY: dict[str, BackendInfo] = {
-    "cpp": BackendInfo("ybg.backends.cpp:CppBackend", _YARP, _YARP),
-    "py": BackendInfo("ybg.backends.py:PyBackend", _YARP, _YARP),
-    "ros2": BackendInfo("ybg.backends.ros2:Ros2Backend", frozenset({"ros2", "yarp"}),
-                        frozenset({"yarp", "ros2"})),
+    "cpp": BackendInfo("ybg.backends.cpp:CppBackend",
+                       "a C++17 YARP module (one source and its CMakeLists.txt)", _YARP, _YARP),
+    "py": BackendInfo("ybg.backends.py:PyBackend",
+                      "a self-contained Python module on YARP's Python bindings", _YARP, _YARP),
+    "ros2": BackendInfo("ybg.backends.ros2:Ros2Backend",
+                        "an rclpy node between YARP ports and ROS 2 topics (optionally an ament_python package)",
+                        frozenset({"ros2", "yarp"}), frozenset({"yarp", "ros2"})),
 }
 
 
@@ -124,3 +141,52 @@ def get_backend(name: str) -> Backend:
 
 def backend_names() -> list[str]:
     return sorted(REGISTRY)
+
+
+#: how E318 names an output of each IR kind
+_OUTPUT_KINDS = {"ros2": "a ROS 2 topic", "ros1": "a ROS 1 topic", "yarp": "a YARP port"}
+
+
+def check(program: "Program", backend: str, sink: Sink, legacy: bool = False,
+          span: "Span | None" = None) -> None:
+    """Can ``backend`` build ``program``? E318 when it cannot, at ``span``
+    (the output's line); ``legacy``: the config is in the legacy form, and
+    the hint says how to convert it."""
+    info = REGISTRY[backend]
+    if program.output.kind not in info.output_kinds:
+        if program.output.kind == "ros1" and backend == "ros2":
+            hint = ("convert it for ROS 2 in one command: `ybgc fmt --to named --ros2 FILE > new.ini`"
+                    if legacy else "set `via = ros2` in [output] (and drop `header.seq`, which ROS 2 has not)")
+            sink.error("E318", "this config publishes to ROS 1 through YARP (`to_ros = true` / `via = ros1`); "
+                       "the ros2 backend publishes to ROS 2", span, hint)
+        else:
+            sink.error("E318", f"the {backend} backend cannot write {_OUTPUT_KINDS[program.output.kind]}", span,
+                       "use `--backend ros2` for ROS 2 outputs, `--backend cpp` or `--backend py` for YARP and ROS 1")
+        return
+    if program.output.kind == "ros2" and all(i.kind == "ros2" for m in program.muxes for i in m.inputs):
+        sink.error("E318", "nothing to bridge: this config reads ROS 2 topics and publishes a ROS 2 topic, "
+                   "with no YARP side", span,
+                   "read YARP ports (`ports = ...`) or write a YARP port (`port = ...`)")
+        return
+    for m in program.muxes:
+        for i in m.inputs:
+            if i.kind not in info.input_kinds:
+                sink.error("E318", f"the {backend} backend cannot read {i.kind} input `{i.name}` (mux `{m.name}`)",
+                           None, "ROS 2 topics are read by `--backend ros2`; ROS 1 topics by cpp and py")
+                return
+
+
+def check_result(result: "Result", backend: str) -> "Result":
+    """``result`` of the front end as ``backend`` sees it: with the
+    diagnostics of :func:`check`, and without a program it cannot build.
+    A result without a program is returned as it is."""
+    from ybg.compiler.pipeline import output_span
+
+    if result.program is None:
+        return result
+    sink = Sink(result.path)
+    check(result.program, backend, sink, result.form == "legacy", output_span(result.named))
+    if not sink.items:
+        return result
+    return dataclasses.replace(result, program=None if sink.has_errors else result.program,
+                               diagnostics=sorted(result.diagnostics + sink.items, key=Diagnostic.sort_key))
