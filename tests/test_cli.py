@@ -7,6 +7,7 @@ import io
 import json
 import os
 import re
+import shlex
 import shutil
 import subprocess
 import sys
@@ -87,6 +88,28 @@ def test_check_with_backend(tmp_path):
     assert r.returncode == 1
     assert "E318" in r.stderr and "ybgc fmt --to named --ros2" in r.stderr
     assert run("check", "--backend", "cpp", ROOT.parent / "shared" / "legacy" / "thesis_figure5_rviz.ini").returncode == 0
+
+
+def test_e318_hint_command_converts_into_a_new_file(tmp_path):
+    """The command E318's hint gives, run as written: the legacy file stays
+    as it was, new.ini holds it converted for ROS 2, which the ros2 backend
+    builds."""
+    legacy = ROOT.parent / "shared" / "legacy" / "thesis_figure5_rviz.ini"
+    config = tmp_path / legacy.name
+    shutil.copy(legacy, config)
+    original = config.read_bytes()
+    r = run("check", "--backend", "ros2", "--format", "json", config.name, cwd=tmp_path)
+    (e318,) = [d for d in json.loads(r.stdout) if d["code"] == "E318"]
+    command = re.search(r"`(ybgc [^`]*)`", e318["hint"]).group(1)
+    words = [config.name if w == "FILE" else w for w in shlex.split(command)]
+    assert words[0] == "ybgc" and config.name in words, command
+    done = run(*words[1:], cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert config.read_bytes() == original
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([config.name, "new.ini"])
+    converted = run("fmt", "--to", "named", "--ros2", "--stdout", config.name, cwd=tmp_path).stdout
+    assert converted and (tmp_path / "new.ini").read_text(encoding="utf-8") == converted
+    assert run("check", "--backend", "ros2", "new.ini", cwd=tmp_path).returncode == 0
 
 
 def test_fmt_check_and_rewrite(tmp_path):

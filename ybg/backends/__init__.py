@@ -155,7 +155,7 @@ def check(program: "Program", backend: str, sink: Sink, legacy: bool = False,
     info = REGISTRY[backend]
     if program.output.kind not in info.output_kinds:
         if program.output.kind == "ros1" and backend == "ros2":
-            hint = ("convert it for ROS 2 in one command: `ybgc fmt --to named --ros2 FILE > new.ini`"
+            hint = ("convert it for ROS 2 in one command: `ybgc fmt --to named --ros2 FILE -o new.ini`"
                     if legacy else "set `via = ros2` in [output] (and drop `header.seq`, which ROS 2 has not)")
             sink.error("E318", "this config publishes to ROS 1 through YARP (`to_ros = true` / `via = ros1`); "
                        "the ros2 backend publishes to ROS 2", span, hint)
