@@ -3,6 +3,7 @@ formats, fmt, ir, generate (atomic, no clobbering, user code kept)."""
 
 from __future__ import annotations
 
+import argparse
 import io
 import json
 import os
@@ -160,6 +161,23 @@ def test_unknown_backend_is_a_usage_error():
     r = run(EXAMPLES[0], "--backend", "rust")
     assert r.returncode == 2
     assert "backends are cpp, py, ros2" in r.stderr
+
+
+def test_backend_choices_come_from_the_registry(monkeypatch):
+    """Every command's --backend takes the registry's names, and generate's
+    help says what each backend makes, in the registry's words."""
+    from ybg import backends, cli
+
+    extra = backends.BackendInfo("nowhere:Nothing", "a test entry", frozenset(), frozenset())
+    monkeypatch.setitem(backends.REGISTRY, "zz", extra)
+    parser = cli.build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    for command in ("check", "ir", "generate"):
+        (action,) = [a for a in sub.choices[command]._actions if "--backend" in a.option_strings]
+        assert list(action.choices) == sorted(backends.REGISTRY), command
+    help_text = sub.choices["generate"].format_help()
+    for name, info in backends.REGISTRY.items():
+        assert re.search(rf"^  {name} +{re.escape(info.description)}$", help_text, re.M), name
 
 
 def test_generate_writes_atomically_and_keeps_user_code(tmp_path):
