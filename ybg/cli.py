@@ -88,6 +88,9 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("-o", "--output", metavar="DIR", help="output folder (default: ./<module name>)")
     g.add_argument("--force", action="store_true", help="overwrite files that ybgc did not generate")
     g.add_argument("--package", action="store_true", help="ros2: also an ament_python package around the node")
+    g.add_argument("--single-file", action="store_true",
+                   help="write the runtime inside the module: one file, nothing beside it; by default the "
+                        "runtime files are written beside the module")
     _common(g)
     return p
 
@@ -267,7 +270,7 @@ def cmd_generate(args) -> int:
         return EXIT_USAGE if _io_error(result) else EXIT_PROBLEMS
     backend = get_backend(args.backend)
     try:
-        files = backend.render(result.program, RenderOptions(package=args.package))
+        files = backend.render(result.program, RenderOptions(package=args.package, single_file=args.single_file))
     except LoweringError as e:
         sys.stderr.write(f"{args.file}: error: the {args.backend} backend cannot build this config: {e}\n")
         return EXIT_PROBLEMS
