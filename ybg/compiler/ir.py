@@ -1,10 +1,10 @@
 """The checked program: ybgc's intermediate representation.
 
 Frozen dataclasses, independent of the surface syntax (legacy or named form)
-and of every backend. The semantic pass builds a :class:`Program`; backends
-read nothing else. Every value here is already validated: names are legal
-YARP port / ROS topic names, literals carry their element type, widths and
-slices are resolved. ``to_json``/``from_json`` give the form printed by
+and of every backend. The checker (``check.py``) builds a :class:`Program`;
+backends read nothing else. Every value here is already validated: names are
+legal YARP port / ROS topic names, literals carry their element type, widths
+and slices are resolved. ``to_json``/``from_json`` give the form printed by
 ``ybgc ir``.
 
 The pipeline of one bridge::
