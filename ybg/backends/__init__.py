@@ -147,6 +147,18 @@ def backend_names() -> list[str]:
 _OUTPUT_KINDS = {"ros2": "a ROS 2 topic", "ros1": "a ROS 1 topic", "yarp": "a YARP port"}
 
 
+def _writers(kind: str) -> list[str]:
+    return [n for n in backend_names() if kind in REGISTRY[n].output_kinds]
+
+
+def _readers(kind: str) -> list[str]:
+    return [n for n in backend_names() if kind in REGISTRY[n].input_kinds]
+
+
+def _options(names: list[str]) -> str:
+    return " or ".join(f"`--backend {n}`" for n in names)
+
+
 def check(program: "Program", backend: str, sink: Sink, legacy: bool = False,
           span: "Span | None" = None) -> None:
     """Can ``backend`` build ``program``? E318 when it cannot, at ``span``
@@ -154,14 +166,15 @@ def check(program: "Program", backend: str, sink: Sink, legacy: bool = False,
     the hint says how to convert it."""
     info = REGISTRY[backend]
     if program.output.kind not in info.output_kinds:
-        if program.output.kind == "ros1" and backend == "ros2":
+        if program.output.kind == "ros1" and "ros2" in info.output_kinds:
             hint = ("convert it for ROS 2 in one command: `ybgc fmt --to named --ros2 FILE -o new.ini`"
                     if legacy else "set `via = ros2` in [output] (and drop `header.seq`, which ROS 2 has not)")
             sink.error("E318", "this config publishes to ROS 1 through YARP (`to_ros = true` / `via = ros1`); "
-                       "the ros2 backend publishes to ROS 2", span, hint)
+                       f"the {backend} backend publishes to ROS 2", span, hint)
         else:
             sink.error("E318", f"the {backend} backend cannot write {_OUTPUT_KINDS[program.output.kind]}", span,
-                       "use `--backend ros2` for ROS 2 outputs, `--backend cpp` or `--backend py` for YARP and ROS 1")
+                       f"use {_options(_writers('ros2'))} for ROS 2 outputs, "
+                       f"{_options(_writers('ros1'))} for YARP and ROS 1")
         return
     if program.output.kind == "ros2" and all(i.kind == "ros2" for m in program.muxes for i in m.inputs):
         sink.error("E318", "nothing to bridge: this config reads ROS 2 topics and publishes a ROS 2 topic, "
@@ -172,7 +185,8 @@ def check(program: "Program", backend: str, sink: Sink, legacy: bool = False,
         for i in m.inputs:
             if i.kind not in info.input_kinds:
                 sink.error("E318", f"the {backend} backend cannot read {i.kind} input `{i.name}` (mux `{m.name}`)",
-                           None, "ROS 2 topics are read by `--backend ros2`; ROS 1 topics by cpp and py")
+                           None, f"ROS 2 topics are read by {_options(_readers('ros2'))}; "
+                           f"ROS 1 topics by {' and '.join(_readers('ros1'))}")
                 return
 
 
