@@ -18,7 +18,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from ybg.backends import get_backend  # noqa: E402
+from ybg.backends import check_result, get_backend  # noqa: E402
 from ybg.backends.runtime import CPP_HEADER, CPP_SOURCE, PY_PACKAGE  # noqa: E402
 from ybg.compiler.pipeline import compile_text  # noqa: E402
 
@@ -46,7 +46,7 @@ def config_text(name: str, backend: str) -> str:
 def module_lines(demo: str, backend: str) -> tuple[str, int]:
     """(module file name, its lines) for one demonstration and backend."""
     name = DEMOS[demo][backend]
-    result = compile_text(config_text(name, backend), name, backend=backend)
+    result = check_result(compile_text(config_text(name, backend), name), backend)
     if not result.ok:
         raise SystemExit(f"{name} ({backend}): " + "; ".join(d.message for d in result.errors))
     files = get_backend(backend).render(result.program)

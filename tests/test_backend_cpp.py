@@ -33,7 +33,7 @@ from hypothesis import strategies as st
 import middleware
 from generated import without_runtime
 from middleware import ROS1_PYTHON, Proc, RospySubscriber, YarpProducer, YarpReader
-from ybg.backends import get_backend
+from ybg.backends import check_result, get_backend
 from ybg.backends.cpp import CppBackend
 from ybg.backends.cpp.escape import (CPP_KEYWORDS, cpp_comment, cpp_float, cpp_identifier, cpp_int,
                                      cpp_std_string, cpp_string, mangle)
@@ -210,7 +210,7 @@ SUPPORTED = supported_configs()
 
 def config_program(path: Path) -> Program:
     from ybg.compiler.pipeline import compile_path
-    r = compile_path(path, backend="cpp")
+    r = check_result(compile_path(path), "cpp")
     assert r.program is not None, "\n".join(str(d) for d in r.diagnostics)
     return r.program
 

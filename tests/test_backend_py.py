@@ -25,7 +25,7 @@ from generated import load_module, module_file, without_runtime, write_generated
 from middleware import (ROS1_PYTHON, VENV_PYTHON, Proc, RospySubscriber, YarpProducer, YarpReader,
                         require_yarp)
 import ybg
-from ybg.backends import RenderOptions, get_backend
+from ybg.backends import RenderOptions, check_result, get_backend
 from ybg.backends.py import PyBackend
 from ybg.backends.py.lower import LoweringError, py_literal
 from ybg.compiler import ir
@@ -966,7 +966,7 @@ def _config_paths():
 
 def _compile(path):
     from ybg.compiler.pipeline import compile_path
-    return compile_path(path, backend="py")
+    return check_result(compile_path(path), "py")
 
 
 def _supported_configs():
@@ -1262,7 +1262,7 @@ def test_typed_ros1_topic_input(yarp_ros_server, tmp_path):
     cfg.write_text(TYPED_ROS1_INPUT)
     from ybg.compiler.pipeline import compile_path
 
-    result = compile_path(cfg, backend="py")
+    result = check_result(compile_path(cfg), "py")
     assert result.ok, result.diagnostics
     (inp,) = result.program.muxes[0].inputs
     assert inp.positions == ((1, 0), (1, 1), (1, 2))

@@ -37,7 +37,7 @@ import pytest
 import middleware
 from generated import load_module, module_file, without_runtime, write_generated
 from middleware import VENV_PYTHON, Peer, Proc, Ros2Publisher, YarpProducer, YarpReader
-from ybg.backends import RenderOptions, get_backend
+from ybg.backends import RenderOptions, check_result, get_backend
 from ybg.backends.py import PyBackend
 from ybg.backends.ros2 import Ros2Backend
 from ybg.backends.runtime import RUNTIME_DIR
@@ -66,7 +66,7 @@ EVIL = ("q\"uo'te \\back\\slash\\\nnew line */ /* ''' \"\"\" # ; {{ x }} {% raw 
 
 @functools.lru_cache(maxsize=None)
 def compiled(path: str) -> Program:
-    result = compile_path(path, backend="ros2")
+    result = check_result(compile_path(path), "ros2")
     assert result.ok, "\n".join(str(d) for d in result.diagnostics)
     return result.program
 
@@ -81,7 +81,7 @@ def ros2_examples() -> tuple[str, ...]:
     """Stems of the examples that compile for the ros2 backend and involve ROS 2."""
     out = []
     for p in sorted(EXAMPLES.glob("*.ini")):
-        result = compile_path(str(p), backend="ros2")
+        result = check_result(compile_path(str(p)), "ros2")
         if result.ok and _targets_ros2(result.program):
             out.append(p.stem)
     return tuple(out)

@@ -10,9 +10,10 @@ from pathlib import Path
 
 import pytest
 
+from ybg.backends import check_result
 from ybg.cli import _formatted
 from ybg.compiler import ir
-from ybg.compiler.check import Options
+from ybg.compiler.options import Options
 from ybg.compiler.fmt import format_document
 from ybg.compiler.parser import parse_text
 from ybg.compiler.diagnostics import Sink
@@ -60,8 +61,9 @@ def test_invalid_config_exact_code_and_position(path: Path):
     code, line, col = m.group(1), int(m.group(2)), int(m.group(3))
     backend = re.search(r"# backend: (\S+)", head)
     yarp = re.search(r"# yarp: (\S+)", head)
-    result = compile_path(path, backend.group(1) if backend else None,
-                          Options(yarp=yarp.group(1)) if yarp else None)
+    result = compile_path(path, Options(yarp=yarp.group(1)) if yarp else None)
+    if backend:
+        result = check_result(result, backend.group(1))
     shown = [d for d in result.diagnostics if d.severity.value != "note" or code.startswith("N")]
     assert shown, f"{path.name}: no diagnostic at all"
     first = shown[0]
@@ -132,7 +134,7 @@ def test_legacy_to_ros2_conversion_drops_seq():
                          argparse.Namespace(to="named", ros2=True), Options())
     assert "header.seq" not in text.split("# dropped")[-1].split("\n", 1)[1]
     assert "# dropped `header.seq`" in text
-    r = compile_text(text, "thesis_figure5_rviz.ini", backend="ros2")
+    r = check_result(compile_text(text, "thesis_figure5_rviz.ini"), "ros2")
     assert not r.errors, r.errors
     assert r.program.output.kind == "ros2"
     assert r.program.message.fields[0].source.fields[0].source.style == "ros2"

@@ -14,7 +14,7 @@ import pytest
 from ybg.compiler.ir import TypeRef
 from ybg.compiler.msgtypes import (
     DEFAULT_DISTRO, DISTROS, PRIMITIVES, VENDORED_DIR, MsgConstant, MsgField, MsgProblem,
-    load_store, normalize_name, numeric_leaves, parse_msg,
+    field_positions, load_store, normalize_name, numeric_leaves, parse_msg,
 )
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -197,6 +197,17 @@ def test_numeric_leaves():
     assert cov[-1] == ("covariance[35]", "float64")
     ros1 = load_store("ros1", environ=NO_ENV)
     assert numeric_leaves(ros1, "std_msgs/Time") is None  # time is a primitive
+
+
+def test_field_positions():
+    """Index paths in the definition: a nested message's index, then its field's; an
+    array element's index after the array's."""
+    ros1 = load_store("ros1", environ=NO_ENV)
+    assert field_positions(ros1, "geometry_msgs/PointStamped", ("point.x", "point.z", "header")) == \
+        ((1, 0), (1, 2), (0,))
+    assert field_positions(ros1, "geometry_msgs/PoseWithCovariance",
+                           ("pose.orientation.w", "covariance[35]")) == ((0, 1, 3), (1, 35))
+    assert field_positions(ros1, "sensor_msgs/JointState", ("position",)) == ((2,),)
 
 
 # --------------------------------------------------------------------------

@@ -1,9 +1,12 @@
 """The ``ybgc`` command.
 
-    ybgc CONFIG --backend cpp|py|ros2 [-o DIR]   generate a module
-    ybgc check CONFIG...                          check (pre-commit)
-    ybgc fmt CONFIG... [--check] [--to named]     canonical form / conversion
-    ybgc ir CONFIG                                the checked program as JSON
+    ybgc CONFIG --backend NAME [-o DIR]        generate a module
+    ybgc check CONFIG...                        check (pre-commit)
+    ybgc fmt CONFIG... [--check] [--to named]   canonical form / conversion
+    ybgc ir CONFIG                              the checked program as JSON
+
+The backends, their names and what each makes are those of the registry
+(``ybg.backends.REGISTRY``); ``ybgc generate --help`` lists them.
 
 Exit status: 0 clean (or warnings only), 1 problems, 2 usage or I/O error.
 """
@@ -17,9 +20,9 @@ import sys
 from pathlib import Path
 
 from ybg import __version__
+from ybg.backends import REGISTRY, backend_names
 
 COMMANDS = ("check", "fmt", "ir", "generate")
-BACKENDS = ("cpp", "py", "ros2")
 EXIT_OK, EXIT_PROBLEMS, EXIT_USAGE = 0, 1, 2
 
 
@@ -28,7 +31,7 @@ class _Parser(argparse.ArgumentParser):
         self.print_usage(sys.stderr)
         sys.stderr.write(f"{self.prog}: error: {message}\n")
         if "--backend" in message or "backend" in message:
-            sys.stderr.write(f"hint: backends are {', '.join(BACKENDS)}\n")
+            sys.stderr.write(f"hint: backends are {', '.join(backend_names())}\n")
         sys.exit(EXIT_USAGE)
 
 
@@ -41,6 +44,12 @@ def _common(p: argparse.ArgumentParser) -> None:
                         "ROS 1 through YARP is an error for YARP 4, a warning for 3.10 to 3.12")
 
 
+def _backends_epilog() -> str:
+    names = backend_names()
+    width = max(map(len, names))
+    return "backends:\n" + "".join(f"  {n:<{width}}  {REGISTRY[n].description}\n" for n in names)
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="ybgc", description="YARP bottle generator compiler: a config file to a YARP/ROS bridge module.")
     p.add_argument("--version", action="version", version=f"ybgc {__version__}")
@@ -50,7 +59,7 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("files", nargs="+", metavar="CONFIG")
     c.add_argument("--strict", action="store_true", help="warnings fail too")
     c.add_argument("--format", choices=("text", "json", "github"), default="text")
-    c.add_argument("--backend", choices=BACKENDS, help="also check that this backend can build it")
+    c.add_argument("--backend", choices=backend_names(), help="also check that this backend can build it")
     c.add_argument("-v", "--verbose", action="store_true", help="also print notes")
     c.add_argument("--skip-foreign", action="store_true",
                    help="skip files that are not ybgc configs (other INI files, e.g. YARP robot configs)")
@@ -69,21 +78,25 @@ def build_parser() -> argparse.ArgumentParser:
 
     i = sub.add_parser("ir", help="print the checked program (IR) as JSON")
     i.add_argument("file", metavar="CONFIG")
-    i.add_argument("--backend", choices=BACKENDS)
+    i.add_argument("--backend", choices=backend_names(), help="also check that this backend can build it")
     _common(i)
 
-    g = sub.add_parser("generate", help="generate a module (also: ybgc CONFIG --backend B)")
+    g = sub.add_parser("generate", help="generate a module (also: ybgc CONFIG --backend B)",
+                       formatter_class=argparse.RawDescriptionHelpFormatter, epilog=_backends_epilog())
     g.add_argument("file", metavar="CONFIG")
-    g.add_argument("--backend", "-b", required=True, choices=BACKENDS)
+    g.add_argument("--backend", "-b", required=True, choices=backend_names(), help="what to make (backends below)")
     g.add_argument("-o", "--output", metavar="DIR", help="output folder (default: ./<module name>)")
     g.add_argument("--force", action="store_true", help="overwrite files that ybgc did not generate")
     g.add_argument("--package", action="store_true", help="ros2: also an ament_python package around the node")
+    g.add_argument("--single-file", action="store_true",
+                   help="write the runtime inside the module: one file, nothing beside it; by default the "
+                        "runtime files are written beside the module")
     _common(g)
     return p
 
 
 def _options(args):
-    from ybg.compiler.check import Options
+    from ybg.compiler.options import Options
     from ybg.compiler.msgtypes import DISTROS
 
     if args.distro is not None and args.distro not in DISTROS:
@@ -138,11 +151,20 @@ def _print(results, fmt: str, verbose: bool = False) -> None:
     report(fmt, diags, sources, sys.stdout if fmt != "text" else sys.stderr, notes=verbose)
 
 
-def cmd_check(args) -> int:
+def _compile(path: str, args, options):
+    """The front end, then, with ``--backend``, that backend's check."""
     from ybg.compiler.pipeline import compile_path
 
+    result = compile_path(path, options)
+    if args.backend is None:
+        return result
+    from ybg.backends import check_result
+    return check_result(result, args.backend)
+
+
+def cmd_check(args) -> int:
     options = _options(args)
-    results = [compile_path(f, args.backend, options) for f in _select(args)]
+    results = [_compile(f, args, options) for f in _select(args)]
     _print(results, args.format, args.verbose)
     if any(_io_error(r) for r in results):
         return EXIT_USAGE
@@ -229,9 +251,8 @@ def cmd_fmt(args) -> int:
 
 def cmd_ir(args) -> int:
     from ybg.compiler import ir
-    from ybg.compiler.pipeline import compile_path
 
-    result = compile_path(args.file, args.backend, _options(args))
+    result = _compile(args.file, args, _options(args))
     _print([result], "text")
     if result.program is None:
         return EXIT_USAGE if _io_error(result) else EXIT_PROBLEMS
@@ -241,16 +262,15 @@ def cmd_ir(args) -> int:
 
 def cmd_generate(args) -> int:
     from ybg.backends import LoweringError, RenderOptions, get_backend
-    from ybg.compiler.pipeline import compile_path
     from ybg.writer import WriteError, write_files
 
-    result = compile_path(args.file, args.backend, _options(args))
+    result = _compile(args.file, args, _options(args))
     _print([result], "text")
     if result.program is None:
         return EXIT_USAGE if _io_error(result) else EXIT_PROBLEMS
     backend = get_backend(args.backend)
     try:
-        files = backend.render(result.program, RenderOptions(package=args.package))
+        files = backend.render(result.program, RenderOptions(package=args.package, single_file=args.single_file))
     except LoweringError as e:
         sys.stderr.write(f"{args.file}: error: the {args.backend} backend cannot build this config: {e}\n")
         return EXIT_PROBLEMS

@@ -8,44 +8,24 @@ Lowering decisions are made in Python; templates only print.
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+from ybg.compiler.diagnostics import Diagnostic, Sink
+
 if TYPE_CHECKING:
     import jinja2
 
+    from ybg.compiler.diagnostics import Span
     from ybg.compiler.ir import Program
+    from ybg.compiler.pipeline import Result
 
 
 class LoweringError(ValueError):
     """A program that a backend cannot build; the message says why. The CLI
     reports it as an error (exit status 1), never as a traceback."""
-
-
-#: Bottle tag of each element type on a YARP port or an untyped Bottle
-#: (docs/runtime.md, "Value types on the wire"). Every backend writes these.
-WIRE_YARP: dict[str, str] = {
-    "float32": "float64", "float64": "float64",
-    "int64": "int64", "uint32": "int64", "uint64": "int64",
-    "int8": "int32", "uint8": "int32", "int16": "int32", "uint16": "int32",
-    "int32": "int32", "byte": "int32", "char": "int32", "bool": "int32",
-    "string": "string",
-}
-
-#: Bottle tag of each element type on a ROS 1 output. YARP's tcpros carrier
-#: turns the Bottle into the ROS message by a fixed layout (WireTwiddler)
-#: that compares the tags byte for byte: a uint32 must be an int32 (an int64
-#: is refused, "Structure of message is unexpected"), a float32 a float32 (a
-#: float64 in a float32 field arrives as garbage), a bool an int8.
-WIRE_ROS1: dict[str, str] = {
-    "float32": "float32", "float64": "float64",
-    "int64": "int64", "uint64": "int64",
-    "int32": "int32", "uint32": "int32",
-    "int16": "int16", "uint16": "int16",
-    "int8": "int8", "uint8": "int8", "byte": "int8", "char": "int8", "bool": "int8",
-    "string": "string",
-}
 
 
 @dataclass(frozen=True)
@@ -103,8 +83,9 @@ class RenderOptions:
 
 
 class Backend:
-    """Base class of a backend. Subclasses set ``name``/``description`` and
-    implement :meth:`render`."""
+    """Base class of a backend. Subclasses set ``name`` and implement
+    :meth:`render`; what they build and their description are the
+    registry's (:data:`REGISTRY`), set on the subclass from there."""
 
     name: str = ""
     description: str = ""
@@ -112,16 +93,25 @@ class Backend:
     output_kinds: frozenset[str] = frozenset()
     input_kinds: frozenset[str] = frozenset()
 
+    def __init_subclass__(cls, **kwargs) -> None:
+        super().__init_subclass__(**kwargs)
+        info = REGISTRY[cls.name]
+        cls.description = info.description
+        cls.output_kinds = info.output_kinds
+        cls.input_kinds = info.input_kinds
+
     def render(self, program: "Program", options: RenderOptions = RenderOptions()) -> dict[str, str]:
         raise NotImplementedError
 
 
 @dataclass(frozen=True)
 class BackendInfo:
-    """What the registry knows of a backend without importing it: where it is,
-    and which IR output and input kinds it builds (``ybgc check --backend``)."""
+    """What the registry knows of a backend without importing it: where it
+    is, what it makes (the command's help) and which IR output and input
+    kinds it builds (:func:`check`)."""
 
     target: str  # "module:Class"
+    description: str
     output_kinds: frozenset[str]
     input_kinds: frozenset[str]
 
@@ -130,10 +120,13 @@ _YARP = frozenset({"yarp", "ros1"})
 
 #: name -> backend, imported on first use so ``ybgc check`` stays quick
 REGISTRY: dict[str, BackendInfo] = {
-    "cpp": BackendInfo("ybg.backends.cpp:CppBackend", _YARP, _YARP),
-    "py": BackendInfo("ybg.backends.py:PyBackend", _YARP, _YARP),
-    "ros2": BackendInfo("ybg.backends.ros2:Ros2Backend", frozenset({"ros2", "yarp"}),
-                        frozenset({"yarp", "ros2"})),
+    "cpp": BackendInfo("ybg.backends.cpp:CppBackend",
+                       "a C++17 YARP module and its CMakeLists.txt, on ybgc's C++ runtime library", _YARP, _YARP),
+    "py": BackendInfo("ybg.backends.py:PyBackend",
+                      "a Python module on YARP's Python bindings and ybgc's Python runtime library", _YARP, _YARP),
+    "ros2": BackendInfo("ybg.backends.ros2:Ros2Backend",
+                        "an rclpy node between YARP ports and ROS 2 topics (optionally an ament_python package)",
+                        frozenset({"ros2", "yarp"}), frozenset({"yarp", "ros2"})),
 }
 
 
@@ -147,3 +140,66 @@ def get_backend(name: str) -> Backend:
 
 def backend_names() -> list[str]:
     return sorted(REGISTRY)
+
+
+#: how E318 names an output of each IR kind
+_OUTPUT_KINDS = {"ros2": "a ROS 2 topic", "ros1": "a ROS 1 topic", "yarp": "a YARP port"}
+
+
+def _writers(kind: str) -> list[str]:
+    return [n for n in backend_names() if kind in REGISTRY[n].output_kinds]
+
+
+def _readers(kind: str) -> list[str]:
+    return [n for n in backend_names() if kind in REGISTRY[n].input_kinds]
+
+
+def _options(names: list[str]) -> str:
+    return " or ".join(f"`--backend {n}`" for n in names)
+
+
+def check(program: "Program", backend: str, sink: Sink, legacy: bool = False,
+          span: "Span | None" = None) -> None:
+    """Can ``backend`` build ``program``? E318 when it cannot, at ``span``
+    (the output's line); ``legacy``: the config is in the legacy form, and
+    the hint says how to convert it."""
+    info = REGISTRY[backend]
+    if program.output.kind not in info.output_kinds:
+        if program.output.kind == "ros1" and "ros2" in info.output_kinds:
+            hint = ("convert it for ROS 2 in one command: `ybgc fmt --to named --ros2 FILE -o new.ini`"
+                    if legacy else "set `via = ros2` in [output] (and drop `header.seq`, which ROS 2 has not)")
+            sink.error("E318", "this config publishes to ROS 1 through YARP (`to_ros = true` / `via = ros1`); "
+                       f"the {backend} backend publishes to ROS 2", span, hint)
+        else:
+            sink.error("E318", f"the {backend} backend cannot write {_OUTPUT_KINDS[program.output.kind]}", span,
+                       f"use {_options(_writers('ros2'))} for ROS 2 outputs, "
+                       f"{_options(_writers('ros1'))} for YARP and ROS 1")
+        return
+    if program.output.kind == "ros2" and all(i.kind == "ros2" for m in program.muxes for i in m.inputs):
+        sink.error("E318", "nothing to bridge: this config reads ROS 2 topics and publishes a ROS 2 topic, "
+                   "with no YARP side", span,
+                   "read YARP ports (`ports = ...`) or write a YARP port (`port = ...`)")
+        return
+    for m in program.muxes:
+        for i in m.inputs:
+            if i.kind not in info.input_kinds:
+                sink.error("E318", f"the {backend} backend cannot read {i.kind} input `{i.name}` (mux `{m.name}`)",
+                           None, f"ROS 2 topics are read by {_options(_readers('ros2'))}; "
+                           f"ROS 1 topics by {' and '.join(_readers('ros1'))}")
+                return
+
+
+def check_result(result: "Result", backend: str) -> "Result":
+    """``result`` of the front end as ``backend`` sees it: with the
+    diagnostics of :func:`check`, and without a program it cannot build.
+    A result without a program is returned as it is."""
+    from ybg.compiler.pipeline import output_span
+
+    if result.program is None:
+        return result
+    sink = Sink(result.path)
+    check(result.program, backend, sink, result.form == "legacy", output_span(result.named))
+    if not sink.items:
+        return result
+    return dataclasses.replace(result, program=None if sink.has_errors else result.program,
+                               diagnostics=sorted(result.diagnostics + sink.items, key=Diagnostic.sort_key))

@@ -1,10 +1,10 @@
 """The checked program: ybgc's intermediate representation.
 
 Frozen dataclasses, independent of the surface syntax (legacy or named form)
-and of every backend. The semantic pass builds a :class:`Program`; backends
-read nothing else. Every value here is already validated: names are legal
-YARP port / ROS topic names, literals carry their element type, widths and
-slices are resolved. ``to_json``/``from_json`` give the form printed by
+and of every backend. The checker (``check.py``) builds a :class:`Program`;
+backends read nothing else. Every value here is already validated: names are
+legal YARP port / ROS topic names, literals carry their element type, widths
+and slices are resolved. ``to_json``/``from_json`` give the form printed by
 ``ybgc ir``.
 
 The pipeline of one bridge::
@@ -63,9 +63,10 @@ class Input:
     ``fields`` (ROS inputs with a known type) names the numeric leaves of the
     message, in order, that make up the elements (``"x"``, ``"pose.position.x"``).
     ``positions`` (ROS 1 inputs with ``fields``): where each field sits in the
-    Bottle YARP reads from the topic, as an index path (``point.x`` of
+    message definition, as an index path (``point.x`` of
     ``geometry_msgs/PointStamped`` is ``(1, 0)``; a one-field array input is
-    the path of the array).
+    the path of the array). A backend reading the topic through YARP finds
+    each field there in the Bottle, which YARP lays out like the definition.
     """
 
     name: str

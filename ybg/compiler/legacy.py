@@ -1,11 +1,11 @@
 """Stage 2 (legacy form): the original tool's ``[general]``/``[muxN]``/
 ``num_fields`` document -> the equivalent named-form document.
 
-What each legacy key meant is in ``docs/legacy.md``. The checks that only
-make sense in the legacy form (``num_mux``, ``num_ports``, ``num_fields``,
-``N_type`` keys, nested sections) are made here; everything else (types,
-names, widths) is left to the one semantic pass of the named form, which sees
-the spans of the legacy lines. The same conversion prints ``ybgc fmt --to
+What each legacy key meant is in ``docs/config.md`` ("The legacy form"). The
+checks that only make sense in the legacy form (``num_mux``, ``num_ports``,
+``num_fields``, ``N_type`` keys, nested sections) are made here; everything
+else (types, names, widths) is left to the checker of the named form
+(``check.py``), which sees the spans of the legacy lines. The same conversion prints ``ybgc fmt --to
 named``.
 """
 
@@ -14,9 +14,9 @@ from __future__ import annotations
 import re
 
 from ybg.compiler import ast
-from ybg.compiler.check import check_keys
 from ybg.compiler.diagnostics import Sink, Span, did_you_mean
 from ybg.compiler.msgtypes import MsgDef, TypeStore
+from ybg.compiler.values import check_keys
 
 GENERAL_KEYS = ("output_name", "to_ros", "num_mux", "rate", "ros_msg_name", "from_ros_topics")
 MUX_KEYS = ("num_ports", "ports", "function", "verbose")

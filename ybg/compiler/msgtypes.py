@@ -686,8 +686,34 @@ def _leaves(store: TypeStore, msgdef: MsgDef, stack: tuple[str, ...]):
     return out
 
 
+def field_positions(store: TypeStore, msg_type: str, fields) -> tuple[tuple[int, ...], ...]:
+    """Where each field (``point.x``, ``position``, ``covariance[3]``) sits
+    in the message ``msg_type``, as an index path: at each level the field's
+    index among its message's fields, then the element's index for an array
+    element. ``point.x`` of ``geometry_msgs/PointStamped`` is ``(1, 0)``.
+    The fields must exist (the checker found them with :func:`numeric_leaves`
+    or by name)."""
+    out = []
+    for path in fields:
+        cur = store.resolve(msg_type)
+        at: list[int] = []
+        for part in path.split("."):
+            name, _, rest = part.partition("[")
+            assert cur is not None, (msg_type, path)
+            names = [f.name for f in cur.fields]
+            k = names.index(name)
+            at.append(k)
+            t = cur.fields[k].type
+            if rest:
+                at.append(int(rest.rstrip("]")))
+                t = t.element()
+            cur = store.resolve(t.base) if t.is_message and t.array is None else None
+        out.append(tuple(at))
+    return tuple(out)
+
+
 __all__ = [
     "DISTROS", "DEFAULT_DISTRO", "PRIMITIVES", "VENDORED_DIR", "MsgProblem", "MsgField",
     "MsgConstant", "MsgDef", "TypeStore", "load_store", "parse_msg", "normalize_name",
-    "numeric_leaves",
+    "numeric_leaves", "field_positions",
 ]

@@ -1,10 +1,12 @@
-"""The pipeline of one config file, stage by stage::
+"""The front end of one config file, stage by stage::
 
     text --parser--> Document --legacy (legacy form only)--> named Document
-         --check--> Program (IR) --backend--> files
+         --check--> Program (IR)
 
 :func:`compile_path` runs it and returns a :class:`Result` holding whatever
-was reached and every diagnostic; it never raises on bad input.
+was reached and every diagnostic; it never raises on bad input. What comes
+next is the backends' (``ybg.backends``): whether one can build the program
+(``check_result``), and the files.
 """
 
 from __future__ import annotations
@@ -16,11 +18,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ybg.compiler import ast, ir
-from ybg.compiler.check import Options, check_named
-from ybg.compiler.diagnostics import Diagnostic, Severity, Sink
+from ybg.compiler.check import check_named
+from ybg.compiler.diagnostics import Diagnostic, Severity, Sink, Span
 from ybg.compiler.legacy import is_legacy, is_named, to_named
 from ybg.compiler.msgtypes import DISTROS, load_store
 from ybg.compiler.names import sanitize_identifier
+from ybg.compiler.options import Options
 from ybg.compiler.parser import parse_text
 
 
@@ -64,7 +67,6 @@ def read_source(path: str, sink: Sink) -> str | None:
     except UnicodeDecodeError as e:
         line = data[: e.start].count(b"\n") + 1
         col = e.start - (data.rfind(b"\n", 0, e.start) + 1) + 1
-        from ybg.compiler.diagnostics import Span
         sink.error("E002", f"byte 0x{data[e.start]:02x} is not UTF-8", Span(line, col, line, col + 1),
                    "save the file as UTF-8")
         return None
@@ -98,14 +100,13 @@ def _collector_paused():
             gc.enable()
 
 
-def compile_text(text: str, path: str = "<config>", options: Options | None = None,
-                 backend: str | None = None) -> Result:
+def compile_text(text: str, path: str = "<config>", options: Options | None = None) -> Result:
     """Run the front end over ``text`` (``path`` names it in diagnostics)."""
     with _collector_paused():
-        return _compile_text(text, path, options, backend)
+        return _compile_text(text, path, options)
 
 
-def _compile_text(text: str, path: str, options: Options | None, backend: str | None) -> Result:
+def _compile_text(text: str, path: str, options: Options | None) -> Result:
     options = options or Options()
     sink = Sink(path)
     result = Result(path, text)
@@ -126,18 +127,17 @@ def _compile_text(text: str, path: str, options: Options | None, backend: str | 
     result.named = named
     if not (legacy and sink.has_errors and not named.sections):
         result.program = check_named(named, Path(path).name, sink, options, module_name_for(path))
-    if result.program is not None and (options.yarp is not None or backend is not None):
-        if options.yarp is not None:
-            check_yarp_target(result.program, options.yarp, named, sink)
-        if backend is not None:
-            check_backend(result.program, backend, sink, legacy, _output_span(named))
+    if result.program is not None and options.yarp is not None:
+        check_yarp_target(result.program, options.yarp, named, sink)
         if sink.has_errors:
             result.program = None
     result.diagnostics = sink.sorted()
     return result
 
 
-def _output_span(doc: ast.Document):
+def output_span(doc: ast.Document) -> Span | None:
+    """Where a diagnostic about the output points: its `via`, `topic` or
+    `port` line, else the [output] header."""
     sec = doc.section("output")
     if sec is None:
         return None
@@ -162,7 +162,7 @@ def check_yarp_target(program: ir.Program, yarp: str, doc: ast.Document, sink: S
         return
     uses = []
     if program.output.kind == "ros1":
-        uses.append(("its output", _output_span(doc)))
+        uses.append(("its output", output_span(doc)))
     for m in program.muxes:
         if any(i.kind == "ros1" for i in m.inputs):
             sec = doc.section("mux", m.name)
@@ -181,41 +181,11 @@ def check_yarp_target(program: ir.Program, yarp: str, doc: ast.Document, sink: S
                          "module stops at start and says so")
 
 
-def check_backend(program: ir.Program, backend: str, sink: Sink, legacy: bool, span=None) -> None:
-    """Can ``backend`` build ``program``? (E318 when it cannot.)"""
-    from ybg.backends import REGISTRY
-
-    b = REGISTRY[backend]
-    if program.output.kind not in b.output_kinds:
-        if program.output.kind == "ros1" and backend == "ros2":
-            hint = ("convert it for ROS 2 in one command: `ybgc fmt --to named --ros2 FILE > new.ini`"
-                    if legacy else "set `via = ros2` in [output] (and drop `header.seq`, which ROS 2 has not)")
-            sink.error("E318", "this config publishes to ROS 1 through YARP (`to_ros = true` / `via = ros1`); "
-                       "the ros2 backend publishes to ROS 2", span, hint)
-        else:
-            kinds = {"ros2": "a ROS 2 topic", "ros1": "a ROS 1 topic", "yarp": "a YARP port"}
-            sink.error("E318", f"the {backend} backend cannot write {kinds[program.output.kind]}", span,
-                       "use `--backend ros2` for ROS 2 outputs, `--backend cpp` or `--backend py` for YARP and ROS 1")
-        return
-    if program.output.kind == "ros2" and all(i.kind == "ros2" for m in program.muxes for i in m.inputs):
-        sink.error("E318", "nothing to bridge: this config reads ROS 2 topics and publishes a ROS 2 topic, "
-                   "with no YARP side", span,
-                   "read YARP ports (`ports = ...`) or write a YARP port (`port = ...`)")
-        return
-    for m in program.muxes:
-        for i in m.inputs:
-            if i.kind not in b.input_kinds:
-                sink.error("E318", f"the {backend} backend cannot read {i.kind} input `{i.name}` (mux `{m.name}`)",
-                           None, "ROS 2 topics are read by `--backend ros2`; ROS 1 topics by cpp and py")
-                return
-
-
-def compile_path(path: str | os.PathLike, backend: str | None = None,
-                 options: Options | None = None) -> Result:
+def compile_path(path: str | os.PathLike, options: Options | None = None) -> Result:
     """Read and compile one config file."""
     path = os.fspath(path)
     sink = Sink(path)
     text = read_source(path, sink)
     if text is None:
         return Result(path, diagnostics=sink.sorted())
-    return compile_text(text, path, options, backend)
+    return compile_text(text, path, options)

@@ -37,9 +37,6 @@ def environment() -> jinja2.Environment:
 
 class CppBackend(Backend):
     name = "cpp"
-    description = "a C++17 YARP module (its source, the runtime library and a CMakeLists.txt)"
-    output_kinds = frozenset({"yarp", "ros1"})
-    input_kinds = frozenset({"yarp", "ros1"})
 
     def render(self, program, options: RenderOptions = RenderOptions()) -> dict[str, str]:
         view = lower(program)

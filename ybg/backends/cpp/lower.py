@@ -18,8 +18,8 @@ from dataclasses import dataclass
 from ybg.backends.cpp.escape import (cpp_comment, cpp_float, cpp_identifier, cpp_int,
                                      cpp_std_string, cpp_string, mangle)
 from ybg.backends import Line, LoweringError
-from ybg.backends import WIRE_ROS1 as _WIRE_ROS1
-from ybg.backends import WIRE_YARP as _WIRE_YARP
+from ybg.backends.wire import WIRE_ROS1 as _WIRE_ROS1
+from ybg.backends.wire import WIRE_YARP as _WIRE_YARP
 from ybg.compiler import ir
 
 #: The runtime's `Wire` enumerator of each element type (the shared tables of

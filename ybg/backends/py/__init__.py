@@ -47,9 +47,6 @@ def environment() -> jinja2.Environment:
 
 class PyBackend(Backend):
     name = "py"
-    description = "a self-contained Python module on YARP's Python bindings"
-    output_kinds = frozenset({"yarp", "ros1"})
-    input_kinds = frozenset({"yarp", "ros1"})
 
     def render(self, program, options: RenderOptions = RenderOptions()) -> dict[str, str]:
         view = lower(program)

@@ -14,7 +14,8 @@ import math
 import os
 from dataclasses import dataclass
 
-from ybg.backends import WIRE_ROS1, WIRE_YARP, Line, LoweringError
+from ybg.backends import Line, LoweringError
+from ybg.backends.wire import WIRE_ROS1, WIRE_YARP
 from ybg.compiler import ir
 
 

@@ -68,9 +68,6 @@ def environment() -> jinja2.Environment:
 
 class Ros2Backend(Backend):
     name = "ros2"
-    description = "an rclpy node between YARP ports and ROS 2 topics (optionally an ament_python package)"
-    output_kinds = frozenset({"ros2", "yarp"})
-    input_kinds = frozenset({"yarp", "ros2"})
 
     def render(self, program, options: RenderOptions = RenderOptions()) -> dict[str, str]:
         view = lower(program)

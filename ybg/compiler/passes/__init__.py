@@ -1,0 +1,14 @@
+"""The passes of the checker (stage 3), one concern a module, each a
+function ``run(ctx)`` over one shared :class:`~ybg.compiler.passes.context.Context`.
+``ybg/compiler/check.py`` runs them in order::
+
+    sections    sections and their keys
+    dialect     module name, ROS version and distro, message definitions
+    inputs      muxes, their inputs and input declarations
+    converters  the converters of each mux
+    output      the output, its message type and QoS
+    message     the [message] entries by field path
+    typed       the message tree of a known message type
+    bottles     the untyped Bottle tree (YARP output, unknown type)
+    program     unused muxes, .msg problems, timing and policy -> Program
+"""

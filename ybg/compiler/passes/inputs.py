@@ -1,0 +1,201 @@
+"""Pass ``inputs``: each [mux <name>], its inputs and their declarations.
+
+Checks: mux names (E214), `ports` or `topics` and not both (E204, E208),
+port and topic names (E401, E402), a port's element declaration
+`(float64 x6, int32 x3)` and a topic's message type and field
+`(pkg/Name field)` (E213, E301, E302, E309), ROS 2 topics without a type
+(E319), inputs read twice (W506), `timeout` and `verbose`.
+Reads ``mux_sections``, ``mux_keys``, ``mux_via``, ``output_keys``
+(the default timeout), ``options`` (the distro) and ``stores``. Sets
+``muxes``, without converters.
+"""
+
+from __future__ import annotations
+
+from ybg.compiler import ast, ir
+from ybg.compiler.diagnostics import Sink, Span, did_you_mean
+from ybg.compiler.msgtypes import DISTROS, MsgDef, field_positions, normalize_name, numeric_leaves
+from ybg.compiler.names import identifier_problem, port_problem, sanitize_identifier, topic_problem
+from ybg.compiler.passes.context import Context
+from ybg.compiler.values import boolean, number
+
+#: seconds without a new Bottle after which an input is stale
+DEFAULT_TIMEOUT = 1.0
+
+
+def run(ctx: Context) -> None:
+    for name, sec in ctx.mux_sections.items():
+        mux = _mux(ctx, name, sec, ctx.mux_keys[name])
+        if mux is not None:
+            ctx.muxes[name] = mux
+
+
+def _mux(ctx: Context, name: str, sec: ast.Section, keys: dict[str, ast.Entry]) -> ir.Mux | None:
+    s = ctx.sink
+    problem = identifier_problem(name)
+    if problem:
+        s.error("E214", f"mux name `{name}` {problem}", sec.span, f"e.g. `[mux {sanitize_identifier(name)}]`")
+        return None
+    timeout = DEFAULT_TIMEOUT
+    if "timeout" in ctx.output_keys:  # reported by the output pass
+        timeout = number(ctx.output_keys["timeout"], Sink()) or DEFAULT_TIMEOUT
+    if "timeout" in keys:
+        timeout = number(keys["timeout"], s) or timeout
+    if "ports" in keys and "topics" in keys:
+        s.error("E208", "a mux reads either `ports` (YARP) or `topics` (ROS), not both",
+                keys["topics"].key_span, "split them into two muxes")
+        return None
+    entry = keys.get("ports") or keys.get("topics")
+    if entry is None:
+        s.error("E204", f"[mux {name}] needs `ports = /port1, /port2` (or `topics = ...`)", sec.span)
+        return None
+    if not entry.items:
+        s.error("E208", f"`{entry.key}` lists no input", entry.span)
+        return None
+    inputs = []
+    ok = True
+    for item in entry.items:
+        inp = _input(ctx, item, entry.key == "topics", ctx.mux_via[name], timeout)
+        if inp is None:
+            ok = False
+        else:
+            inputs.append(inp)
+    seen: dict[str, int] = {}
+    for inp, item in zip(inputs, entry.items):
+        if inp.name in seen:
+            s.warning("W506", f"`{inp.name}` is read twice by mux `{name}`", item.span)
+        seen[inp.name] = 1
+    if not ok:
+        return None
+    verbose = False
+    if "verbose" in keys:
+        verbose = bool(boolean(keys["verbose"], s))
+    return ir.Mux(name, tuple(inputs), (), verbose)
+
+
+def _input(ctx: Context, item: ast.Item, is_topic: bool, via: str, timeout: float) -> ir.Input | None:
+    s = ctx.sink
+    decl: tuple[tuple[ast.Atom, ...], ...] | None = None
+    head = item
+    if isinstance(item, ast.Call):
+        head, decl = item.func, item.args
+    if not isinstance(head, (ast.Word, ast.Str)):
+        s.error("E213", "an input is a name, optionally followed by its declaration `(float64 x6)`",
+                item.span)
+        return None
+    name = head.text if isinstance(head, ast.Word) else head.value
+    if is_topic:
+        problem = topic_problem(name)
+        if problem:
+            s.error("E402", f"invalid ROS topic name `{name}`: {problem}", head.span)
+            return None
+        ros_type = None
+        fields = None
+        layout = None
+        positions = None
+        if decl:
+            ros_type, fields, layout = _topic_decl(ctx, name, decl, item.span, via)
+            if ros_type is None:
+                return None
+            if via == "ros1" and fields:  # YARP gives a ROS 1 message as a Bottle laid out like its definition
+                positions = field_positions(ctx.stores.get("ros1", None), ros_type, fields)
+        elif via == "ros2":
+            s.error("E319", f"ROS 2 topic `{name}` needs its message type", head.span,
+                    f"write `{name} (geometry_msgs/Point)`, or `{name} (sensor_msgs/JointState position)` "
+                    "to take one numeric field")
+            return None
+        return ir.Input(name, via, layout, ros_type, fields, timeout, positions)
+    problem = port_problem(name)
+    if problem:
+        s.error("E401", f"invalid YARP port name `{name}`: {problem}", head.span,
+                "e.g. `/icub/left_arm/state:o`")
+        return None
+    layout = None
+    if decl is not None:
+        layout = _layout(ctx, decl, item.span)
+        if layout is None:
+            return None
+    return ir.Input(name, "yarp", layout, None, None, timeout)
+
+
+def _layout(ctx: Context, decl, span: Span) -> tuple[ir.ElementGroup, ...] | None:
+    """The element groups a port declares: `(float64 x6, int32 x3)`."""
+    s = ctx.sink
+    groups = []
+    if not decl:
+        s.error("E213", "empty declaration `()`", span, "e.g. `(float64 x6)` or `(float64 x6, int32 x3)`")
+        return None
+    for arg in decl:
+        words = [a.text if isinstance(a, ast.Word) else None for a in arg]
+        if None in words or len(words) not in (1, 2):
+            s.error("E213", "a declaration group is `<type> x<count>`, e.g. `float64 x6`", arg[0].span)
+            return None
+        typ = words[0]
+        count = 1
+        if len(words) == 2:
+            w = words[1]
+            if not (w.startswith("x") and w[1:].isdigit()):
+                s.error("E213", f"`{w}` is not a count: write `x<count>`, e.g. `x6`", arg[1].span)
+                return None
+            count = int(w[1:])
+            if count < 1:
+                s.error("E213", "a count is at least 1", arg[1].span)
+                return None
+        if typ not in ir.ELEMENT_TYPES:
+            s.error("E213", f"unknown element type `{typ}`", arg[0].span,
+                    did_you_mean(typ, sorted(ir.ELEMENT_TYPES)) or
+                    "element types: float64 float32 int8..int64 uint8..uint64 bool string")
+            return None
+        groups.append(ir.ElementGroup(typ, count))
+    return tuple(groups)
+
+
+def _topic_decl(ctx: Context, name: str, decl, span: Span, via: str):
+    """(message type, fields read, their element groups) of a topic declared
+    `(pkg/Name)` or `(pkg/Name field)`; (None, None, None) when it does not check."""
+    s = ctx.sink
+    if len(decl) != 1 or not all(isinstance(a, ast.Word) for a in decl[0]) or len(decl[0]) > 2:
+        s.error("E213", "a topic is declared with its type and optionally one numeric field: "
+                "`(pkg/Name)` or `(pkg/Name field)`", span)
+        return None, None, None
+    words = [a.text for a in decl[0]]
+    distro = ctx.options.distro
+    store = ctx.stores.get(via, distro if DISTROS.get(distro or "") == via else None)
+    norm = normalize_name(words[0])
+    msgdef = store.resolve(norm) if norm else None
+    if msgdef is None:
+        s.error("E301", f"unknown message type `{words[0]}` ({via})", decl[0][0].span,
+                did_you_mean(words[0], store.all_names()) or "write `pkg/Name`")
+        return None, None, None
+    if len(words) == 2:
+        path = words[1]
+        cur: MsgDef | None = msgdef
+        ftype = None
+        for part in path.split("."):
+            f = cur.field(part) if cur else None
+            if f is None:
+                s.error("E302", f"`{msgdef.name}` has no field `{path}`", decl[0][1].span,
+                        did_you_mean(part, [x.name for x in (cur.fields if cur else ())]))
+                return None, None, None
+            ftype = f.type
+            cur = store.resolve(f.type.base) if f.type.is_message else None
+        assert ftype is not None
+        if ftype.base not in ir.NUMERIC_TYPES or (ftype.array is None and ftype.is_message):
+            leaves = numeric_leaves(store, ftype.base) if ftype.is_message and ftype.array is None else None
+            if leaves is None:
+                s.error("E309", f"field `{path}` of `{msgdef.name}` is not numeric", decl[0][1].span)
+                return None, None, None
+            return norm, tuple(f"{path}.{p}" for p, _ in leaves), tuple(ir.ElementGroup(t, 1) for _, t in leaves)
+        if ftype.array is None:
+            return norm, (path,), (ir.ElementGroup(ftype.base, 1),)
+        if ftype.array == "fixed":
+            return norm, (path,), (ir.ElementGroup(ftype.base, ftype.size or 0),)
+        return norm, (path,), None
+    leaves = numeric_leaves(store, msgdef)
+    if leaves is None:
+        example = next((f.name for f in msgdef.fields if f.type.base in ir.NUMERIC_TYPES), "field")
+        s.error("E309", f"`{msgdef.name}` is not all numbers: name the numeric field to read",
+                decl[0][0].span, f"e.g. `{name} ({msgdef.name} {example})`")
+        return None, None, None
+    return norm, tuple(p for p, _ in leaves), tuple(ir.ElementGroup(t, 1) for _, t in leaves)
+

@@ -1,0 +1,48 @@
+"""Pass ``program``, the last: what can be said only once everything else
+is checked, and the checked :class:`~ybg.compiler.ir.Program`.
+
+Checks: muxes that no field uses (W501, only on an error-free config),
+problems of the .msg files read (E301), and, on an otherwise error-free
+config, [output]'s timing and policy keys (`rate`, `trigger`, `queue`,
+`on_stale`, `on_nan`).
+Reads every field. Sets ``program`` when there is no error.
+"""
+
+from __future__ import annotations
+
+from ybg.compiler import ir
+from ybg.compiler.passes import output as output_keys
+from ybg.compiler.passes.context import Context
+
+
+def run(ctx: Context) -> None:
+    s = ctx.sink
+    for name, sec in ctx.mux_sections.items():
+        if name in ctx.muxes and name not in ctx.used_muxes and not s.has_errors:
+            s.warning("W501", f"mux `{name}` is not used by [message]", sec.span,
+                      f"use it in a field (`position = {name}`) or remove the section")
+    for p in ctx.store.problems:
+        s.error("E301", f"{p.path}:{p.line}:{p.column}: {p.message}", None,
+                "fix the .msg file, or remove its folder from --msg-path")
+    output, message = ctx.output, ctx.message
+    if s.has_errors or output is None or message is None:
+        return
+    timing = ir.Timing(
+        rate=output_keys.rate(ctx),
+        trigger=output_keys.chosen(ctx, "trigger", "all"),
+        queue=output_keys.queue(ctx),
+    )
+    policy = ir.Policy(
+        on_stale=output_keys.chosen(ctx, "on_stale", "skip"),
+        on_nan=output_keys.chosen(ctx, "on_nan", "pass"),
+    )
+    if s.has_errors:
+        return
+    muxes = tuple(ctx.muxes.values())
+    ctx.program = ir.Program(
+        module=ctx.module, source=ctx.source, muxes=muxes, message=message,
+        output=output, timing=timing, policy=policy,
+        ros=ctx.ros if (output.kind != "yarp" or any(i.kind != "yarp" for m in muxes for i in m.inputs)
+                        or message.msg_type) else None,
+        distro=ctx.distro,
+    )

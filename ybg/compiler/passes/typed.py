@@ -1,0 +1,349 @@
+"""Pass ``typed``: the message tree of an output of a known message type.
+
+Every field of the definition gets a value: what [message] sets (a literal,
+a mux or a part of one, `counter`, `time`, `timestamp`), or its default; a
+nested message is a struct of its own fields.
+Checks: unknown fields (E302), fields of the other ROS version (E311), each
+value against its field's type (E304 to E310, E317), sequences that must be
+of one length (E312).
+Reads ``msgdef``, ``message_entries``, ``below``, ``store``, ``ros``,
+``stores`` and (through :mod:`~ybg.compiler.passes.muxrefs`) the muxes.
+Sets ``message`` and adds to ``used_muxes``.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ybg.compiler import ast, ir
+from ybg.compiler.diagnostics import did_you_mean
+from ybg.compiler.msgtypes import MsgDef, numeric_leaves
+from ybg.compiler.names import identifier_problem
+from ybg.compiler.passes.context import Context, FieldPath
+from ybg.compiler.passes.muxrefs import is_mux_ref, is_timestamp, mux_slice, slice_types, timestamp, unknown_mux
+
+#: sequences of a message that must be empty or of one length
+SAME_LENGTH = {
+    "sensor_msgs/JointState": ("name", "position", "velocity", "effort"),
+    "sensor_msgs/MultiDOFJointState": ("joint_names", "transforms", "twists", "wrench"),
+}
+
+INT_RANGE = {
+    "int8": (-2**7, 2**7 - 1), "uint8": (0, 2**8 - 1), "byte": (0, 255), "char": (0, 255),
+    "int16": (-2**15, 2**15 - 1), "uint16": (0, 2**16 - 1),
+    "int32": (-2**31, 2**31 - 1), "uint32": (0, 2**32 - 1),
+    "int64": (-2**63, 2**63 - 1), "uint64": (0, 2**64 - 1),
+}
+
+Entries = dict[FieldPath, ast.Entry]
+
+
+def run(ctx: Context) -> None:
+    if ctx.message_entries is None or ctx.msgdef is None:
+        return
+    struct = _struct(ctx, ctx.msgdef, (), ctx.message_entries, ctx.below)
+    _check_lengths(ctx, ctx.msgdef, struct, ctx.message_entries)
+    ctx.message = struct
+
+
+def _struct(ctx: Context, msgdef: MsgDef, prefix: FieldPath, entries: Entries,
+            below: dict[FieldPath, Entries]) -> ir.Struct:
+    s = ctx.sink
+    mine = below.get(prefix, {})
+    names = [f.name for f in msgdef.fields]
+    for p, e in mine.items():
+        head = p[len(prefix)]
+        if msgdef.field(head) is None:
+            other = _other_dialect_field(ctx, msgdef.name, head)
+            if other:
+                s.error("E311", f"`{'.'.join(p)}`: {other}", e.key_span, _other_dialect_hint(ctx, msgdef.name, head))
+            else:
+                s.error("E302", f"`{msgdef.name}` has no field `{head}`", e.key_span,
+                        did_you_mean(head, names) or f"fields: {', '.join(names)}")
+    fields = []
+    for f in msgdef.fields:
+        path = prefix + (f.name,)
+        if path in entries:
+            fields.append(ir.Field(f.name, _value(ctx, entries[path], f.type), f.type))
+        elif path in below:
+            if not f.type.is_message or f.type.array is not None:
+                p, e = next(iter(below[path].items()))
+                s.error("E302", f"`{'.'.join(path)}` is a {f.type}, it has no field `{p[len(path)]}`",
+                        e.key_span)
+                fields.append(ir.Field(f.name, ir.Default(), f.type))
+                continue
+            sub = ctx.store.resolve(f.type.base)
+            if sub is None:
+                fields.append(ir.Field(f.name, ir.Default(), f.type))
+                continue
+            fields.append(ir.Field(f.name, _struct(ctx, sub, path, entries, below), f.type))
+        else:
+            fields.append(ir.Field(f.name, _default(ctx, f, path), f.type))
+    return ir.Struct(tuple(fields), msgdef.name)
+
+
+def _default(ctx: Context, f, path: FieldPath):
+    """The default of an unset field: a nested message becomes a struct of
+    its own defaults, so that backends see the layout."""
+    t = f.type
+    if t.is_message and t.array is None:
+        sub = ctx.store.resolve(t.base)
+        if sub is not None:
+            return _struct(ctx, sub, path, {}, {})
+    if t.is_message and t.array == "fixed":
+        ctx.sink.error("E304", f"`{'.'.join(path)}` is {t}, a fixed-size array of messages, "
+                       "which cannot be filled yet", None)
+    return ir.Default(f.default)
+
+
+def _other_dialect_field(ctx: Context, msg: str, field_name: str) -> str | None:
+    other = "ros1" if ctx.ros == "ros2" else "ros2"
+    try:
+        store = ctx.stores.get(other, None)
+    except ValueError:
+        return None
+    d = store.resolve(msg)
+    if d is not None and d.field(field_name) is not None:
+        here = "ROS 2" if ctx.ros == "ros2" else "ROS 1"
+        there = "ROS 1" if other == "ros1" else "ROS 2"
+        return f"`{msg}` has no field `{field_name}` in {here}; it exists only in {there}"
+    return None
+
+
+def _other_dialect_hint(ctx: Context, msg: str, field_name: str) -> str:
+    if msg == "std_msgs/Header" and field_name == "seq":
+        if ctx.ros == "ros2":
+            return ("ROS 2 headers have no sequence number: remove the line (the stamp and "
+                    "frame_id remain); a legacy file converts with `ybgc fmt --to named --ros2 FILE`")
+        return "for ROS 1 add `header.seq = counter`"
+    return "remove the line, or compile for the other ROS version"
+
+
+def _value(ctx: Context, e: ast.Entry, t: ir.TypeRef):
+    """The value of the field of type ``t`` that entry ``e`` sets."""
+    s = ctx.sink
+    items = e.items
+    span = e.span
+    if t.is_message and t.array is None and t.base not in ("builtin_interfaces/Time",):
+        # a whole nested message: only a mux of the same width
+        if len(items) == 1 and is_mux_ref(ctx, items[0]):
+            return _mux_into_message(ctx, items[0], t, e)
+        s.error("E308", f"`{e.key}` is a {t.base}: set its fields one by one", span,
+                f"e.g. `{e.key}.<field> = ...`, or give a mux of its width")
+        return ir.Default()
+    if len(items) == 1 and isinstance(items[0], ast.Word) and items[0].text == "counter":
+        if t.base not in ir.INTEGER_TYPES or t.array is not None:
+            s.error("E306", f"`counter` is an integer, but `{e.key}` is {t}", items[0].span,
+                    "use counter for an integer field such as header.seq (ROS 1)")
+        return ir.Counter(t.base if t.base in ir.INTEGER_TYPES else "uint32")
+    if len(items) == 1 and is_timestamp(items[0]):
+        ts = timestamp(ctx, items[0])
+        if t.array is not None or t.base not in ("time", "builtin_interfaces/Time"):
+            s.error("E307", f"`timestamp` is a time, but `{e.key}` is {t}", items[0].span,
+                    "use it for a time field such as header.stamp")
+        return ts
+    if len(items) == 1 and isinstance(items[0], ast.Word) and items[0].text == "time":
+        if t.array is not None or t.base not in ir.FLOAT_TYPES:
+            s.error("E304", f"`time` is seconds as float64, but `{e.key}` is {t}", items[0].span)
+        return ir.Seconds()
+    if t.base in ("time", "duration", "builtin_interfaces/Time", "builtin_interfaces/Duration") and t.array is None:
+        s.error("E307", f"`{e.key}` is a {t.base}: give `timestamp` or `timestamp(<mux>)`", span)
+        return ir.Default()
+    if any(is_mux_ref(ctx, i) for i in items):
+        if len(items) != 1:
+            s.error("E305", "a field takes one mux reference, not a list mixing muxes and values",
+                    span, "concatenate inputs in one mux instead")
+            return ir.Default()
+        return _mux_into_field(ctx, items[0], t, e)
+    # literals
+    if len(items) == 1 and isinstance(items[0], ast.Bracket):
+        items = items[0].items
+        as_list = True
+    else:
+        as_list = t.array is not None
+    if t.is_message:
+        s.error("E304", f"`{e.key}` is a list of {t.base} messages; only muxes and literals of "
+                "primitive types are supported", span)
+        return ir.Default()
+    values = []
+    for it in items:
+        v = _literal(ctx, it, t.base, e.key)
+        if v is None:
+            return ir.Default()
+        values.append(v)
+    if t.array is None:
+        if as_list or len(values) != 1:
+            if len(values) == 0 and t.base == "string":
+                return ir.Literal(("",), "string", False)
+            s.error("E304", f"`{e.key}` is one {t.base}, not {len(values) or 'no'} values", span,
+                    f"write `{e.key} = <one {t.base}>`")
+            return ir.Default()
+        return ir.Literal(tuple(values), t.base, False)
+    if t.array == "fixed" and len(values) != t.size:
+        s.error("E310", f"`{e.key}` is {t}: it needs exactly {t.size} values, not {len(values)}", span)
+    if t.array == "sequence" and t.size is not None and len(values) > t.size:
+        s.error("E310", f"`{e.key}` is {t}: at most {t.size} values, not {len(values)}", span)
+    return ir.Literal(tuple(values), t.base, True)
+
+
+def _literal(ctx: Context, item: ast.Item, base: str, key: str):
+    """One literal element of type ``base``, or None (reported)."""
+    s = ctx.sink
+    if base in ("string", "wstring"):
+        if isinstance(item, ast.Str):
+            return item.value
+        s.error("E304", f"`{key}` takes text: quote it", item.span,
+                f'write `"{item.text}"`' if isinstance(item, ast.Word) else None)
+        return None
+    if isinstance(item, ast.Str):
+        s.error("E304", f"`{key}` is {base}, not text", item.span,
+                "remove the quotes" if ast.Word(item.value).number() is not None else None)
+        return None
+    if not isinstance(item, ast.Word):
+        s.error("E304", f"`{key}` takes {base} values", item.span)
+        return None
+    if base == "bool":
+        b = item.boolean()
+        n = item.number()
+        if b is None and n in (0, 1) and isinstance(n, int):
+            b = bool(n)
+        if b is None:
+            s.error("E304", f"`{key}` is bool: true or false, not `{item.text}`", item.span)
+        return b
+    n = item.number()
+    if n is None:
+        if item.text in ("counter", "timestamp", "time"):
+            s.error("E304", f"`{item.text}` cannot be an item of a list", item.span)
+        elif identifier_problem(item.text) is None:
+            unknown_mux(ctx, item.text, item.span)
+        else:
+            s.error("E304", f"`{key}` is {base}, not `{item.text}`", item.span)
+        return None
+    if base in ir.FLOAT_TYPES:
+        return float(n)
+    if isinstance(n, float):
+        if n.is_integer() and math.isfinite(n):
+            n = int(n)
+        else:
+            s.error("E304", f"`{key}` is {base}, an integer, not `{item.text}`", item.span)
+            return None
+    lo, hi = INT_RANGE.get(base, (-2**63, 2**64))
+    if not lo <= n <= hi:
+        s.error("E317", f"{n} is out of range for {base} ({lo}..{hi})", item.span)
+        return None
+    return n
+
+
+def _mux_into_field(ctx: Context, item: ast.Item, t: ir.TypeRef, e: ast.Entry):
+    s = ctx.sink
+    got = mux_slice(ctx, item)
+    if got is None:
+        return ir.Default()
+    mux, start, stop, index = got
+    types = slice_types(mux, start, stop, index)
+    if index is None and t.array is None:
+        s.error("E305", f"`{e.key}` is one {t.base}, but `{mux.name}` is a list of elements", item.span,
+                f"take one element: `{mux.name}[0]`")
+        return ir.Default()
+    if index is not None and t.array is not None:
+        s.error("E305", f"`{e.key}` is {t}, but `{mux.name}[{index}]` is one element", item.span,
+                f"take a range: `{mux.name}[{index}:{index + 1}]`")
+        return ir.Default()
+    if types is not None:
+        bad = sorted({x for x in types if not _fits(x, t.base)})
+        if bad:
+            s.error("E305", f"`{e.key}` is {t}, but mux `{mux.name}` gives {', '.join(bad)}", item.span,
+                    "declare the port element types to match, or convert them (`none_double`)")
+            return ir.Default()
+        if t.array == "fixed" and len(types) != t.size:
+            s.error("E310", f"`{e.key}` is {t}: it needs exactly {t.size} elements, mux `{mux.name}`"
+                    f" gives {len(types)}", item.span)
+    return ir.MuxRef(mux.name, start, stop, index, False, t.base)
+
+
+def _mux_into_message(ctx: Context, item: ast.Item, t: ir.TypeRef, e: ast.Entry):
+    s = ctx.sink
+    got = mux_slice(ctx, item)
+    if got is None:
+        return ir.Default()
+    mux, start, stop, index = got
+    leaves = numeric_leaves(ctx.store, t.base)
+    if leaves is None:
+        s.error("E309", f"`{e.key}` is a {t.base}, which is not all numbers: a mux cannot fill it",
+                item.span, f"set its fields one by one: `{e.key}.<field> = ...`")
+        return ir.Default()
+    if index is not None:
+        s.error("E309", f"`{e.key}` is a {t.base} of {len(leaves)} numbers, not one element", item.span)
+        return ir.Default()
+    types = slice_types(mux, start, stop, None)
+    if types is not None:
+        if len(types) != len(leaves):
+            s.error("E309", f"`{e.key}` is a {t.base} of {len(leaves)} numbers "
+                    f"({', '.join(p for p, _ in leaves)}), but mux `{mux.name}` gives {len(types)}",
+                    item.span, f"take a range: `{mux.name}[0:{len(leaves)}]`")
+            return ir.Default()
+        bad = sorted({x for x, (_, ft) in zip(types, leaves) if not _fits(x, ft)})
+        if bad:
+            s.error("E305", f"`{e.key}` holds {', '.join(sorted({ft for _, ft in leaves}))}, "
+                    f"mux `{mux.name}` gives {', '.join(bad)}", item.span)
+            return ir.Default()
+    return ir.MuxRef(mux.name, start, stop, None, False, "float64",
+                     tuple(p for p, _ in leaves), tuple(ft for _, ft in leaves))
+
+
+def _check_lengths(ctx: Context, msgdef: MsgDef, struct: ir.Struct, entries: Entries) -> None:
+    group = SAME_LENGTH.get(msgdef.name)
+    if not group:
+        return
+    lengths: dict[str, int] = {}
+    for f in struct.fields:
+        if f.name not in group:
+            continue
+        n = _static_length(ctx, f.source)
+        if n:
+            lengths[f.name] = n
+    if len(set(lengths.values())) > 1:
+        first, n0 = next(iter(lengths.items()))
+        for name, n in lengths.items():
+            if n != n0:
+                e = entries.get((name,))
+                ctx.sink.error(
+                    "E312", f"`{name}` has {n} elements but `{first}` has {n0}",
+                    e.span if e else None,
+                    f"in {msgdef.name}, {', '.join(group)} are empty or of one length")
+
+
+def _static_length(ctx: Context, src) -> int | None:
+    """The number of elements of a field's value when known before run time."""
+    if isinstance(src, ir.Literal):
+        return len(src.values) if src.is_list else None
+    if isinstance(src, ir.MuxRef):
+        if src.index is not None:
+            return 1
+        w = ctx.muxes[src.mux].width
+        if w is None:
+            if src.stop is not None:
+                return src.stop - src.start
+            return None
+        stop = w if src.stop is None else src.stop
+        return stop - src.start
+    return None
+
+
+def _fits(elem: str, field_base: str) -> bool:
+    """Can a mux element of type ``elem`` go into a field element of ``field_base``?"""
+    if elem == field_base:
+        return True
+    if field_base in ir.FLOAT_TYPES:
+        return elem in ir.NUMERIC_TYPES
+    if field_base in ir.INTEGER_TYPES:
+        if elem not in ir.INTEGER_TYPES:
+            return False
+        lo, hi = INT_RANGE[field_base]
+        elo, ehi = INT_RANGE[elem]
+        return lo <= elo and ehi <= hi
+    if field_base == "bool":
+        return elem == "bool"
+    if field_base in ("string", "wstring"):
+        return elem == "string"
+    return False
