@@ -479,7 +479,7 @@ def test_numeric_literals():
 
 
 def test_wire_tables_cover_every_element_type():
-    assert set(WIRE_YARP) == set(WIRE_ROS1) == set(ir.ELEMENT_TYPES)
+    assert set(WIRE_YARP) == set(WIRE_ROS1) == set(ir.BOTTLE_ELEMENT_TYPES)
     assert WIRE_YARP["uint32"] == "Int64" and WIRE_ROS1["uint32"] == "Int32"
     assert WIRE_ROS1["float32"] == "Float32" and WIRE_ROS1["bool"] == "Int8"
 

@@ -347,8 +347,9 @@ def bottle(text):
 def test_parse_bottle_layouts():
     from ybg.runtime.yarp_io import parse_bottle
 
-    # undeclared: any number of numbers, each a float
-    assert parse_bottle(bottle("1 2.5 -3"), None, False, False) == ([1.0, 2.5, -3.0], None)
+    # undeclared: any number of numbers, each as it came (an integer stays one)
+    values, why = parse_bottle(bottle("1 2.5 -3"), None, False, False)
+    assert values == [1, 2.5, -3] and [type(x) for x in values] == [int, float, int] and why is None
     values, why = parse_bottle(bottle("1 hello"), None, False, False)
     assert values is None and why == "element 1 is a string, not a number"
     # declared: count and type of every element
@@ -363,10 +364,31 @@ def test_parse_bottle_layouts():
     assert math.isnan(parse_bottle(bottle("1.0 nan"), None, False, False)[0][1])
     # a ROS 1 message read as a Bottle: nested lists, flattened or picked
     nested = bottle("(1 2) 3.5 (4 (5 6))")
-    assert parse_bottle(nested, None, True, False) == ([1.0, 2.0, 3.5, 4.0, 5.0, 6.0], None)
+    assert parse_bottle(nested, None, True, False) == ([1, 2, 3.5, 4, 5, 6], None)
     assert parse_bottle(nested, ("float64", "float64"), False, False, positions=((1,), (2, 1, 0)))[0] == [3.5, 5.0]
     assert parse_bottle(nested, ("float64",), False, False, positions=((9,),))[1] == \
         "not laid out as its message type (a field is missing)"
+
+
+def test_undeclared_values_go_on_as_they_came():
+    """`set pos 3 45.0` from an undeclared port: the integer stays an int32,
+    a big integer an int64, a real a float64 (docs/runtime.md)."""
+    import yarp
+
+    from ybg.runtime.core import Splice
+    from ybg.runtime.yarp_io import fill_bottle
+    from ybg.backends.wire import WIRE_YARP
+
+    values, _ = parse_bottle_of("3 45.0 1099511627776")
+    out = fill_bottle(yarp.Bottle(), Msg(None, (("cmd", Scalar("string", "set")), ("v", Splice("number", values)))),
+                      WIRE_YARP)
+    assert out.toString() == "set 3 45.0 1099511627776"
+    assert out.get(1).isInt32() and out.get(2).isFloat64() and out.get(3).isInt64()
+
+
+def parse_bottle_of(text):
+    from ybg.runtime.yarp_io import parse_bottle
+    return parse_bottle(bottle(text), None, False, False)
 
 
 # --------------------------------------------------------------------------

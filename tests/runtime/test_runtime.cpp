@@ -112,6 +112,15 @@ void testPut()
     CHECK(b.get(4).isFloat32() && b.get(4).asFloat32() == 0.1f);
     CHECK(b.get(5).isString() && b.get(5).asString() == "42");
 
+    // an undeclared port's elements go on as they came (`set pos 3 45.0`)
+    yarp::os::Bottle n;
+    ybgc::put(n, Element::ofInteger(3), Wire::Number);
+    ybgc::put(n, Element::ofReal(45.0), Wire::Number);
+    ybgc::put(n, Element::ofInteger(std::int64_t{1} << 40), Wire::Number);
+    CHECK(n.size() == 3 && n.get(0).isInt32() && n.get(0).asInt32() == 3);
+    CHECK(n.get(1).isFloat64() && n.get(1).asFloat64() == 45.0);
+    CHECK(n.get(2).isInt64() && n.get(2).asInt64() == (std::int64_t{1} << 40));
+
     yarp::os::Bottle r;
     ybgc::putRange(r, reals({1.0, 2.0, 3.0, 4.0}), 1, 3, Wire::Float64);
     CHECK(r.size() == 2 && r.get(0).asFloat64() == 2.0 && r.get(1).asFloat64() == 3.0);
@@ -145,7 +154,9 @@ void testParseBottle()
     std::string why;
     const auto undeclared = yarpInput(false, {});
     CHECK(parse("1 2.5 -3", undeclared, false, out, why));
-    CHECK(out.size() == 3 && out[0].kind == Element::Kind::Real && out[0].real == 1.0 && out[2].real == -3.0);
+    // undeclared: each number as it came, an integer stays an integer
+    CHECK(out.size() == 3 && out[0].kind == Element::Kind::Integer && out[0].integer == 1);
+    CHECK(out[1].kind == Element::Kind::Real && out[1].real == 2.5 && out[2].integer == -3);
     CHECK(!parse("1 hello", undeclared, false, out, why));
     CHECK_EQ(why, "element 1 is a string, not a number");
 
@@ -183,10 +194,10 @@ void testParseBottle()
     // a ROS 1 topic read as a Bottle: every leaf, or the fields named
     ybgc::InputSpec ros = yarpInput(false, {});
     ros.kind = ybgc::InputKind::Ros1;
-    CHECK(parse("(1 2) 3.5 (4 (5 6))", ros, false, out, why) && out.size() == 6 && out[5].real == 6.0);
+    CHECK(parse("(1 2) 3.5 (4 (5 6))", ros, false, out, why) && out.size() == 6 && out[5].integer == 6);
     ros.fields = {{"y", {1}}, {"deep", {2, 1}}};
     CHECK(parse("(1 2) 3.5 (4 (5 6))", ros, false, out, why));
-    CHECK(out.size() == 3 && out[0].real == 3.5 && out[1].real == 5.0 && out[2].real == 6.0);
+    CHECK(out.size() == 3 && out[0].real == 3.5 && out[1].integer == 5 && out[2].asReal() == 6.0);
     ros.fields = {{"missing", {9}}};
     CHECK(!parse("(1 2) 3.5", ros, false, out, why));
     CHECK_EQ(why, "the message has no field missing");

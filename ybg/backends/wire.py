@@ -18,6 +18,10 @@ WIRE_YARP: dict[str, str] = {
     "int8": "int32", "uint8": "int32", "int16": "int32", "uint16": "int32",
     "int32": "int32", "byte": "int32", "char": "int32", "bool": "int32",
     "string": "string",
+    # an undeclared port's element, written as it came: an integer as int32
+    # (int64 beyond int32's range), a real as float64; YARP passes values
+    # through, so a command like `set pos 3 45.0` keeps its integer
+    "number": "number",
 }
 
 #: Bottle tag of each element type on a ROS 1 output. YARP's tcpros carrier
@@ -32,4 +36,5 @@ WIRE_ROS1: dict[str, str] = {
     "int16": "int16", "uint16": "int16",
     "int8": "int8", "uint8": "int8", "byte": "int8", "char": "int8", "bool": "int8",
     "string": "string",
+    "number": "float64",  # never in a typed ROS 1 message; an untyped one as YARP had it
 }

@@ -38,6 +38,11 @@ NUMERIC_TYPES = frozenset(
 INTEGER_TYPES = NUMERIC_TYPES - {"float32", "float64"}
 FLOAT_TYPES = frozenset({"float32", "float64"})
 ELEMENT_TYPES = NUMERIC_TYPES | {"bool", "string"}
+#: the element type of an undeclared port's elements in an untyped Bottle:
+#: each as it came (an integer stays an integer)
+NUMBER = "number"
+#: what an element of an untyped Bottle may be
+BOTTLE_ELEMENT_TYPES = ELEMENT_TYPES | {NUMBER}
 
 
 # --------------------------------------------------------------------------
@@ -201,6 +206,9 @@ class MuxRef:
     the fields of a nested message when ``into_fields`` names them (a mux of
     width 3 into ``geometry_msgs/Point``: ``("x", "y", "z")``).
     ``index``: a single element (``arm[3]``), sent as a scalar.
+    ``element_type``: the ROS primitive of the elements; in an untyped Bottle
+    also ``"number"`` (an undeclared port's elements, each written as it came:
+    an integer as an integer, a real as a float64) or ``"mixed"``.
     """
 
     mux: str

@@ -172,7 +172,9 @@ void printMux(const char* name, const Mux& mux);
 // --- writing Bottles ------------------------------------------------------------
 
 /// How a value travels in the output Bottle (the Bottle tag).
-enum class Wire { Int8, Int16, Int32, Int64, Float32, Float64, String };
+/// `Number`: an undeclared port's element, as it came (an integer as int32,
+/// or int64 beyond int32's range; a real as float64).
+enum class Wire { Int8, Int16, Int32, Int64, Float32, Float64, String, Number };
 
 /// Appends an integer with the given tag (truncated to its width).
 void putInteger(yarp::os::Bottle& b, std::int64_t x, Wire wire);

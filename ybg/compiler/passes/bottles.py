@@ -138,6 +138,11 @@ def _literal(ctx: Context, item):
 
 
 def _common_type(types) -> str:
+    """The element type of a part of a mux in an untyped Bottle: "number"
+    for an undeclared port's elements (each goes on as it came: an integer
+    stays an integer), "mixed" when the declared types differ."""
+    if types is None:
+        return ir.NUMBER
     if not types:
         return "float64"
     ts = set(types)

@@ -164,6 +164,13 @@ void putInteger(yarp::os::Bottle& b, std::int64_t x, Wire wire)
     case Wire::String:
         b.addString(std::to_string(x));
         break;
+    case Wire::Number:
+        if (x >= INT32_MIN && x <= INT32_MAX) {
+            b.addInt32(static_cast<std::int32_t>(x));
+        } else {
+            b.addInt64(x);
+        }
+        break;
     }
 }
 
@@ -179,6 +186,15 @@ void put(yarp::os::Bottle& b, const Element& e, Wire wire)
         break;
     case Wire::String:
         b.addString(e.str());
+        break;
+    case Wire::Number:
+        if (e.kind == Element::Kind::Real) {
+            b.addFloat64(e.real);
+        } else if (e.kind == Element::Kind::Text) {
+            b.addString(e.text);
+        } else {
+            putInteger(b, e.integer, Wire::Number);
+        }
         break;
     default:
         putInteger(b, e.asInteger(), wire);
@@ -344,13 +360,14 @@ bool parseBottle(const yarp::os::Bottle& b, const InputSpec& spec, bool dropNan,
     out.clear();
     out.reserve(in.size());
     if (!spec.declared) {
+        // any number, as it came: an integer stays an integer
         for (std::size_t k = 0; k < in.size(); ++k) {
             const yarp::os::Value& v = *in[k];
             if (!isNumber(v)) {
                 why = notA(k, v, "not a number");
                 return false;
             }
-            out.push_back(Element::ofReal(v.asFloat64()));
+            out.push_back(isInteger(v) ? Element::ofInteger(v.asInt64()) : Element::ofReal(v.asFloat64()));
         }
     } else {
         std::size_t width = 0;

@@ -104,7 +104,7 @@ bool buildMessage(yarp::os::Bottle& msg, [[maybe_unused]] const Muxes& mux,
                   [[maybe_unused]] const ybgc::Context& ctx)
 {
     // field1: mux1 (spliced)
-    ybgc::putRange(msg, mux.mux1, 0, ybgc::kToEnd, Wire::Float64);
+    ybgc::putRange(msg, mux.mux1, 0, ybgc::kToEnd, Wire::Number);
     // ybgc:user-begin message
     // ybgc:user-end message
     return true;

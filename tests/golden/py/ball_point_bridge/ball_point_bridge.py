@@ -69,6 +69,7 @@ WIRE = {
     'int32': 'int32',
     'int64': 'int64',
     'int8': 'int8',
+    'number': 'float64',
     'string': 'string',
     'uint16': 'int16',
     'uint32': 'int32',

@@ -69,6 +69,7 @@ WIRE = {
     'int32': 'int32',
     'int64': 'int64',
     'int8': 'int32',
+    'number': 'number',
     'string': 'string',
     'uint16': 'int32',
     'uint32': 'int64',
@@ -92,7 +93,7 @@ def build_message(ctx):
     """The output message, from the converted mux values ``ctx.values``."""
     v = ctx.values
     return Msg(None, (
-        ('field1', Splice('float64', v['mux1'])),
+        ('field1', Splice('number', v['mux1'])),
     ))
 
 

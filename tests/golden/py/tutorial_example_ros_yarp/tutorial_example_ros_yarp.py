@@ -69,6 +69,7 @@ WIRE = {
     'int32': 'int32',
     'int64': 'int64',
     'int8': 'int32',
+    'number': 'number',
     'string': 'string',
     'uint16': 'int32',
     'uint32': 'int64',
@@ -94,7 +95,7 @@ def build_message(ctx):
     return Msg(None, (
         ('field1', Scalar('string', 'set')),
         ('field2', Scalar('string', 'pos')),
-        ('field3', Splice('float64', v['mux1'])),
+        ('field3', Splice('number', v['mux1'])),
     ))
 
 

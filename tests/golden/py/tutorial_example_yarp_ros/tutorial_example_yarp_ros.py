@@ -86,6 +86,7 @@ WIRE = {
     'int32': 'int32',
     'int64': 'int64',
     'int8': 'int8',
+    'number': 'float64',
     'string': 'string',
     'uint16': 'int16',
     'uint32': 'int32',
@@ -109,8 +110,8 @@ def build_message(ctx):
     """The output message, from the converted mux values ``ctx.values``."""
     v = ctx.values
     return Msg('MotorsInertial', (
-        ('field1', Array('float64', v['mux2'])),
-        ('field2', Array('float64', v['mux1'])),
+        ('field1', Array('number', v['mux2'])),
+        ('field2', Array('number', v['mux1'])),
     ))
 
 

@@ -92,6 +92,7 @@ WIRE = {
     'int32': 'int32',
     'int64': 'int64',
     'int8': 'int32',
+    'number': 'number',
     'string': 'string',
     'uint16': 'int32',
     'uint32': 'int64',

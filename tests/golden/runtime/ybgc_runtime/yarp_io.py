@@ -103,7 +103,8 @@ _TAG_FLOAT64 = yarp.BOTTLE_TAG_FLOAT64
 
 def parse_bottle(bottle, types, flatten, drop_nan, positions=None, floats=False):
     """(values, None) for a Bottle that matches the input's layout, else
-    (None, reason). ``types`` None: any number of numbers, each as a float.
+    (None, reason). ``types`` None: any number of numbers, each as it came
+    (an integer stays an integer, a float32 becomes a float).
     ``positions``: take the values at these index paths (typed ROS 1 topics);
     ``flatten``: nested lists flattened depth-first (untyped ROS 1 topics);
     ``floats``: every element is read as a float (undeclared, or declared
@@ -135,11 +136,12 @@ def parse_bottle(bottle, types, flatten, drop_nan, positions=None, floats=False)
         items = [bottle.get(k) for k in range(bottle.size())]
     out = []
     if types is None:
+        # undeclared: any number, as it came (an integer stays an integer)
         for k, value in enumerate(items):
             x = _number(value)
             if x is None:
                 return None, _not_a(k, value, "not a number")
-            out.append(float(x))
+            out.append(x)
     else:
         if len(items) != len(types):
             return None, "%d elements, expected %d" % (len(items), len(types))
@@ -440,7 +442,20 @@ _ADD = {
     "int16": lambda b, x: b.addInt16(_signed(x, 16)),
     "int8": lambda b, x: b.addInt8(_signed(x, 8)),
     "string": lambda b, x: b.addString(str(x)),
+    "number": lambda b, x: _add_number(b, x),
 }
+
+
+def _add_number(bottle, x):
+    """An undeclared port's element, as it came: an integer as int32 (int64
+    beyond its range), anything else as float64."""
+    if isinstance(x, int) and not isinstance(x, bool):
+        if -2**31 <= x < 2**31:
+            bottle.addInt32(x)
+        else:
+            bottle.addInt64(_signed(x, 64))
+    else:
+        bottle.addFloat64(float(x))
 
 
 def _add_values(bottle, types, values, wire):
