@@ -4,6 +4,7 @@ per backend (docs/runtime-library.md): the file the user reads, without the
 runtime library written beside it.
 
     python scripts/module_lines.py          # the markdown table
+    python scripts/module_lines.py --write  # ... into docs/runtime.md
 
 The ROS 1 backends (cpp, py) get the MoveIt demonstration with `via = ros1`
 (and no ROS 2 QoS keys): the thesis published it through YARP's ROS 1 support.
@@ -66,5 +67,18 @@ def table() -> str:
     return "\n".join(rows)
 
 
+DOC = ROOT / "docs" / "runtime.md"
+
+
+def write_doc() -> None:
+    """The table in docs/runtime.md replaced by today's."""
+    text = DOC.read_text(encoding="utf-8")
+    new = re.sub(r"^\| demonstration \| config \|.*?\n(?=\n)", lambda _m: table() + "\n", text,
+                 count=1, flags=re.S | re.M)
+    DOC.write_text(new, encoding="utf-8")
+
+
 if __name__ == "__main__":
+    if sys.argv[1:] == ["--write"]:
+        write_doc()
     print(table())

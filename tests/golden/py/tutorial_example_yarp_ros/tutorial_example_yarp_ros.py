@@ -9,7 +9,15 @@
 # --help prints what this bridge reads and publishes. It runs on ybgc's
 # runtime library (the folder ybgc_runtime/ beside it); behaviour: docs/runtime.md.
 
+import os
+import signal
 import sys
+
+if __name__ == "__main__":
+    # SIGINT or SIGTERM while the module is starting (nothing open yet): exit
+    # at once, status 0; the runtime takes them over once it runs
+    signal.signal(signal.SIGINT, lambda signum, frame: os._exit(0))
+    signal.signal(signal.SIGTERM, lambda signum, frame: os._exit(0))
 
 RUNTIME = '0.2.0'  # the version of ybgc's runtime library it was generated for
 try:

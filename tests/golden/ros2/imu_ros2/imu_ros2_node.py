@@ -10,13 +10,16 @@
 # --help prints what this node reads and publishes. It runs on ybgc's runtime
 # library (the folder ybgc_runtime/ beside it); behaviour: docs/runtime.md.
 
+import os
 import signal
 import sys
 
 if __name__ == "__main__":
-    # SIGINT or SIGTERM while the node is starting: exit at once, status 0
-    signal.signal(signal.SIGINT, lambda signum, frame: sys.exit(0))
-    signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(0))
+    # SIGINT or SIGTERM while the node is starting (nothing open yet): exit at
+    # once, status 0. Not sys.exit(): raised inside an extension module's
+    # import (rclpy's), it would become an ImportError and a traceback.
+    signal.signal(signal.SIGINT, lambda signum, frame: os._exit(0))
+    signal.signal(signal.SIGTERM, lambda signum, frame: os._exit(0))
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
