@@ -276,6 +276,30 @@ def test_fixed_rate_takes_the_newest_and_leaves_the_rest_unused():
     assert b.mux_inputs["a"][0].unused == 3
 
 
+def test_fixed_rate_publishing_new_data_only():
+    """publish = new: a cycle publishes only when the trigger holds (a
+    command goes out once, not at every cycle); always: every cycle."""
+    b, out = bridge(rate=50.0)
+    b.spec = b.spec._replace(publish="new", trigger="any")
+    arrive(b, "a", [1.0], now=0.0)
+    arrive(b, "b", [2.0], now=0.0)
+    assert b._ready(False)
+    b._publish(*b._snapshot(False))
+    assert not b._ready(False)  # nothing new since: the cycle publishes nothing
+    arrive(b, "b", [3.0], now=0.1)
+    assert b._ready(False)  # any: one new Bottle is enough
+    b._publish(*b._snapshot(False))
+    assert out.messages == [{"a": [1.0], "b": [2.0]}, {"a": [1.0], "b": [3.0]}]
+    b.spec = b.spec._replace(trigger="all")
+    arrive(b, "b", [4.0], now=0.2)
+    assert not b._ready(False)  # all: a has nothing new
+    always, _ = bridge(rate=50.0)
+    arrive(always, "a", [1.0], now=0.0)
+    arrive(always, "b", [2.0], now=0.0)
+    always._snapshot(False)
+    assert always._ready(False)  # every cycle, with the newest values
+
+
 def test_inputs_not_needed_are_sampled_not_waited_for():
     b, out = bridge(needed=("a",))
     b.publishing = True

@@ -360,6 +360,25 @@ void testFreshness()
     CHECK(r.inputs[0]->state == ybgc::Freshness::Fresh && r.matcher->ready(at(2.0), false));
 }
 
+void testPublishNewOnly()
+{
+    // publish = new at a fixed rate: a cycle publishes only when the trigger holds
+    Rig r(2, false, false, {}, 64, 50.0);
+    r.spec.newOnly = true;
+    r.arrive(0, 1.0, 0.0);
+    r.arrive(1, 2.0, 0.0);
+    CHECK(r.matcher->ready(at(0.0), false));
+    r.matcher->take();
+    CHECK(!r.matcher->ready(at(0.02), false));  // nothing new: no message this cycle
+    r.arrive(1, 3.0, 0.03);
+    CHECK(r.matcher->ready(at(0.04), false));  // any: one new Bottle is enough
+    r.matcher->take();
+    CHECK(r.used(0) == 1.0 && r.used(1) == 3.0);
+    r.spec.triggerAll = true;
+    r.arrive(1, 4.0, 0.05);
+    CHECK(!r.matcher->ready(at(0.06), false));  // all: a has nothing new
+}
+
 void testHoldAndFixedRate()
 {
     Rig r(2, true, true, {}, 64, 100.0);
@@ -391,6 +410,7 @@ int main()
     testQueueBound();
     testFreshness();
     testHoldAndFixedRate();
+    testPublishNewOnly();
     std::printf("%d checks, %d failed (YARP %s)\n", gChecks, gFailures, YARP_VERSION);
     return gFailures;
 }

@@ -115,6 +115,8 @@ CODES: dict[str, str] = {
     "W507": "ROS 1 through YARP needs YARP's yarp-ros plugins on this YARP version",
     # notes
     "N601": "legacy form",
+    "N602": "a fixed rate that publishes new data only",
+    "W508": "`publish` without a rate",
 }
 
 

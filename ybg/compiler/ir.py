@@ -321,11 +321,15 @@ class Timing:
     publish when every input the message needs has delivered new data since
     the last publish (``trigger = "all"``) or any of them (``"any"``).
     ``queue``: the Bottles each input keeps that no message used yet; 1 is
-    the newest only, read non-strictly (YARP's default)."""
+    the newest only, read non-strictly (YARP's default). ``publish``, at a
+    fixed rate: ``"always"`` every cycle, with the newest values (a state
+    stream), or ``"new"`` only in a cycle where the trigger holds, new data
+    as event-driven (commands: a goal is sent once, not at the rate)."""
 
     rate: float | None = None
     trigger: str = "all"
     queue: int = DEFAULT_QUEUE
+    publish: str = "always"
 
 
 @dataclass(frozen=True)

@@ -24,7 +24,8 @@ InputSpec = collections.namedtuple("InputSpec", "mux index source kind types tim
 ConverterSpec = collections.namedtuple("ConverterSpec", "name scale offset to_float start stop")
 MuxSpec = collections.namedtuple("MuxSpec", "name inputs converters verbose types")
 BridgeSpec = collections.namedtuple(
-    "BridgeSpec", "module config description muxes needed rate trigger queue on_stale on_nan")
+    "BridgeSpec", "module config description muxes needed rate trigger queue on_stale on_nan publish",
+    defaults=("always",))
 
 
 # --- the message tree --------------------------------------------------------
@@ -278,7 +279,8 @@ class Bridge:
                 return False
         elif not all(i.state == "fresh" for i in needed):
             return False
-        if event_driven:
+        if event_driven or self.spec.publish == "new":
+            # new data, by the trigger (at a fixed rate with publish = new too)
             if not needed:
                 return False  # nothing arrives to publish for
             if self.spec.trigger == "all":

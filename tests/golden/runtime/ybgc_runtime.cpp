@@ -521,9 +521,10 @@ bool Matcher::ready(SteadyClock::time_point now, bool eventDriven) const
             return false;
         }
     }
-    if (!eventDriven) {
-        return true;
+    if (!eventDriven && !spec_.newOnly) {
+        return true;  // publish = always: every cycle, the newest values
     }
+    // new data, by the trigger (at a fixed rate with publish = new too)
     if (needed_.empty()) {
         return false;  // nothing arrives to publish for
     }
@@ -731,6 +732,7 @@ public:
     explicit Watcher(std::vector<Link> links) : state_(std::make_shared<State>())
     {
         state_->connected.assign(links.size(), false);
+        state_->made.assign(links.size(), false);
         state_->links = std::move(links);
     }
 
@@ -764,6 +766,7 @@ private:
     {
         std::vector<Link> links;
         std::vector<bool> connected;
+        std::vector<bool> made;  // connected by this watcher
         std::mutex mutex;
         std::condition_variable wake;
         bool done = false;
@@ -799,17 +802,46 @@ private:
             }
         } else if (yarp::os::Network::exists(link.destination, true)
                    && yarp::os::Network::isConnected(link.source, link.destination, true)) {
-            s.connected[k] = true;
-            return;
+            if (!s.made[k] || listsInput(link.destination, link.source)) {
+                s.connected[k] = true;
+                return;
+            }
+            // the destination was restarted under the same name: the connection
+            // listed is to its predecessor, and stays until a write fails on it
+            // (for a module writing only new data, the next command)
+            yarp::os::Network::disconnect(link.source, link.destination, true);
         }
         if (yarp::os::Network::exists(link.source, true) && yarp::os::Network::exists(link.destination, true)
             && yarp::os::Network::connect(link.source, link.destination, "", true)) {
             say("connected " + link.source + " -> " + link.destination);
             s.connected[k] = true;
+            s.made[k] = true;
         } else if (s.connected[k]) {
             say("lost " + link.source + " -> " + link.destination + "; reconnecting when it is back");
             s.connected[k] = false;
         }
+    }
+
+    /// Does `port` list a connection from `source` among its inputs (its
+    /// admin answer to `list in`)? True when it does not answer (left alone).
+    static bool listsInput(const std::string& port, const std::string& source)
+    {
+        yarp::os::ContactStyle style;
+        style.admin = true;
+        style.quiet = true;
+        style.timeout = 1.0;
+        yarp::os::Bottle cmd;
+        cmd.fromString("list in");
+        yarp::os::Bottle reply;
+        if (!yarp::os::Network::write(yarp::os::Contact(port), cmd, reply, style)) {
+            return true;
+        }
+        for (std::size_t k = 0; k < reply.size(); ++k) {
+            if (reply.get(k).asString() == source) {
+                return true;
+            }
+        }
+        return false;
     }
 
     std::shared_ptr<State> state_;

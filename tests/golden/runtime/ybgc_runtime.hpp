@@ -248,6 +248,7 @@ struct BridgeSpec
     std::size_t queue;        // unused Bottles kept per input (1: the newest, read non-strictly)
     bool hold;                // on_stale = hold (else skip)
     bool dropNan;             // on_nan = drop (else pass)
+    bool newOnly = false;     // publish = new: a cycle of a fixed rate publishes new data only
 };
 
 // --- reading and checking input Bottles -------------------------------------------
@@ -350,8 +351,9 @@ public:
     SteadyClock::time_point checkFreshness(SteadyClock::time_point now);
 
     /// Every needed input fresh (on_stale = skip) or delivered once (hold);
-    /// event-driven, also the trigger: every (all) or one (any) needed input
-    /// has a Bottle that no message used yet.
+    /// event-driven (or at a fixed rate with publish = new), also the
+    /// trigger: every (all) or one (any) needed input has a Bottle that no
+    /// message used yet.
     bool ready(SteadyClock::time_point now, bool eventDriven) const;
 
     /// Moves the Bottles the next message uses from the queues.

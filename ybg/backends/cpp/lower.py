@@ -94,6 +94,7 @@ class ModuleView:
     queue: str
     hold: str
     drop_nan: str
+    new_only: str
     msg_comment: str
     builder: tuple[Line, ...]
     sizes: str
@@ -495,7 +496,8 @@ def lower(program: ir.Program) -> ModuleView:
     n_in = len(inputs)
     timing = ("event-driven (publishes when " +
               ("every needed input has" if program.timing.trigger == "all" else "any needed input has") +
-              " new data)") if rate is None else f"at {rate:g} Hz"
+              " new data)") if rate is None else (
+                  f"at {rate:g} Hz" + (", new data only" if program.timing.publish == "new" else ""))
     policy = f"on_stale={program.policy.on_stale}, on_nan={program.policy.on_nan}"
     if program.policy.on_stale not in ("skip", "hold") or program.policy.on_nan not in ("pass", "drop"):
         raise LoweringError(f"unknown policy {policy}")
@@ -534,6 +536,7 @@ def lower(program: ir.Program) -> ModuleView:
         queue=str(int(program.timing.queue)),
         hold="true" if program.policy.on_stale == "hold" else "false",
         drop_nan="true" if program.policy.on_nan == "drop" else "false",
+        new_only="true" if program.timing.publish == "new" else "false",
         msg_comment=(comment(program.message.msg_type or out.msg_type)
                      if program.message.msg_type or out.msg_type else "an untyped Bottle"),
         builder=builder,

@@ -131,6 +131,7 @@ class ModuleView:
     queue: str
     on_stale: str
     on_nan: str
+    publish: str
     output: OutputView
     wire: tuple[tuple[str, str], ...]
     builder: tuple[Line, ...]
@@ -357,7 +358,8 @@ def lower(program: ir.Program) -> ModuleView:
     n_in = sum(len(m.inputs) for m in program.muxes)
     timing = ("event-driven (publishes when " +
               ("every needed input has" if program.timing.trigger == "all" else "any needed input has") +
-              " new data)") if program.timing.rate is None else f"at {program.timing.rate:g} Hz"
+              " new data)") if program.timing.rate is None else (
+                  f"at {program.timing.rate:g} Hz" + (", new data only" if program.timing.publish == "new" else ""))
     summary = (
         py_literal(f"module {program.module}: {n_in} input(s) in {len(program.muxes)} mux(es)"),
         output.description,
@@ -379,6 +381,7 @@ def lower(program: ir.Program) -> ModuleView:
         queue=py_literal(int(program.timing.queue)),
         on_stale=py_literal(program.policy.on_stale),
         on_nan=py_literal(program.policy.on_nan),
+        publish=py_literal(program.timing.publish),
         output=output,
         wire=wire,
         builder=tuple(b.lines),

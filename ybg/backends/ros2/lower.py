@@ -113,6 +113,7 @@ class NodeView:
     queue: str
     on_stale: str
     on_nan: str
+    publish: str
     output_kind: str
     ros_output: RosOutputView | None
     yarp_output: OutputView | None
@@ -511,7 +512,8 @@ def lower(program: ir.Program) -> NodeView:
     n_in = sum(len(m.inputs) for m in program.muxes)
     timing = ("event-driven (publishes when " +
               ("every needed input has" if program.timing.trigger == "all" else "any needed input has") +
-              " new data)") if program.timing.rate is None else f"at {program.timing.rate:g} Hz"
+              " new data)") if program.timing.rate is None else (
+                  f"at {program.timing.rate:g} Hz" + (", new data only" if program.timing.publish == "new" else ""))
     name = node_name(program)
     summary = (
         py_literal(f"ROS 2 node {name}: {n_in} input(s) in {len(program.muxes)} mux(es)"),
@@ -538,6 +540,7 @@ def lower(program: ir.Program) -> NodeView:
         queue=py_literal(int(program.timing.queue)),
         on_stale=py_literal(program.policy.on_stale),
         on_nan=py_literal(program.policy.on_nan),
+        publish=py_literal(program.timing.publish),
         output_kind=py_literal(out.kind),
         ros_output=ros_output,
         yarp_output=yarp_output,

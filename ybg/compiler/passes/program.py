@@ -4,7 +4,7 @@ is checked, and the checked :class:`~ybg.compiler.ir.Program`.
 Checks: muxes that no field uses (W501, only on an error-free config),
 problems of the .msg files read (E301), and, on an otherwise error-free
 config, [output]'s timing and policy keys (`rate`, `trigger`, `queue`,
-`on_stale`, `on_nan`).
+`on_stale`, `on_nan`, `publish`: W508, N602).
 Reads every field. Sets ``program`` when there is no error.
 """
 
@@ -27,10 +27,12 @@ def run(ctx: Context) -> None:
     output, message = ctx.output, ctx.message
     if s.has_errors or output is None or message is None:
         return
+    rate = output_keys.rate(ctx)
     timing = ir.Timing(
-        rate=output_keys.rate(ctx),
+        rate=rate,
         trigger=output_keys.chosen(ctx, "trigger", "all"),
         queue=output_keys.queue(ctx),
+        publish=_publish(ctx, output, rate),
     )
     policy = ir.Policy(
         on_stale=output_keys.chosen(ctx, "on_stale", "skip"),
@@ -46,3 +48,27 @@ def run(ctx: Context) -> None:
                         or message.msg_type) else None,
         distro=ctx.distro,
     )
+
+
+def _publish(ctx: Context, output: ir.Output, rate: float | None) -> str:
+    """[output] publish; by default "new" for a bridge from ROS topics to a
+    YARP port (it carries commands: the original tool wrote once per new
+    input), "always" otherwise (a state stream, published every cycle)."""
+    entry = ctx.output_keys.get("publish")
+    if entry is not None:
+        if rate is None:
+            ctx.sink.warning("W508", "`publish` chooses what a cycle of a fixed rate does, and this "
+                             "output has no `rate`: it publishes once per new data", entry.span,
+                             "add `rate = <Hz>`, or remove `publish`")
+        return output_keys.chosen(ctx, "publish", "always")
+    inputs = [i for m in ctx.muxes.values() if m.name in ctx.used_muxes for i in m.inputs]
+    commands = output.kind == "yarp" and inputs and all(i.kind != "yarp" for i in inputs)
+    if not commands:
+        return "always"
+    if rate is not None:
+        rate_entry = ctx.output_keys.get("rate")
+        ctx.sink.note("N602", f"ROS topics to a YARP port: at {rate:g} Hz the module publishes only when "
+                      "new data arrived, not the same command at every cycle (`publish = new`)",
+                      rate_entry.span if rate_entry else None,
+                      "`publish = always` repeats the newest values at every cycle")
+    return "new"

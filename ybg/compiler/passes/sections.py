@@ -19,7 +19,7 @@ from ybg.compiler.values import check_keys
 SECTION_KEYS: dict[str, tuple[str, ...]] = {
     "module": ("name", "distro"),
     "output": ("topic", "port", "connect", "type", "via", "node", "rate", "trigger", "queue",
-               "on_stale", "on_nan", "timeout", "reliability", "durability", "depth"),
+               "on_stale", "on_nan", "publish", "timeout", "reliability", "durability", "depth"),
     "mux": ("ports", "topics", "via", "convert", "verbose", "timeout"),
     "message": (),
 }
@@ -30,6 +30,7 @@ CHOICES: dict[str, tuple[str, ...]] = {
     "trigger": ("all", "any"),
     "on_stale": ("skip", "hold"),
     "on_nan": ("pass", "drop"),
+    "publish": ("always", "new"),
     "reliability": ("reliable", "best_effort"),
     "durability": ("volatile", "transient_local"),
 }

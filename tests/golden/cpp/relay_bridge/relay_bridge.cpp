@@ -63,6 +63,7 @@ const ybgc::BridgeSpec kSpec = {
     64,  // queue: unused Bottles kept per input (1: the newest only)
     false,  // on_stale = hold (else skip)
     false,  // on_nan = drop (else pass)
+    false,  // publish = new: a cycle of a fixed rate publishes new data only
 };
 
 /// The muxes after the converters, as compute() and buildMessage() see them.

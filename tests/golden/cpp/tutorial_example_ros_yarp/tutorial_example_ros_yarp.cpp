@@ -3,7 +3,7 @@
 // when the file is generated again.
 //
 // Module tutorial_example_ros_yarp: 1 input(s) in 1 mux(es), publishing untyped Bottles on the YARP port /tutorial_example_ros_yarp/out:o, connected to /fakebot/motor/rpc:i,
-// at 60 Hz, on_stale=skip, on_nan=pass.
+// at 60 Hz, new data only, on_stale=skip, on_nan=pass.
 //
 // Build it with the CMakeLists.txt next to it (YARP 3.5 or later, C++17):
 //     cmake -S . -B build -DCMAKE_PREFIX_PATH=<YARP install prefix>
@@ -43,7 +43,7 @@ const ybgc::BridgeSpec kSpec = {
     {
         "module tutorial_example_ros_yarp: 1 input(s) in 1 mux(es)",
         "publishes untyped Bottles on the YARP port /tutorial_example_ros_yarp/out:o, connected to /fakebot/motor/rpc:i",
-        "publishing at 60 Hz, on_stale=skip, on_nan=pass",
+        "publishing at 60 Hz, new data only, on_stale=skip, on_nan=pass",
     },
     "/tutorial_example_ros_yarp",  // default --prefix
     {
@@ -63,6 +63,7 @@ const ybgc::BridgeSpec kSpec = {
     64,  // queue: unused Bottles kept per input (1: the newest only)
     false,  // on_stale = hold (else skip)
     false,  // on_nan = drop (else pass)
+    true,  // publish = new: a cycle of a fixed rate publishes new data only
 };
 
 /// The muxes after the converters, as compute() and buildMessage() see them.

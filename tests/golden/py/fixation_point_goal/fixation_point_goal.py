@@ -43,7 +43,7 @@ SPEC = BridgeSpec(
     description=(
         'module fixation_point_goal: 1 input(s) in 1 mux(es)',
         'untyped Bottles on the YARP port /fixation_point_goal/out:o, connected to /iKinGazeCtrl/xd:i',
-        'publishing at 60 Hz, on_stale=skip, on_nan=pass',
+        'publishing at 60 Hz, new data only, on_stale=skip, on_nan=pass',
     ),
     muxes=(
         MuxSpec(
@@ -64,6 +64,7 @@ SPEC = BridgeSpec(
     queue=64,
     on_stale='skip',
     on_nan='pass',
+    publish='new',
 )
 
 #: Bottle wire type of each element type on this output

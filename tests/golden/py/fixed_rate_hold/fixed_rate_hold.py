@@ -64,6 +64,7 @@ SPEC = BridgeSpec(
     queue=64,
     on_stale='hold',
     on_nan='drop',
+    publish='always',
 )
 
 #: Bottle wire type of each element type on this output

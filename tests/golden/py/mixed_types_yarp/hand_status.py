@@ -70,6 +70,7 @@ SPEC = BridgeSpec(
     queue=64,
     on_stale='hold',
     on_nan='pass',
+    publish='always',
 )
 
 #: Bottle wire type of each element type on this output

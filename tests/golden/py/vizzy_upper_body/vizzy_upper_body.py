@@ -76,6 +76,7 @@ SPEC = BridgeSpec(
     queue=64,
     on_stale='skip',
     on_nan='pass',
+    publish='always',
 )
 
 #: Bottle wire type of each element type on this output

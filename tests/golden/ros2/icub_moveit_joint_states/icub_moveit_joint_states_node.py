@@ -77,6 +77,7 @@ SPEC = BridgeSpec(
     queue=64,
     on_stale='skip',
     on_nan='pass',
+    publish='always',
 )
 
 NODE_NAME = 'icub_moveit_joint_states'

@@ -74,6 +74,7 @@ SPEC = BridgeSpec(
     queue=64,
     on_stale='skip',
     on_nan='pass',
+    publish='always',
 )
 
 NODE_NAME = 'imu_ros2'

@@ -256,7 +256,11 @@ class Watcher(threading.Thread):
     source exists and is not connected, so that a source that starts late or
     is restarted is picked up. ``linked``, when given, tells from the
     module's own port, without asking the network, that the link is up: only
-    a missing one costs name-server queries. The main loop never waits for it."""
+    a missing one costs name-server queries. A destination restarted under
+    the same name is reconnected too: the old connection stays listed until
+    a write fails on it, which for a module that writes only on new data (a
+    command) would lose the next command; the destination, asked for its
+    inputs, tells. The main loop never waits for it."""
 
     PERIOD = 0.5
 
@@ -266,6 +270,7 @@ class Watcher(threading.Thread):
         self.log = log
         self.done = threading.Event()
         self.connected = {}
+        self.made = set()  # the (source, destination) links this watcher connected
 
     def run(self):
         while not self.done.is_set():
@@ -282,10 +287,14 @@ class Watcher(threading.Thread):
     def _check(self, src, dst):
         up = yarp.Network.exists(src, True) and yarp.Network.exists(dst, True)
         if up and yarp.Network.isConnected(src, dst, True):
-            return
+            if (src, dst) not in self.made or _lists_input(dst, src) is not False:
+                return
+            # the destination was restarted: the connection listed is to its predecessor
+            yarp.Network.disconnect(src, dst, True)
         if up and yarp.Network.connect(src, dst, "", True):
             self.log("connected %s -> %s" % (src, dst))
             self.connected[(src, dst)] = True
+            self.made.add((src, dst))
         elif self.connected.get((src, dst)):
             self.log("lost %s -> %s; reconnecting when it is back" % (src, dst))
             self.connected[(src, dst)] = False
@@ -295,6 +304,21 @@ class Watcher(threading.Thread):
         if self.is_alive():
             self.join(timeout)
         return not self.is_alive()
+
+
+def _lists_input(port, source):
+    """Does ``port`` list a connection from ``source`` among its inputs (its
+    admin answer to `list in`)? None when it does not answer."""
+    style = yarp.ContactStyle()
+    style.admin = True
+    style.quiet = True
+    style.timeout = 1.0
+    cmd = yarp.Bottle()
+    cmd.fromString("list in")
+    reply = yarp.Bottle()
+    if not yarp.Network.write(yarp.Contact(port), cmd, reply, style):
+        return None
+    return any(reply.get(k).asString() == source for k in range(reply.size()))
 
 
 def ros1_problem():

@@ -50,7 +50,7 @@ SPEC = BridgeSpec(
     description=(
         'ROS 2 node fixation_point_goal: 1 input(s) in 1 mux(es)',
         'untyped Bottles on the YARP port /fixation_point_goal/xd:o, connected to /iKinGazeCtrl/xd:i',
-        'publishing at 30 Hz, on_stale=skip, on_nan=pass',
+        'publishing at 30 Hz, new data only, on_stale=skip, on_nan=pass',
     ),
     muxes=(
         MuxSpec(
@@ -72,6 +72,7 @@ SPEC = BridgeSpec(
     queue=64,
     on_stale='skip',
     on_nan='pass',
+    publish='new',
 )
 
 NODE_NAME = 'fixation_point_goal'

@@ -77,6 +77,7 @@ SPEC = BridgeSpec(
     queue=64,
     on_stale='skip',
     on_nan='pass',
+    publish='always',
 )
 
 NODE_NAME = 'vizzy_rviz_joint_states'
