@@ -48,7 +48,7 @@ def test_other_bridges_default_to_every_cycle():
     assert r.program.timing.publish == "new" and codes(r) == []
     # without a rate it means nothing: said, not an error
     r = compile_text(yarp_to_yarp.replace("rate = 10\n", "publish = new\n"), "y.ini")
-    assert r.program is not None and codes(r) == ["W508"] and r.diagnostics[0].span.line == 3
+    assert r.program is not None and codes(r) == ["W510"] and r.diagnostics[0].span.line == 3
     r = compile_text(yarp_to_yarp.replace("rate = 10\n", "rate = 10\npublish = sometimes\n"), "y.ini")
     assert r.program is None and r.errors and "always" in (r.errors[0].hint or r.errors[0].message)
 

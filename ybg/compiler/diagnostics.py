@@ -116,7 +116,7 @@ CODES: dict[str, str] = {
     # notes
     "N601": "legacy form",
     "N602": "a fixed rate that publishes new data only",
-    "W508": "`publish` without a rate",
+    "W510": "`publish` without a rate",
 }
 
 

@@ -57,7 +57,7 @@ def _publish(ctx: Context, output: ir.Output, rate: float | None) -> str:
     entry = ctx.output_keys.get("publish")
     if entry is not None:
         if rate is None:
-            ctx.sink.warning("W508", "`publish` chooses what a cycle of a fixed rate does, and this "
+            ctx.sink.warning("W510", "`publish` chooses what a cycle of a fixed rate does, and this "
                              "output has no `rate`: it publishes once per new data", entry.span,
                              "add `rate = <Hz>`, or remove `publish`")
         return output_keys.chosen(ctx, "publish", "always")
