@@ -4,7 +4,7 @@ is checked, and the checked :class:`~ybg.compiler.ir.Program`.
 Checks: muxes that no field uses (W501, only on an error-free config),
 problems of the .msg files read (E301), and, on an otherwise error-free
 config, [output]'s timing and policy keys (`rate`, `trigger`, `queue`,
-`on_stale`, `on_nan`, `publish`: W508, N602).
+`on_stale`, `on_nan`, `publish`: W510, N602).
 Reads every field. Sets ``program`` when there is no error.
 """
 
