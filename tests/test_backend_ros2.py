@@ -7,7 +7,12 @@ ROS 2 (separate producer, subscriber and publisher processes).
 - YARP -> ROS 2 end to end for every example that publishes to ROS 2, and
   ROS 2 -> YARP for every example that reads ROS 2 topics;
 - the thesis' legacy Rviz config converted with ``ybgc fmt --to named --ros2``;
-- faults: a producer killed and restarted, malformed Bottles, SIGINT/SIGTERM;
+- faults on a ROS 2 output: a producer killed and restarted, malformed
+  Bottles, SIGINT/SIGTERM (between YARP ports: the harness);
+- the behaviour harness (tests/behaviour.py): ``TestRos2Behaviour`` says how
+  the node is started, the harness runs every behaviour of a module between
+  YARP ports on it, and every config this backend builds; the expected
+  messages come from the harness's reference;
 - parameters (rate, timeout, prefix, verbose, use_sim_time);
 - differential: the same inputs through the ROS 2 node and the ``py`` module;
 - the ament_python package (``--package``).
