@@ -1243,6 +1243,7 @@ class BridgeBehaviour:
                 YarpProducer(env, "/t/arm:o") as p_arm, YarpProducer(env, "/t/sens:o") as p_sens:
             module.wait_log("connected /t/sens:o")
             module.wait_log("connected /t/arm:o")
+            reader.wait_connected()  # else the one message may go out before the reader is there
             p_arm.write([90.0, 1e16, 0.0001])
             p_sens.write([7, -3, 0.25, "abc", 1])
             reader.wait_for(1)
