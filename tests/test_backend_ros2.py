@@ -7,7 +7,12 @@ ROS 2 (separate producer, subscriber and publisher processes).
 - YARP -> ROS 2 end to end for every example that publishes to ROS 2, and
   ROS 2 -> YARP for every example that reads ROS 2 topics;
 - the thesis' legacy Rviz config converted with ``ybgc fmt --to named --ros2``;
-- faults: a producer killed and restarted, malformed Bottles, SIGINT/SIGTERM;
+- faults on a ROS 2 output: a producer killed and restarted, malformed
+  Bottles, SIGINT/SIGTERM (between YARP ports: the harness);
+- the behaviour harness (tests/behaviour.py): ``TestRos2Behaviour`` says how
+  the node is started, the harness runs every behaviour of a module between
+  YARP ports on it, and every config this backend builds; the expected
+  messages come from the harness's reference;
 - parameters (rate, timeout, prefix, verbose, use_sim_time);
 - differential: the same inputs through the ROS 2 node and the ``py`` module;
 - the ament_python package (``--package``).
@@ -35,6 +40,8 @@ from types import SimpleNamespace
 import pytest
 
 import middleware
+from behaviour import (BridgeBehaviour, Launcher, Module, assert_matches, envelopes, expected,
+                       mux_values, sent_values)
 from generated import load_module, module_file, without_runtime, write_generated
 from middleware import VENV_PYTHON, Peer, Proc, Ros2Publisher, YarpProducer, YarpReader
 from ybg.backends import RenderOptions, check_result, get_backend
@@ -42,8 +49,7 @@ from ybg.backends.py import PyBackend
 from ybg.backends.ros2 import Ros2Backend
 from ybg.backends.runtime import RUNTIME_DIR
 from ybg.backends.ros2.lower import LoweringError, package_name
-from ybg.compiler import ir
-from ybg.compiler.ir import (Converter, Counter, Default, ElementGroup, Field, Input, Literal, Mux,
+from ybg.compiler.ir import (Counter, Default, ElementGroup, Field, Input, Literal, Mux,
                              MuxRef, Output, Program, QoS, Seconds, Struct, Timestamp, Timing,
                              TypeRef)
 from ybg.compiler.pipeline import compile_path
@@ -285,84 +291,93 @@ def mw(yarp_server, ros2_domain):
 
 
 # --------------------------------------------------------------------------
-# what each example must publish, from the values its producers wrote
+# the behaviour harness: how a ROS 2 node is started (YARP ports in and out,
+# or a ROS 2 topic; the module's command line as ROS parameters)
 
 
-def input_values(program: Program, offset: float = 0.0) -> dict[str, list]:
-    """Distinct values for each YARP input, of its declared element types."""
-    out = {}
-    for j, inp in enumerate(i for m in program.muxes for i in m.inputs if i.kind == "yarp"):
-        types = inp.element_types or ("float64",) * 4
-        vals = []
-        for k, t in enumerate(types):
-            x = 10.0 * j + 1.5 * k - 7.25 + offset
-            vals.append(int(x) if t in ir.INTEGER_TYPES else x)
-        out[inp.name] = vals
-    return out
+def ros_args(args) -> list[str]:
+    """A module's command line (--prefix P, --rate HZ, --timeout S,
+    --verbose) as the node's ROS parameters."""
+    out: list[str] = []
+    args = list(args)
+    while args:
+        opt = args.pop(0)
+        if opt == "--verbose":
+            out += ["-p", "verbose:=true"]
+        elif opt == "--prefix":
+            out += ["-p", f"prefix:={args.pop(0)}"]
+        elif opt in ("--rate", "--timeout"):
+            out += ["-p", f"{opt[2:]}:={float(args.pop(0))!r}"]
+        else:
+            raise ValueError(f"no ROS parameter for {opt}")
+    return ["--ros-args", *out] if out else []
 
 
-def _vizzy(sent, stamps):
-    return {
-        "header": {"frame_id": "base_link"},
-        "name": ["waist_joint", "l_shoulder_scapula_joint", "l_shoulder_flection_joint",
-                 "l_shoulder_abduction_joint", "l_shoulder_rotation_joint", "l_elbow_flection_joint",
-                 "l_forearm_pronation_joint", "l_wrist_abduction_joint", "l_wrist_flection_joint"],
-        "position": [x * DEG for x in sent["/vizzy/torso/state:o"]
-                     + sent["/vizzy/left_shoulder_arm/state:o"]],
-        "velocity": [], "effort": [],
-    }, None
+class Ros2Modules(Launcher):
+    """The generated node (its runtime beside it) in a folder of its own,
+    run as a script by the venv's Python, in the test's ROS 2 domain."""
+
+    backend = "ros2"
+
+    def __init__(self, folder: Path, domain):
+        self.folder = folder
+        self.domain = domain
+
+    def environment(self, env: dict) -> dict:
+        env = dict(env)
+        env.update(self.domain.ros_env)
+        for key in ("ROS_HOME", "ROS_LOG_DIR"):
+            env[key] = self.domain.env[key]
+        return env
+
+    def module(self, key, env, *args, gate_output=False) -> Module:
+        program = self.program(key)
+        path = write_node(program, self.folder / program.module)
+        return Module([VENV_PYTHON, path, *ros_args(args)], env=env, name=f"{program.module}_node",
+                      gate_output=gate_output)
+
+    def subscriber(self, env, program):
+        return subscriber_for(env, program)
 
 
-def _icub(sent, stamps):
-    body = sent["/icub/torso/state:o"] + sent["/icub/left_arm/state:o"]
-    return {
-        "header": {"frame_id": "root_link"},
-        "name": ["torso_yaw", "torso_roll", "torso_pitch", "l_shoulder_pitch", "l_shoulder_roll",
-                 "l_shoulder_yaw", "l_elbow", "l_wrist_prosup", "l_wrist_pitch", "l_wrist_yaw"],
-        "position": [x * DEG for x in body[:10]],
-        "velocity": [], "effort": [],
-    }, max(stamps.values())
+class TestRos2Behaviour(BridgeBehaviour):
+    """The node between YARP ports (the ros2 backend builds YARP outputs
+    too), and every config it builds; not ROS 1."""
+
+    backend = "ros2"
+
+    @pytest.fixture
+    def env(self, mw) -> dict:
+        return mw.env
+
+    @pytest.fixture
+    def modules(self, tmp_path, ros2_domain) -> Ros2Modules:
+        return Ros2Modules(tmp_path, ros2_domain)
 
 
-def _ball(sent, stamps):
-    x, y, z = sent["/pf3dTracker/data:o"]
-    return {
-        "header": {"frame_id": "l_camera_vision_link"},
-        "point": {"x": x * 0.001, "y": y * 0.001, "z": z * 0.001},
-    }, stamps["/pf3dTracker/data:o"]
+# --------------------------------------------------------------------------
+# what each example must publish, from the values its producers wrote: the
+# harness's reference (tests/behaviour.py), with named fields
 
 
-def _imu(sent, stamps):
-    v = sent["/icub/inertial"]
-    xyz = ("x", "y", "z")
-    return {
-        "header": {"frame_id": "imu_link"},
-        "orientation": dict(zip(("x", "y", "z", "w"), v[0:4])),
-        "orientation_covariance": [0.01, 0.0, 0.0, 0.0, 0.01, 0.0, 0.0, 0.0, 0.01],
-        "angular_velocity": dict(zip(xyz, (a * DEG for a in v[4:7]))),
-        "angular_velocity_covariance": [0.001, 0.0, 0.0, 0.0, 0.001, 0.0, 0.0, 0.0, 0.001],
-        "linear_acceleration": dict(zip(xyz, v[7:10])),
-        "linear_acceleration_covariance": [-1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-    }, None
-
-
-#: stem -> (sent values, envelope stamps) -> (expected message without
-#: header.stamp, the expected envelope stamp or None for the node's clock)
-EXPECTED = {
-    "vizzy_rviz_joint_states": _vizzy,
-    "icub_moveit_joint_states": _icub,
-    "ball_point_stamped": _ball,
-    "imu_ros2": _imu,
-}
+def expected_message(program: Program, sent: dict, stamps: dict):
+    """The message ``program`` must publish for the values ``sent`` on its
+    inputs and the envelope ``stamps`` written with them ({port: time})."""
+    return expected(program, mux_values(program, sent), named=True, stamps=envelopes(program, stamps))
 
 
 def test_every_ros2_example_is_covered():
-    """A new ROS 2 example must come with its expected message here."""
+    """The reference expresses the message of every ROS 2 example."""
     stems = set(ros2_examples())
     assert {"vizzy_rviz_joint_states", "icub_moveit_joint_states", "ball_point_stamped",
             "imu_ros2", "ros2_to_yarp_gaze"} <= stems
-    assert set(yarp_to_ros2_examples()) == set(EXPECTED)
+    assert set(yarp_to_ros2_examples()) == {"vizzy_rviz_joint_states", "icub_moveit_joint_states",
+                                            "ball_point_stamped", "imu_ros2"}
     assert set(ros2_to_yarp_examples()) == {"ros2_to_yarp_gaze"}
+    for stem in yarp_to_ros2_examples():
+        program = example(stem)
+        want = expected_message(program, sent_values(program), {})
+        assert set(want) == {f.name for f in program.message.fields}
 
 
 def _uses_envelope(struct: Struct) -> bool:
@@ -374,22 +389,11 @@ def _uses_envelope(struct: Struct) -> bool:
     return False
 
 
-def check_message(got, expected_and_stamp, t_before):
-    expected, envelope = expected_and_stamp
-    msg = dict(got.msg)
-    header = dict(msg.pop("header"))
-    stamp = header.pop("stamp")
-    exp = dict(expected)
-    exp_header = exp.pop("header")
-    assert_close(header, exp_header, "header")
-    assert_close(msg, exp)
-    if envelope is None:
-        # the node's clock (system time here): between the writes and the arrival
-        assert t_before - 0.05 <= stamp_seconds(stamp) <= got.t + 0.05, (stamp, t_before, got.t)
-    else:
-        # the envelope's time, far from the clock; YARP sends envelopes as
-        # text with 15 significant digits (10 microseconds at this epoch)
-        assert abs(stamp_seconds(stamp) - envelope) < 2e-5, (stamp, envelope)
+def check_message(got, want, t_before):
+    """The exact message (every field of its type, no other): numbers and
+    strings exactly; header.stamp the node's clock (between the writes and
+    the arrival) or the envelope's time, as the reference says."""
+    assert_matches(got.msg, want, (t_before - 0.05, got.t + 0.05), exact_fields=True)
 
 
 # --------------------------------------------------------------------------
@@ -655,7 +659,7 @@ def start_yarp_to_ros2(mw, stem, folder, *args):
         node = Node(mw.env, path, *args).start()
         started.append(node)
         producers = []
-        for port in input_values(program):
+        for port in sent_values(program):
             producers.append(YarpProducer(mw.env, port).start())
             started.append(producers[-1])
         node.wait_log("publishing")
@@ -676,7 +680,7 @@ def wait_matched(node, sub, program):
 
 
 def write_all(program, producers, offset=0.0, stamped=False):
-    sent = input_values(program, offset)
+    sent = sent_values(program, offset)
     stamps = {}
     t_before = time.time()
     for k, p in enumerate(producers):
@@ -717,9 +721,9 @@ def test_yarp_to_ros2(mw, tmp_path, stem):
         assert sub.publisher_qos == [{"reliability": qos.reliability, "durability": qos.durability}]
         sent, stamps, t_before = write_all(program, producers, stamped=stamped)
         got = sub.wait_after(t_before)
-        check_message(got, EXPECTED[stem](sent, stamps), t_before)
+        check_message(got, expected_message(program, sent, stamps), t_before)
         sent, stamps, t_before = write_all(program, producers, offset=100.0, stamped=stamped)
-        wait_matching(sub, t_before, EXPECTED[stem](sent, stamps))
+        wait_matching(sub, t_before, expected_message(program, sent, stamps))
         log = stop_clean(node)
     finally:
         for p in producers:
@@ -870,15 +874,14 @@ def test_thesis_rviz_config_converted_for_ros2(mw, tmp_path):
         producer.stop()
         sub.stop()
         node.stop()
-    check_message(got, ({
-        "header": {"frame_id": "0"},
-        "name": ["l_shoulder_scapula_joint", "l_shoulder_flection_joint",
-                 "l_shoulder_abduction_joint", "l_shoulder_rotation_joint",
-                 "l_elbow_flection_joint", "l_forearm_pronation_joint",
-                 "l_wrist_abduction_joint", "l_wrist_flection_joint"],
-        "position": [d * math.pi / 180.0 for d in degrees],
-        "velocity": [], "effort": [],
-    }, None), t_before)
+    check_message(got, expected_message(program, {"/vizzySim/left_shoulder_arm/state:o": degrees}, {}),
+                  t_before)
+    assert got.msg["name"] == ["l_shoulder_scapula_joint", "l_shoulder_flection_joint",
+                               "l_shoulder_abduction_joint", "l_shoulder_rotation_joint",
+                               "l_elbow_flection_joint", "l_forearm_pronation_joint",
+                               "l_wrist_abduction_joint", "l_wrist_flection_joint"]
+    assert got.msg["header"]["frame_id"] == "0" and got.msg["velocity"] == got.msg["effort"] == []
+    assert_close(got.msg["position"], [d * math.pi / 180.0 for d in degrees])
     assert got.msg["position"][4] == math.pi  # pi to full precision, not 3.1415926
     # the legacy config asks for verbose output: every value after conversion
     assert "[mux1] 1: %r" % (math.pi / 2) in log
@@ -953,7 +956,7 @@ def test_signal_exits_cleanly(mw, tmp_path, sig):
     program, node, sub, producers = start_yarp_to_ros2(mw, "imu_ros2", tmp_path / "b")
     try:
         for p in producers:
-            p.send(cmd="write", data=input_values(program)[p.port])
+            p.send(cmd="write", data=sent_values(program)[p.port])
         sub.wait_for(3)
         log = stop_clean(node, sig)
     finally:
@@ -1052,7 +1055,7 @@ def test_use_sim_time_stamps_with_the_clock_topic(mw, tmp_path):
                           messages=[{"clock": {"sec": 4242, "nanosec": 500}}], rate=50).start()
     sub = subscriber_for(mw.env, program).start()
     node = Node(mw.env, path, "--ros-args", "-p", "use_sim_time:=true").start()
-    producers = [YarpProducer(mw.env, port).start() for port in input_values(program)]
+    producers = [YarpProducer(mw.env, port).start() for port in sent_values(program)]
     try:
         node.wait_log("publishing")
         for p in producers:
@@ -1070,7 +1073,7 @@ def test_use_sim_time_stamps_with_the_clock_topic(mw, tmp_path):
         sub.stop()
         node.stop()
     assert got.msg["header"]["stamp"] == {"sec": 4242, "nanosec": 500}
-    assert_close(got.msg["position"], _vizzy(sent, stamps)[0]["position"])
+    assert_matches(got.msg["position"], expected_message(program, sent, stamps)["position"], (0, 0))
 
 
 # --------------------------------------------------------------------------
@@ -1129,7 +1132,7 @@ def test_differential_with_the_py_module(mw, tmp_path, stem):
     reader = YarpReader(mw.env, "/ros2_diff_py/in:i", source="/ros2_diff_py/out:o").start()
     node = Node(mw.env, path, "--ros-args", "-p", "rate:=0.0").start()
     py_module = Node(mw.env, py_path, "--rate", "0", name="ros2_diff_py").start()
-    producers = [YarpProducer(mw.env, port).start() for port in input_values(program)]
+    producers = [YarpProducer(mw.env, port).start() for port in sent_values(program)]
     stamped = _uses_envelope(program.message)
     try:
         node.wait_log("event-driven")
