@@ -314,3 +314,57 @@ def test_target_yarp_version(tmp_path):
     assert gen.returncode == 1 and "E320" in gen.stdout + gen.stderr and not (tmp_path / "out").exists()
     bad = run("check", "--yarp", "four", ros1)
     assert bad.returncode == 2 and "not a YARP version" in bad.stderr
+
+
+def _text_diagnostics(stderr: str) -> list[str]:
+    """`FILE:LINE:COL: severity CODE` of each diagnostic printed as text."""
+    return re.findall(r"^(\S+:[0-9]+:[0-9]+: (?:error|warning|note) [EWN][0-9]{3})\b", stderr, re.M)
+
+
+def test_generate_reports_what_check_reports(tmp_path):
+    """What a backend cannot build is refused by `check --backend` with a
+    code, a position and a hint, and `generate` reports the same lines: a
+    ROS 2 output whose type is not found (E321), and what only the
+    backend's lowering refuses (E318 at the field's line)."""
+    legacy = ROOT.parent / "shared" / "legacy" / "tutorial_example_yarp_ros.ini"
+    named = tmp_path / "motors.ini"
+    assert run("fmt", "--to", "named", "--ros2", legacy, "-o", named).returncode == 0
+    check = run("check", "--backend", "ros2", named)
+    gen = run("generate", named, "--backend", "ros2", "-o", tmp_path / "out")
+    assert check.returncode == gen.returncode == 1
+    assert f"{named}:9:8: error E321" in _text_diagnostics(check.stderr)
+    assert _text_diagnostics(gen.stderr) == _text_diagnostics(check.stderr)
+    assert "hint: write it with its package" in gen.stderr and "Traceback" not in gen.stderr
+    assert not (tmp_path / "out").exists()
+
+    # a wstring field: the ros2 backend's lowering refuses it, so the check does
+    msgs = tmp_path / "msgs" / "my_msgs" / "msg"
+    msgs.mkdir(parents=True)
+    (msgs / "Label.msg").write_text("wstring text\nfloat64 value\n")
+    cfg = tmp_path / "label.ini"
+    cfg.write_text("[output]\ntopic = /label\ntype = my_msgs/Label\n\n[mux m]\nports = /value:o\n\n"
+                   "[message]\ntext = \"wide\"\nvalue = m[0]\n")
+    check = run("check", "--backend", "ros2", "--msg-path", tmp_path / "msgs", cfg)
+    gen = run("generate", cfg, "--backend", "ros2", "--msg-path", tmp_path / "msgs", "-o", tmp_path / "out")
+    assert check.returncode == gen.returncode == 1
+    assert _text_diagnostics(check.stderr) == _text_diagnostics(gen.stderr) == [f"{cfg}:9:1: error E318"]
+    assert "hint: a limit of the ros2 backend" in check.stderr
+    assert run("check", "--msg-path", tmp_path / "msgs", cfg).returncode == 0  # the config itself is fine
+
+
+def test_generate_maps_a_rendering_error_to_its_line(tmp_path, monkeypatch, capsys):
+    """A LoweringError that only rendering raises is reported as a
+    diagnostic at the line of the part it names, never as a bare message."""
+    from ybg import backends, cli
+
+    class Refusing:
+        def render(self, program, options):
+            raise backends.LoweringError("no such thing", ("field", "name"))
+
+    monkeypatch.setattr(backends, "get_backend", lambda name: Refusing())
+    cfg = ROOT / "examples" / "vizzy_rviz_joint_states.ini"
+    assert cli.main(["generate", str(cfg), "--backend", "ros2", "-o", str(tmp_path / "out")]) == 1
+    err = capsys.readouterr().err
+    line = next(n for n, text in enumerate(cfg.read_text().splitlines(), 1) if text.startswith("name ="))
+    assert f"{cfg}:{line}:1: error E318 the ros2 backend cannot build this: no such thing" in err
+    assert not (tmp_path / "out").exists()

@@ -103,6 +103,7 @@ CODES: dict[str, str] = {
     "E318": "backend cannot build this config",
     "E319": "ROS topic input needs a message type",
     "E320": "the target YARP version has no ROS 1 support",
+    "E321": "ROS 2 output without its message definition",
     # names
     "E401": "invalid YARP port name",
     "E402": "invalid ROS topic name",
