@@ -368,3 +368,40 @@ def test_generate_maps_a_rendering_error_to_its_line(tmp_path, monkeypatch, caps
     line = next(n for n, text in enumerate(cfg.read_text().splitlines(), 1) if text.startswith("name ="))
     assert f"{cfg}:{line}:1: error E318 the ros2 backend cannot build this: no such thing" in err
     assert not (tmp_path / "out").exists()
+
+
+def test_fmt_to_ros2_retargets_the_inputs_or_says_why(tmp_path):
+    """`fmt --to named --ros2` of a ROS-to-YARP legacy config: its topics
+    are read from ROS 2 too. A ROS 2 topic needs its type, which the legacy
+    form does not give: E319 at the topic, nothing written, and the hint's
+    two steps give a config that the ros2 backend builds."""
+    legacy = ROOT.parent / "shared" / "legacy" / "fixation_point_goal.ini"
+    config = tmp_path / legacy.name
+    shutil.copy(legacy, config)
+    r = run("fmt", "--to", "named", "--ros2", config.name, "-o", "new.ini", cwd=tmp_path)
+    assert r.returncode == 1
+    assert _text_diagnostics(r.stderr) == [f"{config.name}:10:9: error E319"]
+    assert "legacy form gives none" in r.stderr and "Traceback" not in r.stderr
+    assert not (tmp_path / "new.ini").exists()
+    # the hint, followed: convert, give the type, read it from ROS 2
+    hint = re.search(r"hint: convert without --ros2 \(`(ybgc [^`]*)`\)", r.stderr).group(1)
+    words = [config.name if w == "FILE" else w for w in shlex.split(hint)]
+    assert run(*words[1:], cwd=tmp_path).returncode == 0
+    new = tmp_path / "new.ini"
+    text = new.read_text(encoding="utf-8")
+    assert "topics = /fixation_point_goal_ros\nvia = ros1\n" in text
+    new.write_text(text.replace("topics = /fixation_point_goal_ros\nvia = ros1\n",
+                                "topics = /fixation_point_goal_ros (geometry_msgs/Point)\nvia = ros2\n"))
+    assert run("check", "--backend", "ros2", new).returncode == 0
+
+    # a topic declared in the legacy file is retargeted with its type
+    declared = tmp_path / "goal.ini"
+    declared.write_text(legacy.read_text(encoding="utf-8").replace(
+        "ports = /fixation_point_goal_ros", "ports = /fixation_point_goal_ros (geometry_msgs/Point)"))
+    assert run("check", "--backend", "ros2", declared).returncode == 1  # ROS 1 topics: E318
+    r = run("fmt", "--to", "named", "--ros2", declared, "-o", tmp_path / "goal_ros2.ini")
+    assert r.returncode == 0, r.stderr
+    converted = (tmp_path / "goal_ros2.ini").read_text(encoding="utf-8")
+    assert "[mux mux1]\ntopics = /fixation_point_goal_ros (geometry_msgs/Point)\nvia = ros2\n" in converted
+    assert "ros1" not in converted
+    assert run("check", "--strict", "--backend", "ros2", tmp_path / "goal_ros2.ini").returncode == 0

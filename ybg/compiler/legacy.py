@@ -396,19 +396,34 @@ def to_named(doc: ast.Document, sink: Sink, store: TypeStore, module: str,
     conv = LegacyConverter(doc, sink, store, module, target_store)
     named = conv.convert()
     if target_store is not None:
-        named = _retarget_output(named)
+        named = _retarget(named, sink)
     return named, conv.dropped
 
 
-def _retarget_output(doc: ast.Document) -> ast.Document:
+def _is_ros1(e: ast.Entry) -> bool:
+    return e.key == "via" and len(e.items) == 1 and isinstance(e.items[0], ast.Word) and e.items[0].text == "ros1"
+
+
+def _retarget(doc: ast.Document, sink: Sink) -> ast.Document:
+    """``doc`` on ROS 2: its output, and the topics its muxes read. A ROS 2
+    topic needs its message type, which a ROS 1 topic of the legacy form
+    does not give (the original read any message as a Bottle): E319 for
+    each such topic, with the way to give it."""
     secs = []
     for sec in doc.sections:
-        if sec.name == "output":
-            entries = []
-            for e in sec.entries:
-                if e.key == "via" and e.items and isinstance(e.items[0], ast.Word) and e.items[0].text == "ros1":
-                    e = ast.Entry("via", (ast.Word("ros2", e.items[0].span),), e.span, e.key_span)
-                entries.append(e)
-            sec = ast.Section(sec.name, sec.label, tuple(entries), sec.span)
+        ros1 = next((e for e in sec.entries if _is_ros1(e)), None)
+        if sec.name in ("output", "mux") and ros1 is not None:
+            topics = sec.get("topics")
+            for item in topics.items if topics is not None and sec.name == "mux" else ():
+                if isinstance(item, ast.Call):
+                    continue  # declared: `/topic (pkg/Name [field])`
+                name = item.text if isinstance(item, ast.Word) else getattr(item, "value", "")
+                sink.error("E319", f"ROS 1 topic `{name}` of [{sec.label}] would be read from ROS 2, which needs its "
+                           "message type, and the legacy form gives none", item.span,
+                           "convert without --ros2 (`ybgc fmt --to named FILE -o new.ini`), then in new.ini give "
+                           f"the type, `topics = {name} (pkg/Name)`, and set `via = ros2` in [mux {sec.label}]")
+            entries = tuple(ast.Entry("via", (ast.Word("ros2", e.items[0].span),), e.span, e.key_span)
+                            if e is ros1 else e for e in sec.entries)
+            sec = ast.Section(sec.name, sec.label, entries, sec.span)
         secs.append(sec)
     return ast.Document(tuple(secs))
