@@ -405,3 +405,38 @@ def test_fmt_to_ros2_retargets_the_inputs_or_says_why(tmp_path):
     assert "[mux mux1]\ntopics = /fixation_point_goal_ros (geometry_msgs/Point)\nvia = ros2\n" in converted
     assert "ros1" not in converted
     assert run("check", "--strict", "--backend", "ros2", tmp_path / "goal_ros2.ini").returncode == 0
+
+
+def _original_ini_problems(text: str) -> list[str]:
+    """The lines the original tool's INI reader refuses: it takes one line
+    for each value, so a line must be blank, a comment, `[section]` or
+    `key = value` (a continuation line is none of them)."""
+    bad = []
+    for n, line in enumerate(text.splitlines(), 1):
+        s = line.strip()
+        if not s or s[0] in "#;" or re.fullmatch(r"\[[^\]]+\]", s) or re.match(r"[^\s=]+\s*=", line):
+            continue
+        bad.append(f"{n}: {line}")
+    return bad
+
+
+def test_fmt_keeps_a_legacy_file_readable_by_the_original(tmp_path):
+    """A legacy file formatted in place is not wrapped: the original's
+    reader takes it. Figure 5 of the thesis continues a list on the next line
+    (which the original refuses: fmt joins it), vizzy's lists are longer than
+    the width at which the named form wraps."""
+    for name in ("thesis_figure5_rviz.ini", "vizzy_upper_body.ini"):
+        legacy = ROOT.parent / "shared" / "legacy" / name
+        config = tmp_path / name
+        shutil.copy(legacy, config)
+        r = run("fmt", config)
+        assert r.returncode == 0, r.stderr
+        text = config.read_text(encoding="utf-8")
+        assert _original_ini_problems(text) == [], name
+        assert max(len(line) for line in text.splitlines()) > 100  # long values stay on their line
+        assert compile_path(config).program == compile_path(legacy).program
+        assert run("fmt", "--check", config).returncode == 0
+    assert _original_ini_problems((ROOT.parent / "shared" / "legacy" / "thesis_figure5_rviz.ini").read_text())
+    # the named form still wraps
+    named = run("fmt", "--to", "named", "--stdout", ROOT.parent / "shared" / "legacy" / "vizzy_upper_body.ini").stdout
+    assert max(len(line) for line in named.splitlines()) <= 100 and _original_ini_problems(named)
