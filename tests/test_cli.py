@@ -82,6 +82,15 @@ def test_github_format():
     assert r.returncode == 0
     assert re.match(r"::warning file=.*W501_unused_mux\.ini,line=10,col=1,title=W501::mux `spare` is not used",
                     r.stdout), r.stdout
+    # notes are notices with -v, as in the text format
+    legacy = INVALID / "N601_legacy_form.ini"
+    quiet = run("check", "--format", "github", legacy)
+    loud = run("check", "--format", "github", "-v", legacy)
+    assert quiet.returncode == loud.returncode == 0
+    assert "title=N601" not in quiet.stdout
+    assert re.search(r"^::notice file=.*N601_legacy_form\.ini,line=[0-9]+,col=[0-9]+,title=N601::legacy form", loud.stdout,
+                     re.M), loud.stdout
+    assert "N601" in run("check", "-v", legacy).stderr
 
 
 def test_check_with_backend(tmp_path):
