@@ -200,3 +200,21 @@ def test_check_and_generate_agree(backend: str):
         assert "thesis_figure5_rviz_named_ros2.ini" in generated
     else:
         assert {p.name for p in LEGACY} <= set(generated)
+
+
+@pytest.mark.parametrize("typo, code", [
+    (("num_fiels = 2", "num_fields = 2"), "E202"),  # the original's own README has it
+    (("1_typ = msg\n1_msg = position", "1_type = msg\n1_msg = position"), "E202"),
+    (("2_type = mesg\n2_msg = orientation", "2_type = msg\n2_msg = orientation"), "E210"),
+])
+def test_a_misspelt_key_is_one_error(typo, code):
+    """A misspelt key of a legacy file is reported once: not again as the
+    key that is missing, nor as the sections it no longer reaches (E201)."""
+    path = ROOT / "tests" / "invalid" / "E202_num_fields_misspelt.ini"
+    wrong, right = typo
+    text = path.read_text(encoding="utf-8").replace("num_fiels = 2", "num_fields = 2").replace(right, wrong)
+    assert wrong in text
+    assert [d.code for d in compile_text(text, path.name).errors] == [code]
+    for key, misspelt in (("num_mux", "num_muxes"), ("num_ports", "num_port"), ("output_name", "outputname")):
+        text2 = path.read_text(encoding="utf-8").replace("num_fiels", "num_fields").replace(f"{key} =", f"{misspelt} =")
+        assert [d.code for d in compile_text(text2, path.name).errors] == ["E202"], key

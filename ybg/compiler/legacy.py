@@ -114,7 +114,7 @@ class LegacyConverter:
                "`ybgc fmt --to named FILE` converts it to the named form")
         g = check_keys(gen, GENERAL_KEYS, s)
         for req in ("output_name", "num_mux"):
-            if req not in g:
+            if req not in g and not _misspelt(gen, req, GENERAL_KEYS):
                 s.error("E204", f"[general] needs `{req}`", gen.span)
         to_ros = _bool(g.get("to_ros"), s)
         from_ros = _bool(g.get("from_ros_topics"), s)
@@ -165,6 +165,8 @@ class LegacyConverter:
             elif "ros_msg_name" in g:
                 s.warning("W506", "`ros_msg_name` has no effect with `to_ros = false`", g["ros_msg_name"].key_span,
                           "remove it, or set `to_ros = true`")
+        else:  # reported (E204, or E202 for a misspelling); the rest is still checked, without a follow-on
+            out.append(_entry("port", [_word(f"/{self.module}/out:o", gen.span)], gen.span))
         if "rate" in g:
             out.append(_entry("rate", g["rate"].items, g["rate"].span, g["rate"].key_span))
         else:
@@ -237,12 +239,14 @@ class LegacyConverter:
         keys = check_keys(sec, MUX_KEYS, s)
         name = sec.name
         if "ports" not in keys:
-            s.error("E204", f"[{name}] needs `ports`", sec.span)
+            if not _misspelt(sec, "ports", MUX_KEYS):
+                s.error("E204", f"[{name}] needs `ports`", sec.span)
             return None
         ports = keys["ports"]
         n = _int(keys.get("num_ports"), s)
         if "num_ports" not in keys:
-            s.error("E204", f"[{name}] needs `num_ports`", sec.span)
+            if not _misspelt(sec, "num_ports", MUX_KEYS):
+                s.error("E204", f"[{name}] needs `num_ports`", sec.span)
         elif n is not None and n != len(ports.items):
             s.error("E209", f"num_ports = {n}, but `ports` lists {len(ports.items)}", keys["num_ports"].span,
                     f"set `num_ports = {len(ports.items)}`")
@@ -262,10 +266,13 @@ class LegacyConverter:
         s = self.sink
         keys = check_keys(sec, ("num_fields",), s, extra=lambda k: bool(_FIELD_KEY.match(k)))
         if "num_fields" not in keys:
-            s.error("E204", f"[{sec.name}] needs `num_fields`", sec.span)
+            if not _misspelt(sec, "num_fields", ("num_fields",)):
+                s.error("E204", f"[{sec.name}] needs `num_fields`", sec.span)
+            _mark_nested(keys, by_name, used)
             return []
         n = _int(keys["num_fields"], s)
         if n is None:
+            _mark_nested(keys, by_name, used)
             return []
         numbers = {int(m.group(1)) for k in keys if (m := _FIELD_KEY.match(k))}
         for k in sorted(numbers):
@@ -278,21 +285,22 @@ class LegacyConverter:
             s.error("E303", f"`{msgdef.name}` has {len(msgdef.fields)} fields ({names}), "
                     f"[{sec.name}] declares {n}", keys["num_fields"].span,
                     "fields are matched to the message by position: one `N_type` per field, in order")
-            for k, e in keys.items():  # its nested sections are still its own
-                if k.endswith("_msg") and len(e.items) == 1 and isinstance(e.items[0], ast.Word):
-                    used.add(e.items[0].text)
+            _mark_nested(keys, by_name, used)
             return []
         out: list[ast.Entry] = []
         for i in range(1, n + 1):
             te = keys.get(f"{i}_type")
             if te is None:
-                s.error("E210", f"field {i} has no `{i}_type`", keys["num_fields"].span,
-                        f"add `{i}_type = single_value|list|mux|counter|timestamp|msg`")
+                if not _misspelt(sec, f"{i}_type", ()):
+                    s.error("E210", f"field {i} has no `{i}_type`", keys["num_fields"].span,
+                            f"add `{i}_type = single_value|list|mux|counter|timestamp|msg`")
+                _mark_nested({k: e for k, e in keys.items() if k == f"{i}_msg"}, by_name, used)
                 continue
             kind = _name(te, s)
             if kind not in FIELD_TYPES:
                 s.error("E210", f"unknown field type `{kind}`", te.items[0].span if te.items else te.span,
                         did_you_mean(kind or "", FIELD_TYPES) or f"types: {', '.join(FIELD_TYPES)}")
+                _mark_nested({k: e for k, e in keys.items() if k == f"{i}_msg"}, by_name, used)
                 continue
             fdef = msgdef.fields[i - 1] if msgdef is not None else None
             label = fdef.name if fdef is not None else f"field{i}"
@@ -375,6 +383,28 @@ class LegacyConverter:
                 continue
             out.append(e)
         return out
+
+
+def _misspelt(sec: ast.Section, key: str, allowed: tuple[str, ...]) -> bool:
+    """Does ``sec`` hold a misspelling of ``key``, a key of none of the
+    ``allowed`` or field keys, already reported by check_keys (E202)? Then
+    the missing ``key`` is not reported again."""
+    return any(e.key != key and e.key not in allowed and not _FIELD_KEY.match(e.key)
+               and did_you_mean(e.key, (key,)) for e in sec.entries)
+
+
+def _mark_nested(keys: dict[str, ast.Entry], by_name: dict[str, ast.Section], used: set[str]) -> None:
+    """The sections that the `N_msg` keys of a section whose fields are not
+    read name, and theirs: still in use, so not reported as unused (E201)."""
+    for k, e in keys.items():
+        if not k.endswith("_msg") or len(e.items) != 1 or not isinstance(e.items[0], ast.Word):
+            continue
+        name = e.items[0].text
+        sub = by_name.get(name)
+        if name in used or sub is None or name in ("general", "message"):
+            continue
+        used.add(name)
+        _mark_nested({x.key: x for x in sub.entries}, by_name, used)
 
 
 def _path_exists(store: TypeStore, d: MsgDef, path: list[str]) -> bool:
