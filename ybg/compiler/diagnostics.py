@@ -115,6 +115,7 @@ CODES: dict[str, str] = {
     "W505": "message type missing: inferred",
     "W506": "key has no effect",
     "W507": "ROS 1 through YARP needs YARP's yarp-ros plugins on this YARP version",
+    "W508": "legacy config without `to_ros`: the output is a YARP port",
     # notes
     "N601": "legacy form",
 }

@@ -155,6 +155,12 @@ class LegacyConverter:
                 out.append(_entry("connect", [_word(name or "", oname.items[0].span if oname.items else oname.span)], oname.span, oname.key_span))
             else:
                 out.append(_entry("port", [_word(name or "", oname.items[0].span if oname.items else oname.span)], oname.span, oname.key_span))
+                if "to_ros" not in g:
+                    s.warning("W508", f"no `to_ros` in [general]: `{name}` is taken as a YARP port, written with "
+                              "Bottles; the first versions of the original tool, which had no `to_ros`, always "
+                              "published it as a ROS topic", oname.key_span,
+                              "add `to_ros = true` (and `ros_msg_name = pkg/Name`) to publish the ROS topic as "
+                              "they did, or `to_ros = false` to keep the YARP port")
             if to_ros:
                 type_name, msgdef = self.message_type(g, name or "", by_name.get("message"))
                 if type_name is not None:
