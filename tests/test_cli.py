@@ -449,3 +449,17 @@ def test_fmt_keeps_a_legacy_file_readable_by_the_original(tmp_path):
     # the named form still wraps
     named = run("fmt", "--to", "named", "--stdout", ROOT.parent / "shared" / "legacy" / "vizzy_upper_body.ini").stdout
     assert max(len(line) for line in named.splitlines()) <= 100 and _original_ini_problems(named)
+
+
+def test_a_trailing_comma_the_original_misread_is_reported(tmp_path):
+    """`ports = /dummy_head/state:o,` (the original's tutorial): the
+    original waited for a port named with the comma; ybgc reads the port
+    without it, and says so (W509) until fmt removes the comma."""
+    config = tmp_path / "tutorial.ini"
+    shutil.copy(ROOT.parent / "shared" / "legacy" / "tutorial_example_yarp_ros.ini", config)
+    r = run("check", config)
+    assert r.returncode == 0 and f"{config}:11:28: warning W509" in _text_diagnostics(r.stderr)
+    assert "`/dummy_head/state:o,`" in r.stderr and "remove the comma" in r.stderr
+    assert run("fmt", config).returncode == 0
+    assert "ports = /dummy_head/state:o\n" in config.read_text(encoding="utf-8")
+    assert "W509" not in run("check", config).stderr

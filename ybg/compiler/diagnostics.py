@@ -116,6 +116,7 @@ CODES: dict[str, str] = {
     "W506": "key has no effect",
     "W507": "ROS 1 through YARP needs YARP's yarp-ros plugins on this YARP version",
     "W508": "legacy config without `to_ros`: the output is a YARP port",
+    "W509": "legacy `ports` ends with a comma, which the original read as part of a name",
     # notes
     "N601": "legacy form",
 }

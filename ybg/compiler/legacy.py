@@ -249,6 +249,13 @@ class LegacyConverter:
                 s.error("E204", f"[{name}] needs `ports`", sec.span)
             return None
         ports = keys["ports"]
+        if ports.trailing_comma is not None and ports.items:
+            last = ports.items[-1]
+            port = last.text if isinstance(last, ast.Word) else getattr(last, "value", "")
+            s.warning("W509", f"a comma after the last port: the original tool read `{port},`, comma included, "
+                      "as the name of a port, and waited for it forever; ybgc reads the port "
+                      f"`{port}`", ports.trailing_comma,
+                      "remove the comma (`ybgc fmt` does), so that the original and ybgc read the same port")
         n = _int(keys.get("num_ports"), s)
         if "num_ports" not in keys:
             if not _misspelt(sec, "num_ports", MUX_KEYS):
