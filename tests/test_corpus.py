@@ -219,3 +219,29 @@ def test_a_misspelt_key_is_one_error(typo, code):
     for key, misspelt in (("num_mux", "num_muxes"), ("num_ports", "num_port"), ("output_name", "outputname")):
         text2 = path.read_text(encoding="utf-8").replace("num_fiels", "num_fields").replace(f"{key} =", f"{misspelt} =")
         assert [d.code for d in compile_text(text2, path.name).errors] == ["E202"], key
+
+
+def test_the_earliest_layouts_are_named_and_the_hints_convert_them():
+    """A file in the original's earliest layouts is E217 at each of their
+    sections, and nothing else; doing what the hints say gives a file that
+    checks."""
+    general = ROOT / "tests" / "invalid" / "E217_mux_general_and_converters.ini"
+    r = compile_path(general)
+    assert [(d.code, d.span.line) for d in r.errors] == [("E217", 6), ("E217", 13)]
+    assert all("earliest layout" in d.message and d.hint for d in r.errors)
+    text = general.read_text(encoding="utf-8")
+    fixed = (text.replace("\n[mux_general]\nnum_mux = 1\n", "")
+             .replace("output_name = /joint_states\n", "output_name = /joint_states\nnum_mux = 1\n")
+             .replace("\n[converter1]\nfunction = deg_to_rad\nverbose = false\n", "")
+             .replace("ports = /vizzySim/left_shoulder_arm/state:o\n",
+                      "ports = /vizzySim/left_shoulder_arm/state:o\nfunction = deg_to_rad\nverbose = false\n"))
+    r = compile_text(fixed, "fixed.ini")
+    assert not r.errors and {d.code for d in r.warnings} == {"W504", "W508"}, r.diagnostics
+
+    single = ROOT / "tests" / "invalid" / "E217_single_mux.ini"
+    r = compile_path(single)
+    assert [(d.code, d.span.line) for d in r.errors] == [("E217", 6)]
+    fixed = (single.read_text(encoding="utf-8").replace("[mux]", "[mux1]").replace("1_mux = mux\n", "1_mux = mux1\n")
+             .replace("output_name = /joint_states\n", "output_name = /joint_states\nnum_mux = 1\n"))
+    r = compile_text(fixed, "fixed.ini")
+    assert not r.errors, r.diagnostics

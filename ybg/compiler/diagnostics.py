@@ -81,6 +81,7 @@ CODES: dict[str, str] = {
     "E213": "invalid port declaration",
     "E214": "invalid module or mux name",
     "E215": "field given more than once",
+    "E217": "legacy layout of the original's earliest versions",
     "E216": "no input and no rate",
     # types
     "E301": "unknown message type",

@@ -23,6 +23,7 @@ MUX_KEYS = ("num_ports", "ports", "function", "verbose")
 FIELD_TYPES = ("single_value", "list", "mux", "counter", "timestamp", "msg")
 _FIELD_KEY = re.compile(r"([0-9]+)_(type|msg|mux)\Z")
 _MUX_SECTION = re.compile(r"mux([0-9]+)\Z")
+_CONVERTER_SECTION = re.compile(r"converter([0-9]*)\Z")
 
 
 def is_legacy(doc: ast.Document) -> bool:
@@ -109,6 +110,8 @@ class LegacyConverter:
         if gen is None:
             s.error("E203", "missing section [general]", None,
                     "a legacy file starts with [general]: output_name, to_ros, num_mux, rate")
+            return ast.Document(())
+        if _earliest_layout(doc, s):
             return ast.Document(())
         s.note("N601", "legacy form", gen.span,
                "`ybgc fmt --to named FILE` converts it to the named form")
@@ -396,6 +399,35 @@ class LegacyConverter:
                 continue
             out.append(e)
         return out
+
+
+def _earliest_layout(doc: ast.Document, sink: Sink) -> bool:
+    """Is ``doc`` in one of the original tool's earliest layouts (early 2015),
+    which ybgc does not read: `num_mux` in its own [mux_general], the
+    converters in [converter1]..[converterN] beside the muxes, or one
+    unnumbered [mux]? E217 at each of their sections, saying where its keys
+    went in the layout ybgc reads; nothing else is reported, as everything
+    else follows from the layout."""
+    found = False
+    for sec in doc.sections:
+        if sec.label is not None:
+            continue
+        layout = "the original tool's earliest layout (early 2015)"
+        if sec.name == "mux_general":
+            sink.error("E217", f"[mux_general] is from {layout}, which ybgc does not read", sec.span,
+                       "move `num_mux` into [general] and remove [mux_general]")
+        elif (m := _CONVERTER_SECTION.match(sec.name)) is not None:
+            k = m.group(1)
+            sink.error("E217", f"[{sec.name}] is from {layout}, where the converter of [mux{k}] had its own "
+                       "section; ybgc does not read it", sec.span,
+                       f"move its `function` and `verbose` into [mux{k}] and remove [{sec.name}]")
+        elif sec.name == "mux":
+            sink.error("E217", f"[mux], one unnumbered mux, is from {layout}, which ybgc does not read", sec.span,
+                       "rename it [mux1], add `num_mux = 1` to [general], and write `N_mux = mux1` in [message]")
+        else:
+            continue
+        found = True
+    return found
 
 
 def _misspelt(sec: ast.Section, key: str, allowed: tuple[str, ...]) -> bool:
