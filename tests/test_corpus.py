@@ -155,10 +155,12 @@ def test_ir_json_round_trip(path: Path):
 
 
 def _agreement_corpus() -> list[tuple[str, str]]:
-    """(name, text) of every example, every legacy config, and the named
-    forms that `ybgc fmt --to named` and `--to named --ros2` make of them."""
-    out = [(p.name, p.read_text(encoding="utf-8")) for p in EXAMPLES + LEGACY]
-    for p in LEGACY:
+    """(name, text) of every example, every legacy config (in ../shared/legacy
+    and its folders), and the named forms that `ybgc fmt --to named` and
+    `--to named --ros2` make of them."""
+    legacy = sorted(LEGACY_DIR.rglob("*.ini"))
+    out = [(p.name, p.read_text(encoding="utf-8")) for p in EXAMPLES + legacy]
+    for p in legacy:
         for ros2 in (False, True):
             text, _ = _formatted(str(p), argparse.Namespace(to="named", ros2=ros2), Options())
             if text is not None:

@@ -27,8 +27,8 @@ if TYPE_CHECKING:
 class LoweringError(ValueError):
     """A program that a backend cannot build; the message says why, and
     ``where`` which part of the program: ``("field", "header.stamp")``,
-    ``("input", mux, name)``, or None for the output or the program as a
-    whole. ``ybgc check --backend`` and ``ybgc generate`` report it as E318
+    ``("input", mux, name)``, ``("type",)`` (the output's message type), or
+    None for the output or the program as a whole. ``ybgc check --backend`` and ``ybgc generate`` report it as E318
     at that part's line (:func:`lowering_diagnostic`), never as a traceback."""
 
     def __init__(self, message: str, where: tuple[str, ...] | None = None):
@@ -292,6 +292,8 @@ def lowering_span(doc: "Document", error: LoweringError) -> "Span | None":
         return field_span(doc, where[1])
     if where[:1] == ("input",):
         return input_span(doc, where[1], where[2])
+    if where[:1] == ("type",):
+        return type_span(doc)
     return output_span(doc)
 
 

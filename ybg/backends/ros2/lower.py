@@ -434,9 +434,12 @@ def _lower_inputs(program: ir.Program):
                     raise LoweringError(f"the ROS 2 input {i.name} has no message type", ("input", m.name, i.name))
                 if not i.fields:
                     raise LoweringError(f"the ROS 2 input {i.name} names no numeric field", ("input", m.name, i.name))
-                for leaf in i.fields:
-                    for part in leaf.split("."):
-                        _identifier(part, f"field of {i.ros_type}")
+                try:
+                    for leaf in i.fields:
+                        for part in leaf.split("."):
+                            _identifier(part, f"field of {i.ros_type}")
+                except LoweringError as e:
+                    raise e.at("input", m.name, i.name)
                 alias = msg_alias(i.ros_type)
                 pkg, name = split_type(i.ros_type)
                 imports[alias] = MsgImport(f"{pkg}.msg", name, alias)
@@ -488,8 +491,11 @@ def lower(program: ir.Program) -> NodeView:
         msg_type = out.msg_type or program.message.msg_type
         if not msg_type:
             raise LoweringError("a ROS 2 output needs a message type")
-        alias = msg_alias(msg_type)
-        pkg, name = split_type(msg_type)
+        try:
+            alias = msg_alias(msg_type)
+            pkg, name = split_type(msg_type)
+        except LoweringError as e:
+            raise e.at("type")
         imports[alias] = MsgImport(f"{pkg}.msg", name, alias)
         qos = out.qos or ir.QoS()
         if qos.reliability not in RELIABILITY or qos.durability not in DURABILITY or qos.depth < 1:
