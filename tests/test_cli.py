@@ -82,6 +82,15 @@ def test_github_format():
     assert r.returncode == 0
     assert re.match(r"::warning file=.*W501_unused_mux\.ini,line=10,col=1,title=W501::mux `spare` is not used",
                     r.stdout), r.stdout
+    # notes are notices with -v, as in the text format
+    legacy = INVALID / "N601_legacy_form.ini"
+    quiet = run("check", "--format", "github", legacy)
+    loud = run("check", "--format", "github", "-v", legacy)
+    assert quiet.returncode == loud.returncode == 0
+    assert "title=N601" not in quiet.stdout
+    assert re.search(r"^::notice file=.*N601_legacy_form\.ini,line=[0-9]+,col=[0-9]+,title=N601::legacy form", loud.stdout,
+                     re.M), loud.stdout
+    assert "N601" in run("check", "-v", legacy).stderr
 
 
 def test_check_with_backend(tmp_path):
@@ -314,3 +323,143 @@ def test_target_yarp_version(tmp_path):
     assert gen.returncode == 1 and "E320" in gen.stdout + gen.stderr and not (tmp_path / "out").exists()
     bad = run("check", "--yarp", "four", ros1)
     assert bad.returncode == 2 and "not a YARP version" in bad.stderr
+
+
+def _text_diagnostics(stderr: str) -> list[str]:
+    """`FILE:LINE:COL: severity CODE` of each diagnostic printed as text."""
+    return re.findall(r"^(\S+:[0-9]+:[0-9]+: (?:error|warning|note) [EWN][0-9]{3})\b", stderr, re.M)
+
+
+def test_generate_reports_what_check_reports(tmp_path):
+    """What a backend cannot build is refused by `check --backend` with a
+    code, a position and a hint, and `generate` reports the same lines: a
+    ROS 2 output whose type is not found (E321), and what only the
+    backend's lowering refuses (E318 at the field's line)."""
+    legacy = ROOT.parent / "shared" / "legacy" / "tutorial_example_yarp_ros.ini"
+    named = tmp_path / "motors.ini"
+    assert run("fmt", "--to", "named", "--ros2", legacy, "-o", named).returncode == 0
+    check = run("check", "--backend", "ros2", named)
+    gen = run("generate", named, "--backend", "ros2", "-o", tmp_path / "out")
+    assert check.returncode == gen.returncode == 1
+    assert f"{named}:9:8: error E321" in _text_diagnostics(check.stderr)
+    assert _text_diagnostics(gen.stderr) == _text_diagnostics(check.stderr)
+    assert "hint: write it with its package" in gen.stderr and "Traceback" not in gen.stderr
+    assert not (tmp_path / "out").exists()
+
+    # a wstring field: the ros2 backend's lowering refuses it, so the check does
+    msgs = tmp_path / "msgs" / "my_msgs" / "msg"
+    msgs.mkdir(parents=True)
+    (msgs / "Label.msg").write_text("wstring text\nfloat64 value\n")
+    cfg = tmp_path / "label.ini"
+    cfg.write_text("[output]\ntopic = /label\ntype = my_msgs/Label\n\n[mux m]\nports = /value:o\n\n"
+                   "[message]\ntext = \"wide\"\nvalue = m[0]\n")
+    check = run("check", "--backend", "ros2", "--msg-path", tmp_path / "msgs", cfg)
+    gen = run("generate", cfg, "--backend", "ros2", "--msg-path", tmp_path / "msgs", "-o", tmp_path / "out")
+    assert check.returncode == gen.returncode == 1
+    assert _text_diagnostics(check.stderr) == _text_diagnostics(gen.stderr) == [f"{cfg}:9:1: error E318"]
+    assert "hint: a limit of the ros2 backend" in check.stderr
+    assert run("check", "--msg-path", tmp_path / "msgs", cfg).returncode == 0  # the config itself is fine
+
+
+def test_generate_maps_a_rendering_error_to_its_line(tmp_path, monkeypatch, capsys):
+    """A LoweringError that only rendering raises is reported as a
+    diagnostic at the line of the part it names, never as a bare message."""
+    from ybg import backends, cli
+
+    class Refusing:
+        def render(self, program, options):
+            raise backends.LoweringError("no such thing", ("field", "name"))
+
+    monkeypatch.setattr(backends, "get_backend", lambda name: Refusing())
+    cfg = ROOT / "examples" / "vizzy_rviz_joint_states.ini"
+    assert cli.main(["generate", str(cfg), "--backend", "ros2", "-o", str(tmp_path / "out")]) == 1
+    err = capsys.readouterr().err
+    line = next(n for n, text in enumerate(cfg.read_text().splitlines(), 1) if text.startswith("name ="))
+    assert f"{cfg}:{line}:1: error E318 the ros2 backend cannot build this: no such thing" in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_fmt_to_ros2_retargets_the_inputs_or_says_why(tmp_path):
+    """`fmt --to named --ros2` of a ROS-to-YARP legacy config: its topics
+    are read from ROS 2 too. A ROS 2 topic needs its type, which the legacy
+    form does not give: E319 at the topic, nothing written, and the hint's
+    two steps give a config that the ros2 backend builds."""
+    legacy = ROOT.parent / "shared" / "legacy" / "fixation_point_goal.ini"
+    config = tmp_path / legacy.name
+    shutil.copy(legacy, config)
+    r = run("fmt", "--to", "named", "--ros2", config.name, "-o", "new.ini", cwd=tmp_path)
+    assert r.returncode == 1
+    assert _text_diagnostics(r.stderr) == [f"{config.name}:10:9: error E319"]
+    assert "legacy form gives none" in r.stderr and "Traceback" not in r.stderr
+    assert not (tmp_path / "new.ini").exists()
+    # the hint, followed: convert, give the type, read it from ROS 2
+    hint = re.search(r"hint: convert without --ros2 \(`(ybgc [^`]*)`\)", r.stderr).group(1)
+    words = [config.name if w == "FILE" else w for w in shlex.split(hint)]
+    assert run(*words[1:], cwd=tmp_path).returncode == 0
+    new = tmp_path / "new.ini"
+    text = new.read_text(encoding="utf-8")
+    assert "topics = /fixation_point_goal_ros\nvia = ros1\n" in text
+    new.write_text(text.replace("topics = /fixation_point_goal_ros\nvia = ros1\n",
+                                "topics = /fixation_point_goal_ros (geometry_msgs/Point)\nvia = ros2\n"))
+    assert run("check", "--backend", "ros2", new).returncode == 0
+
+    # a topic declared in the legacy file is retargeted with its type
+    declared = tmp_path / "goal.ini"
+    declared.write_text(legacy.read_text(encoding="utf-8").replace(
+        "ports = /fixation_point_goal_ros", "ports = /fixation_point_goal_ros (geometry_msgs/Point)"))
+    assert run("check", "--backend", "ros2", declared).returncode == 1  # ROS 1 topics: E318
+    r = run("fmt", "--to", "named", "--ros2", declared, "-o", tmp_path / "goal_ros2.ini")
+    assert r.returncode == 0, r.stderr
+    converted = (tmp_path / "goal_ros2.ini").read_text(encoding="utf-8")
+    assert "[mux mux1]\ntopics = /fixation_point_goal_ros (geometry_msgs/Point)\nvia = ros2\n" in converted
+    assert "ros1" not in converted
+    assert run("check", "--strict", "--backend", "ros2", tmp_path / "goal_ros2.ini").returncode == 0
+
+
+def _original_ini_problems(text: str) -> list[str]:
+    """The lines the original tool's INI reader refuses: it takes one line
+    for each value, so a line must be blank, a comment, `[section]` or
+    `key = value` (a continuation line is none of them)."""
+    bad = []
+    for n, line in enumerate(text.splitlines(), 1):
+        s = line.strip()
+        if not s or s[0] in "#;" or re.fullmatch(r"\[[^\]]+\]", s) or re.match(r"[^\s=]+\s*=", line):
+            continue
+        bad.append(f"{n}: {line}")
+    return bad
+
+
+def test_fmt_keeps_a_legacy_file_readable_by_the_original(tmp_path):
+    """A legacy file formatted in place is not wrapped: the original's
+    reader takes it. Figure 5 of the thesis continues a list on the next line
+    (which the original refuses: fmt joins it), vizzy's lists are longer than
+    the width at which the named form wraps."""
+    for name in ("thesis_figure5_rviz.ini", "vizzy_upper_body.ini"):
+        legacy = ROOT.parent / "shared" / "legacy" / name
+        config = tmp_path / name
+        shutil.copy(legacy, config)
+        r = run("fmt", config)
+        assert r.returncode == 0, r.stderr
+        text = config.read_text(encoding="utf-8")
+        assert _original_ini_problems(text) == [], name
+        assert max(len(line) for line in text.splitlines()) > 100  # long values stay on their line
+        assert compile_path(config).program == compile_path(legacy).program
+        assert run("fmt", "--check", config).returncode == 0
+    assert _original_ini_problems((ROOT.parent / "shared" / "legacy" / "thesis_figure5_rviz.ini").read_text())
+    # the named form still wraps
+    named = run("fmt", "--to", "named", "--stdout", ROOT.parent / "shared" / "legacy" / "vizzy_upper_body.ini").stdout
+    assert max(len(line) for line in named.splitlines()) <= 100 and _original_ini_problems(named)
+
+
+def test_a_trailing_comma_the_original_misread_is_reported(tmp_path):
+    """`ports = /dummy_head/state:o,` (the original's tutorial): the
+    original waited for a port named with the comma; ybgc reads the port
+    without it, and says so (W509) until fmt removes the comma."""
+    config = tmp_path / "tutorial.ini"
+    shutil.copy(ROOT.parent / "shared" / "legacy" / "tutorial_example_yarp_ros.ini", config)
+    r = run("check", config)
+    assert r.returncode == 0 and f"{config}:11:28: warning W509" in _text_diagnostics(r.stderr)
+    assert "`/dummy_head/state:o,`" in r.stderr and "remove the comma" in r.stderr
+    assert run("fmt", config).returncode == 0
+    assert "ports = /dummy_head/state:o\n" in config.read_text(encoding="utf-8")
+    assert "W509" not in run("check", config).stderr

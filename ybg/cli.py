@@ -261,7 +261,7 @@ def cmd_ir(args) -> int:
 
 
 def cmd_generate(args) -> int:
-    from ybg.backends import LoweringError, RenderOptions, get_backend
+    from ybg.backends import LoweringError, RenderOptions, get_backend, lowering_diagnostic
     from ybg.writer import WriteError, write_files
 
     result = _compile(args.file, args, _options(args))
@@ -271,8 +271,9 @@ def cmd_generate(args) -> int:
     backend = get_backend(args.backend)
     try:
         files = backend.render(result.program, RenderOptions(package=args.package, single_file=args.single_file))
-    except LoweringError as e:
-        sys.stderr.write(f"{args.file}: error: the {args.backend} backend cannot build this config: {e}\n")
+    except LoweringError as e:  # what `check --backend` reports too: it lowers the program the same way
+        result.diagnostics = [lowering_diagnostic(e, args.backend, result)]
+        _print([result], "text")
         return EXIT_PROBLEMS
     outdir = Path(args.output) if args.output else Path(result.program.module)
     try:

@@ -74,9 +74,10 @@ def _gh_escape(text: str, prop: bool = False) -> str:
     return text
 
 
-def report_github(diags: list[Diagnostic], stream: TextIO) -> None:
+def report_github(diags: list[Diagnostic], stream: TextIO, notes: bool = False) -> None:
+    """Workflow commands: errors, warnings and, with ``notes``, notices."""
     level = {Severity.ERROR: "error", Severity.WARNING: "warning", Severity.NOTE: "notice"}
-    for d in _visible(diags, False):
+    for d in _visible(diags, notes):
         msg = d.message + (f" (hint: {d.hint})" if d.hint else "")
         stream.write(f"::{level[d.severity]} file={_gh_escape(d.file, True)},line={d.span.line},"
                      f"col={d.span.column},title={d.code}::{_gh_escape(msg)}\n")
@@ -88,6 +89,6 @@ def report(fmt: str, diags: list[Diagnostic], sources: dict[str, str], stream: T
     if fmt == "json":
         report_json(diags, stream)
     elif fmt == "github":
-        report_github(diags, stream)
+        report_github(diags, stream, notes=notes)
     else:
         report_text(diags, sources, stream, notes=notes)

@@ -18,14 +18,28 @@ from ybg.compiler.diagnostics import Diagnostic, Sink
 if TYPE_CHECKING:
     import jinja2
 
+    from ybg.compiler.ast import Document
     from ybg.compiler.diagnostics import Span
-    from ybg.compiler.ir import Program
+    from ybg.compiler.ir import Program, Struct
     from ybg.compiler.pipeline import Result
 
 
 class LoweringError(ValueError):
-    """A program that a backend cannot build; the message says why. The CLI
-    reports it as an error (exit status 1), never as a traceback."""
+    """A program that a backend cannot build; the message says why, and
+    ``where`` which part of the program: ``("field", "header.stamp")``,
+    ``("input", mux, name)``, ``("type",)`` (the output's message type), or
+    None for the output or the program as a whole. ``ybgc check --backend`` and ``ybgc generate`` report it as E318
+    at that part's line (:func:`lowering_diagnostic`), never as a traceback."""
+
+    def __init__(self, message: str, where: tuple[str, ...] | None = None):
+        super().__init__(message)
+        self.where = where
+
+    def at(self, *where: str) -> "LoweringError":
+        """Say where the error is, unless a deeper part of the program said it already."""
+        if self.where is None:
+            self.where = where
+        return self
 
 
 @dataclass(frozen=True)
@@ -103,6 +117,14 @@ class Backend:
     def render(self, program: "Program", options: RenderOptions = RenderOptions()) -> dict[str, str]:
         raise NotImplementedError
 
+    def lower(self, program: "Program") -> None:
+        """Make every decision :meth:`render` makes, without printing: raises
+        the :class:`LoweringError` that :meth:`render` would. ``ybgc check
+        --backend`` runs it, so that what checks also generates. By default
+        it renders; a backend overrides it with its lowering alone."""
+        self.render(program)
+        self.render(program, RenderOptions(package=True))
+
 
 @dataclass(frozen=True)
 class BackendInfo:
@@ -159,11 +181,15 @@ def _options(names: list[str]) -> str:
 
 
 def check(program: "Program", backend: str, sink: Sink, legacy: bool = False,
-          span: "Span | None" = None) -> None:
-    """Can ``backend`` build ``program``? E318 when it cannot, at ``span``
-    (the output's line); ``legacy``: the config is in the legacy form, and
-    the hint says how to convert it."""
+          doc: "Document | None" = None) -> None:
+    """Can ``backend`` build ``program``? E318 when it cannot, E321 when a
+    ROS 2 output has no message definition to build from; ``legacy``: the
+    config is in the legacy form, and the hints say how to convert it;
+    ``doc``: the config in the named form, for the positions."""
+    from ybg.compiler.pipeline import output_span
+
     info = REGISTRY[backend]
+    span = output_span(doc) if doc is not None else None
     if program.output.kind not in info.output_kinds:
         if program.output.kind == "ros1" and "ros2" in info.output_kinds:
             hint = ("convert it for ROS 2 in one command: `ybgc fmt --to named --ros2 FILE -o new.ini`"
@@ -183,22 +209,139 @@ def check(program: "Program", backend: str, sink: Sink, legacy: bool = False,
     for m in program.muxes:
         for i in m.inputs:
             if i.kind not in info.input_kinds:
+                if i.kind == "ros1" and "ros2" in info.input_kinds:
+                    hint = ("a ROS 2 topic needs its message type, which the legacy form does not give: "
+                            "convert with `ybgc fmt --to named FILE -o new.ini`, then in new.ini declare each "
+                            "topic's type, `/topic (pkg/Name)`, and set `via = ros2`" if legacy else
+                            "set `via = ros2` in the mux, with each topic's type: `/topic (pkg/Name)`")
+                else:
+                    hint = (f"ROS 2 topics are read by {_options(_readers('ros2'))}; "
+                            f"ROS 1 topics by {' and '.join(_readers('ros1'))}")
                 sink.error("E318", f"the {backend} backend cannot read {i.kind} input `{i.name}` (mux `{m.name}`)",
-                           None, f"ROS 2 topics are read by {_options(_readers('ros2'))}; "
-                           f"ROS 1 topics by {' and '.join(_readers('ros1'))}")
+                           input_span(doc, m.name, i.name) if doc is not None else None, hint)
                 return
+    if program.output.kind == "ros2" and not _typed(program.message):
+        name = program.output.msg_type or program.message.msg_type or ""
+        hint = "give the folder of its .msg files with `--msg-path DIR` (DIR/<pkg>/msg/<Name>.msg) or YBG_MSG_PATH"
+        if "/" not in name:
+            hint = f"write it with its package, `pkg/{name}`, and {hint}"
+        sink.error("E321", f"the {backend} backend builds a ROS 2 message field by field from its definition, "
+                   f"and the definition of `{name}` was not found", type_span(doc) if doc is not None else None,
+                   hint)
+
+
+def _typed(struct: "Struct") -> bool:
+    """Does every field of ``struct``, nested ones too, have its ROS type?"""
+    from ybg.compiler.ir import Struct
+
+    return all(f.type is not None and (not isinstance(f.source, Struct) or _typed(f.source))
+               for f in struct.fields)
+
+
+def type_span(doc: "Document") -> "Span | None":
+    """Where the output's message type is written, else the output's line."""
+    from ybg.compiler.pipeline import output_span
+
+    sec = doc.section("output")
+    e = sec.get("type") if sec is not None else None
+    if e is not None:
+        return e.items[0].span if e.items else e.span
+    return output_span(doc)
+
+
+def input_span(doc: "Document", mux: str, name: str) -> "Span | None":
+    """Where input ``name`` of ``mux`` is written, else its mux's line."""
+    from ybg.compiler import ast
+
+    sec = doc.section("mux", mux)
+    if sec is None:
+        return None
+    e = sec.get("topics") or sec.get("ports")
+    if e is None:
+        return sec.span
+    for item in e.items:
+        head = item.func if isinstance(item, ast.Call) else item
+        if isinstance(head, ast.Word) and head.text == name or isinstance(head, ast.Str) and head.value == name:
+            return item.span
+    return e.span
+
+
+def field_span(doc: "Document", path: str) -> "Span | None":
+    """Where the message field ``path`` (dotted) is set: its entry in
+    [message], or the entry of the nearest enclosing field, or the first
+    entry of a field inside it; else the [message] line."""
+    sec = doc.section("message")
+    if sec is None:
+        return None
+    entries = {e.key: e for e in sec.entries}
+    parts = path.split(".")
+    for k in range(len(parts), 0, -1):
+        e = entries.get(".".join(parts[:k]))
+        if e is not None:
+            return e.span
+    inside = [e for key, e in entries.items() if key.startswith(path + ".")]
+    return inside[0].span if inside else sec.span
+
+
+def lowering_span(doc: "Document", error: LoweringError) -> "Span | None":
+    """The best position for ``error`` in the config ``doc``."""
+    from ybg.compiler.pipeline import output_span
+
+    where = error.where or ()
+    if where[:1] == ("field",):
+        return field_span(doc, where[1])
+    if where[:1] == ("input",):
+        return input_span(doc, where[1], where[2])
+    if where[:1] == ("type",):
+        return type_span(doc)
+    return output_span(doc)
+
+
+def lowering_diagnostic(error: LoweringError, backend: str, result: "Result") -> Diagnostic:
+    """``error``, raised by ``backend`` for ``result``'s program, as the
+    diagnostic that ``ybgc check --backend`` and ``ybgc generate`` report."""
+    sink = Sink(result.path)
+    span = lowering_span(result.named, error) if result.named is not None else None
+    program = result.program
+    others = [n for n in backend_names() if n != backend and program is not None and _builds(n, program)]
+    hint = f"a limit of the {backend} backend: change this part of the config"
+    if others:
+        hint += f", or use {_options(others)}"
+    sink.error("E318", f"the {backend} backend cannot build this: {error}", span, hint)
+    return sink.items[0]
+
+
+def _builds(backend: str, program: "Program") -> bool:
+    """Does ``backend`` take ``program``, by :func:`check` and its lowering?"""
+    sink = Sink()
+    check(program, backend, sink)
+    if sink.has_errors:
+        return False
+    impl = get_backend(backend)
+    try:
+        if isinstance(impl, Backend):
+            impl.lower(program)
+    except LoweringError:
+        return False
+    return True
 
 
 def check_result(result: "Result", backend: str) -> "Result":
     """``result`` of the front end as ``backend`` sees it: with the
-    diagnostics of :func:`check`, and without a program it cannot build.
-    A result without a program is returned as it is."""
-    from ybg.compiler.pipeline import output_span
-
+    diagnostics of :func:`check`, and of the backend's lowering when that
+    refuses the program (:meth:`Backend.lower`), and without a program it
+    cannot build. A result without a program is returned as it is."""
     if result.program is None:
         return result
     sink = Sink(result.path)
-    check(result.program, backend, sink, result.form == "legacy", output_span(result.named))
+    check(result.program, backend, sink, result.form == "legacy", result.named)
+    if not sink.has_errors:
+        impl = get_backend(backend)
+        if isinstance(impl, Backend):
+            try:
+                impl.lower(result.program)
+            except LoweringError as e:
+                sink.items.append(lowering_diagnostic(e, backend, result))
     if not sink.items:
         return result
     return dataclasses.replace(result, program=None if sink.has_errors else result.program,

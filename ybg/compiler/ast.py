@@ -84,12 +84,15 @@ Item = Union[Str, Word, Call, Subscript, Bracket]
 
 @dataclass(frozen=True)
 class Entry:
-    """``key = items``; ``items`` is empty for ``key =``."""
+    """``key = items``; ``items`` is empty for ``key =``. ``trailing_comma``:
+    where a comma after the last item is (``a, b,``), which the value
+    ignores; None when there is none."""
 
     key: str
     items: tuple[Item, ...]
     span: Span = field(default=NOWHERE, compare=False)
     key_span: Span = field(default=NOWHERE, compare=False)
+    trailing_comma: Span | None = field(default=None, compare=False)
 
 
 @dataclass(frozen=True)

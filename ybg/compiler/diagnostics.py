@@ -81,6 +81,8 @@ CODES: dict[str, str] = {
     "E213": "invalid port declaration",
     "E214": "invalid module or mux name",
     "E215": "field given more than once",
+    "E217": "legacy layout of the original's earliest versions",
+    "E216": "no input and no rate",
     # types
     "E301": "unknown message type",
     "E302": "unknown field",
@@ -102,6 +104,7 @@ CODES: dict[str, str] = {
     "E318": "backend cannot build this config",
     "E319": "ROS topic input needs a message type",
     "E320": "the target YARP version has no ROS 1 support",
+    "E321": "ROS 2 output without its message definition",
     # names
     "E401": "invalid YARP port name",
     "E402": "invalid ROS topic name",
@@ -113,6 +116,8 @@ CODES: dict[str, str] = {
     "W505": "message type missing: inferred",
     "W506": "key has no effect",
     "W507": "ROS 1 through YARP needs YARP's yarp-ros plugins on this YARP version",
+    "W508": "legacy config without `to_ros`: the output is a YARP port",
+    "W509": "legacy `ports` ends with a comma, which the original read as part of a name",
     # notes
     "N601": "legacy form",
     "N602": "a fixed rate that publishes new data only",

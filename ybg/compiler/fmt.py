@@ -5,11 +5,16 @@ single spaces, strings re-escaped the one way, a long list wrapped after
 commas onto continuation lines, comments kept where they were (a comment on
 its own line stays before what followed it; a trailing comment stays on its
 line). ``format_document(parse(s)) == s`` for a canonical ``s``.
+
+A file in the legacy form is never wrapped: the original tool's INI reader
+takes one line for each value and refuses continuation lines, and a legacy
+file formatted in place stays readable by it.
 """
 
 from __future__ import annotations
 
 from ybg.compiler import ast
+from ybg.compiler.legacy import is_legacy
 
 WIDTH = 100
 
@@ -63,14 +68,15 @@ def format_item(item: ast.Item) -> str:
     raise TypeError(item)  # pragma: no cover
 
 
-def format_entry(entry: ast.Entry, trailing: str | None = None) -> str:
+def format_entry(entry: ast.Entry, trailing: str | None = None, wrap: bool = True) -> str:
+    """``key = value`` on one line, or, with ``wrap``, a long list on several."""
     head = f"{entry.key} ="
     if not entry.items:
         line = head
         return line + (f"  {trailing}" if trailing else "")
     parts = [format_item(i) for i in entry.items]
     one = head + " " + ", ".join(parts)
-    if len(one) <= WIDTH or len(parts) == 1:
+    if len(one) <= WIDTH or len(parts) == 1 or not wrap:
         return one + (f"  {trailing}" if trailing else "")
     indent = " " * (len(head) + 1)
     lines: list[str] = []
@@ -87,8 +93,12 @@ def format_entry(entry: ast.Entry, trailing: str | None = None) -> str:
     return "\n".join(lines)
 
 
-def format_document(doc: ast.Document) -> str:
-    """The canonical text of ``doc`` (comments from ``doc.comments``)."""
+def format_document(doc: ast.Document, wrap: bool | None = None) -> str:
+    """The canonical text of ``doc`` (comments from ``doc.comments``).
+    ``wrap``: long lists on continuation lines; by default, unless ``doc``
+    is in the legacy form."""
+    if wrap is None:
+        wrap = not is_legacy(doc)
     own = sorted((c for c in doc.comments if c.own_line), key=lambda c: c.line)
     trailing = {c.line: c.text for c in doc.comments if not c.own_line}
     out: list[str] = []
@@ -109,7 +119,7 @@ def format_document(doc: ast.Document) -> str:
             if ln in trailing:
                 t = trailing[ln]
                 break
-        out.append(format_entry(e, t))
+        out.append(format_entry(e, t, wrap))
 
     for e in doc.loose:
         emit_entry(e)

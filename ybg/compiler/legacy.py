@@ -23,6 +23,7 @@ MUX_KEYS = ("num_ports", "ports", "function", "verbose")
 FIELD_TYPES = ("single_value", "list", "mux", "counter", "timestamp", "msg")
 _FIELD_KEY = re.compile(r"([0-9]+)_(type|msg|mux)\Z")
 _MUX_SECTION = re.compile(r"mux([0-9]+)\Z")
+_CONVERTER_SECTION = re.compile(r"converter([0-9]*)\Z")
 
 
 def is_legacy(doc: ast.Document) -> bool:
@@ -110,11 +111,13 @@ class LegacyConverter:
             s.error("E203", "missing section [general]", None,
                     "a legacy file starts with [general]: output_name, to_ros, num_mux, rate")
             return ast.Document(())
+        if _earliest_layout(doc, s):
+            return ast.Document(())
         s.note("N601", "legacy form", gen.span,
                "`ybgc fmt --to named FILE` converts it to the named form")
         g = check_keys(gen, GENERAL_KEYS, s)
         for req in ("output_name", "num_mux"):
-            if req not in g:
+            if req not in g and not _misspelt(gen, req, GENERAL_KEYS):
                 s.error("E204", f"[general] needs `{req}`", gen.span)
         to_ros = _bool(g.get("to_ros"), s)
         from_ros = _bool(g.get("from_ros_topics"), s)
@@ -155,6 +158,12 @@ class LegacyConverter:
                 out.append(_entry("connect", [_word(name or "", oname.items[0].span if oname.items else oname.span)], oname.span, oname.key_span))
             else:
                 out.append(_entry("port", [_word(name or "", oname.items[0].span if oname.items else oname.span)], oname.span, oname.key_span))
+                if "to_ros" not in g:
+                    s.warning("W508", f"no `to_ros` in [general]: `{name}` is taken as a YARP port, written with "
+                              "Bottles; the first versions of the original tool, which had no `to_ros`, always "
+                              "published it as a ROS topic", oname.key_span,
+                              "add `to_ros = true` (and `ros_msg_name = pkg/Name`) to publish the ROS topic as "
+                              "they did, or `to_ros = false` to keep the YARP port")
             if to_ros:
                 type_name, msgdef = self.message_type(g, name or "", by_name.get("message"))
                 if type_name is not None:
@@ -165,6 +174,8 @@ class LegacyConverter:
             elif "ros_msg_name" in g:
                 s.warning("W506", "`ros_msg_name` has no effect with `to_ros = false`", g["ros_msg_name"].key_span,
                           "remove it, or set `to_ros = true`")
+        else:  # reported (E204, or E202 for a misspelling); the rest is still checked, without a follow-on
+            out.append(_entry("port", [_word(f"/{self.module}/out:o", gen.span)], gen.span))
         if "rate" in g:
             out.append(_entry("rate", g["rate"].items, g["rate"].span, g["rate"].key_span))
         else:
@@ -237,12 +248,21 @@ class LegacyConverter:
         keys = check_keys(sec, MUX_KEYS, s)
         name = sec.name
         if "ports" not in keys:
-            s.error("E204", f"[{name}] needs `ports`", sec.span)
+            if not _misspelt(sec, "ports", MUX_KEYS):
+                s.error("E204", f"[{name}] needs `ports`", sec.span)
             return None
         ports = keys["ports"]
+        if ports.trailing_comma is not None and ports.items:
+            last = ports.items[-1]
+            port = last.text if isinstance(last, ast.Word) else getattr(last, "value", "")
+            s.warning("W509", f"a comma after the last port: the original tool read `{port},`, comma included, "
+                      "as the name of a port, and waited for it forever; ybgc reads the port "
+                      f"`{port}`", ports.trailing_comma,
+                      "remove the comma (`ybgc fmt` does), so that the original and ybgc read the same port")
         n = _int(keys.get("num_ports"), s)
         if "num_ports" not in keys:
-            s.error("E204", f"[{name}] needs `num_ports`", sec.span)
+            if not _misspelt(sec, "num_ports", MUX_KEYS):
+                s.error("E204", f"[{name}] needs `num_ports`", sec.span)
         elif n is not None and n != len(ports.items):
             s.error("E209", f"num_ports = {n}, but `ports` lists {len(ports.items)}", keys["num_ports"].span,
                     f"set `num_ports = {len(ports.items)}`")
@@ -262,10 +282,13 @@ class LegacyConverter:
         s = self.sink
         keys = check_keys(sec, ("num_fields",), s, extra=lambda k: bool(_FIELD_KEY.match(k)))
         if "num_fields" not in keys:
-            s.error("E204", f"[{sec.name}] needs `num_fields`", sec.span)
+            if not _misspelt(sec, "num_fields", ("num_fields",)):
+                s.error("E204", f"[{sec.name}] needs `num_fields`", sec.span)
+            _mark_nested(keys, by_name, used)
             return []
         n = _int(keys["num_fields"], s)
         if n is None:
+            _mark_nested(keys, by_name, used)
             return []
         numbers = {int(m.group(1)) for k in keys if (m := _FIELD_KEY.match(k))}
         for k in sorted(numbers):
@@ -278,21 +301,22 @@ class LegacyConverter:
             s.error("E303", f"`{msgdef.name}` has {len(msgdef.fields)} fields ({names}), "
                     f"[{sec.name}] declares {n}", keys["num_fields"].span,
                     "fields are matched to the message by position: one `N_type` per field, in order")
-            for k, e in keys.items():  # its nested sections are still its own
-                if k.endswith("_msg") and len(e.items) == 1 and isinstance(e.items[0], ast.Word):
-                    used.add(e.items[0].text)
+            _mark_nested(keys, by_name, used)
             return []
         out: list[ast.Entry] = []
         for i in range(1, n + 1):
             te = keys.get(f"{i}_type")
             if te is None:
-                s.error("E210", f"field {i} has no `{i}_type`", keys["num_fields"].span,
-                        f"add `{i}_type = single_value|list|mux|counter|timestamp|msg`")
+                if not _misspelt(sec, f"{i}_type", ()):
+                    s.error("E210", f"field {i} has no `{i}_type`", keys["num_fields"].span,
+                            f"add `{i}_type = single_value|list|mux|counter|timestamp|msg`")
+                _mark_nested({k: e for k, e in keys.items() if k == f"{i}_msg"}, by_name, used)
                 continue
             kind = _name(te, s)
             if kind not in FIELD_TYPES:
                 s.error("E210", f"unknown field type `{kind}`", te.items[0].span if te.items else te.span,
                         did_you_mean(kind or "", FIELD_TYPES) or f"types: {', '.join(FIELD_TYPES)}")
+                _mark_nested({k: e for k, e in keys.items() if k == f"{i}_msg"}, by_name, used)
                 continue
             fdef = msgdef.fields[i - 1] if msgdef is not None else None
             label = fdef.name if fdef is not None else f"field{i}"
@@ -377,6 +401,57 @@ class LegacyConverter:
         return out
 
 
+def _earliest_layout(doc: ast.Document, sink: Sink) -> bool:
+    """Is ``doc`` in one of the original tool's earliest layouts (early 2015),
+    which ybgc does not read: `num_mux` in its own [mux_general], the
+    converters in [converter1]..[converterN] beside the muxes, or one
+    unnumbered [mux]? E217 at each of their sections, saying where its keys
+    went in the layout ybgc reads; nothing else is reported, as everything
+    else follows from the layout."""
+    found = False
+    for sec in doc.sections:
+        if sec.label is not None:
+            continue
+        layout = "the original tool's earliest layout (early 2015)"
+        if sec.name == "mux_general":
+            sink.error("E217", f"[mux_general] is from {layout}, which ybgc does not read", sec.span,
+                       "move `num_mux` into [general] and remove [mux_general]")
+        elif (m := _CONVERTER_SECTION.match(sec.name)) is not None:
+            k = m.group(1)
+            sink.error("E217", f"[{sec.name}] is from {layout}, where the converter of [mux{k}] had its own "
+                       "section; ybgc does not read it", sec.span,
+                       f"move its `function` and `verbose` into [mux{k}] and remove [{sec.name}]")
+        elif sec.name == "mux":
+            sink.error("E217", f"[mux], one unnumbered mux, is from {layout}, which ybgc does not read", sec.span,
+                       "rename it [mux1], add `num_mux = 1` to [general], and write `N_mux = mux1` in [message]")
+        else:
+            continue
+        found = True
+    return found
+
+
+def _misspelt(sec: ast.Section, key: str, allowed: tuple[str, ...]) -> bool:
+    """Does ``sec`` hold a misspelling of ``key``, a key of none of the
+    ``allowed`` or field keys, already reported by check_keys (E202)? Then
+    the missing ``key`` is not reported again."""
+    return any(e.key != key and e.key not in allowed and not _FIELD_KEY.match(e.key)
+               and did_you_mean(e.key, (key,)) for e in sec.entries)
+
+
+def _mark_nested(keys: dict[str, ast.Entry], by_name: dict[str, ast.Section], used: set[str]) -> None:
+    """The sections that the `N_msg` keys of a section whose fields are not
+    read name, and theirs: still in use, so not reported as unused (E201)."""
+    for k, e in keys.items():
+        if not k.endswith("_msg") or len(e.items) != 1 or not isinstance(e.items[0], ast.Word):
+            continue
+        name = e.items[0].text
+        sub = by_name.get(name)
+        if name in used or sub is None or name in ("general", "message"):
+            continue
+        used.add(name)
+        _mark_nested({x.key: x for x in sub.entries}, by_name, used)
+
+
 def _path_exists(store: TypeStore, d: MsgDef, path: list[str]) -> bool:
     cur: MsgDef | None = d
     for p in path:
@@ -396,19 +471,34 @@ def to_named(doc: ast.Document, sink: Sink, store: TypeStore, module: str,
     conv = LegacyConverter(doc, sink, store, module, target_store)
     named = conv.convert()
     if target_store is not None:
-        named = _retarget_output(named)
+        named = _retarget(named, sink)
     return named, conv.dropped
 
 
-def _retarget_output(doc: ast.Document) -> ast.Document:
+def _is_ros1(e: ast.Entry) -> bool:
+    return e.key == "via" and len(e.items) == 1 and isinstance(e.items[0], ast.Word) and e.items[0].text == "ros1"
+
+
+def _retarget(doc: ast.Document, sink: Sink) -> ast.Document:
+    """``doc`` on ROS 2: its output, and the topics its muxes read. A ROS 2
+    topic needs its message type, which a ROS 1 topic of the legacy form
+    does not give (the original read any message as a Bottle): E319 for
+    each such topic, with the way to give it."""
     secs = []
     for sec in doc.sections:
-        if sec.name == "output":
-            entries = []
-            for e in sec.entries:
-                if e.key == "via" and e.items and isinstance(e.items[0], ast.Word) and e.items[0].text == "ros1":
-                    e = ast.Entry("via", (ast.Word("ros2", e.items[0].span),), e.span, e.key_span)
-                entries.append(e)
-            sec = ast.Section(sec.name, sec.label, tuple(entries), sec.span)
+        ros1 = next((e for e in sec.entries if _is_ros1(e)), None)
+        if sec.name in ("output", "mux") and ros1 is not None:
+            topics = sec.get("topics")
+            for item in topics.items if topics is not None and sec.name == "mux" else ():
+                if isinstance(item, ast.Call):
+                    continue  # declared: `/topic (pkg/Name [field])`
+                name = item.text if isinstance(item, ast.Word) else getattr(item, "value", "")
+                sink.error("E319", f"ROS 1 topic `{name}` of [{sec.label}] would be read from ROS 2, which needs its "
+                           "message type, and the legacy form gives none", item.span,
+                           "convert without --ros2 (`ybgc fmt --to named FILE -o new.ini`), then in new.ini give "
+                           f"the type, `topics = {name} (pkg/Name)`, and set `via = ros2` in [mux {sec.label}]")
+            entries = tuple(ast.Entry("via", (ast.Word("ros2", e.items[0].span),), e.span, e.key_span)
+                            if e is ros1 else e for e in sec.entries)
+            sec = ast.Section(sec.name, sec.label, entries, sec.span)
         secs.append(sec)
     return ast.Document(tuple(secs))

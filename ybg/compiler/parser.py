@@ -147,18 +147,23 @@ class _ToAst:
 
     def bracket(self, meta, children):
         (value,) = children
-        items = () if value is None else value
+        items = () if value is None else tuple(value)
         return ast.Bracket(items, _meta_span(meta))
 
     def value(self, meta, children):
-        return tuple(children)
+        items = _Items(children)
+        last = children[-1].span
+        if (meta.end_line, meta.end_column) > (last.end_line, last.end_column):  # `a, b,`
+            items.trailing_comma = Span(meta.end_line, meta.end_column - 1, meta.end_line, meta.end_column)
+        return items
 
     def entry(self, meta, children):
         key, value = children
         items = () if value is None else value
         key_span = _tok_span(key)
         end = items[-1].span if items else key_span
-        return ast.Entry(str(key), items, _join(key_span, end), key_span)
+        return ast.Entry(str(key), tuple(items), _join(key_span, end), key_span,
+                         getattr(items, "trailing_comma", None))
 
     def header(self, meta, children):
         name, label = children
@@ -172,6 +177,12 @@ class _ToAst:
         loose = tuple(c for c in children if isinstance(c, ast.Entry))
         sections = tuple(c for c in children if isinstance(c, ast.Section))
         return ast.Document(sections, loose)
+
+
+class _Items(tuple):
+    """The items of a value, and where a comma after the last one is."""
+
+    trailing_comma: Span | None = None
 
 
 def _meta_span(meta) -> Span:

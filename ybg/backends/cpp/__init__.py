@@ -51,5 +51,8 @@ class CppBackend(Backend):
             files.update(cpp_files())
         return files
 
+    def lower(self, program) -> None:
+        lower(program)  # the module's lowering (ybg.backends.cpp.lower), without the templates
+
 
 __all__ = ["CppBackend", "LoweringError", "TEMPLATE_DIR", "environment"]

@@ -158,6 +158,7 @@ class _Builder:
         self.lines: list[Line] = []
         self.needed: list[str] = []
         self.need_size: dict[str, int] = {}
+        self.path: list[str] = []  # the field being built, as a path
 
     def emit(self, indent: int, text: str) -> None:
         if "\n" in text or "\r" in text:
@@ -204,6 +205,15 @@ class _Builder:
             self.field(f, parent, depth, indent)
 
     def field(self, f: ir.Field, parent: str, depth: int, indent: int) -> None:
+        self.path.append(f.name)
+        try:
+            self._field(f, parent, depth, indent)
+        except LoweringError as e:
+            raise e.at("field", ".".join(self.path))
+        finally:
+            self.path.pop()
+
+    def _field(self, f: ir.Field, parent: str, depth: int, indent: int) -> None:
         typ = "" if f.type is None else f" ({comment(str(f.type))})"
         src = f.source
         self.emit(indent, f"// {comment(f.name)}{typ}{self.describe(src)}")
@@ -433,9 +443,10 @@ def lower(program: ir.Program) -> ModuleView:
         gather = [Line(1, f"mux.{members[m.name]}.clear();")]
         for k, i in enumerate(m.inputs):
             if i.kind not in ("yarp", "ros1"):
-                raise LoweringError(f"the cpp backend cannot read a {i.kind!r} input ({i.name})")
+                raise LoweringError(f"the cpp backend cannot read a {i.kind!r} input ({i.name})",
+                                    ("input", m.name, i.name))
             if not i.timeout > 0:
-                raise LoweringError(f"input {i.name} has a timeout of {i.timeout!r}")
+                raise LoweringError(f"input {i.name} has a timeout of {i.timeout!r}", ("input", m.name, i.name))
             n = len(inputs)
             ids.append(n)
             kind = "ybgc::InputKind::Ros1" if i.kind == "ros1" else "ybgc::InputKind::Yarp"

@@ -56,5 +56,8 @@ class PyBackend(Backend):
             files.update(python_files())
         return files
 
+    def lower(self, program) -> None:
+        lower(program)  # the module's lowering (ybg.backends.py.lower), without the templates
+
 
 __all__ = ["PyBackend", "LoweringError", "TEMPLATE_DIR", "FILTERS", "environment"]

@@ -178,6 +178,7 @@ class _Builder:
         self.program = program
         self.lines: list[Line] = []
         self.muxes: list[str] = []
+        self.path: list[str] = []  # the field being built, as a path
 
     def emit(self, indent: int, text: str) -> None:
         self.lines.append(Line(indent, text))
@@ -195,6 +196,15 @@ class _Builder:
         self.emit(indent, f")){tail}")
 
     def field(self, f: ir.Field, indent: int) -> None:
+        self.path.append(f.name)
+        try:
+            self._field(f, indent)
+        except LoweringError as e:
+            raise e.at("field", ".".join(self.path))
+        finally:
+            self.path.pop()
+
+    def _field(self, f: ir.Field, indent: int) -> None:
         head = f"({py_literal(f.name)}, "
         src = f.source
         if isinstance(src, ir.Struct):
@@ -315,7 +325,8 @@ def lower(program: ir.Program) -> ModuleView:
         inputs = []
         for k, i in enumerate(m.inputs):
             if i.kind not in ("yarp", "ros1"):
-                raise LoweringError(f"the py backend cannot read a {i.kind!r} input ({i.name})")
+                raise LoweringError(f"the py backend cannot read a {i.kind!r} input ({i.name})",
+                                    ("input", m.name, i.name))
             types = i.element_types
             width = "any number of numbers" if types is None else f"{len(types)} elements"
             inputs.append(InputView(

@@ -98,5 +98,8 @@ class Ros2Backend(Backend):
             files.update(python_files(f"{pkg.package}/{PY_PACKAGE}"))
         return files
 
+    def lower(self, program) -> None:
+        lower_package(program, lower(program))  # the node's and the package's lowering, without the templates
+
 
 __all__ = ["Ros2Backend", "LoweringError", "TEMPLATE_DIR", "environment"]

@@ -266,6 +266,12 @@ class _MessageBuilder:
             self.field(f, target, prefix)
 
     def field(self, f: ir.Field, target: str, prefix: str) -> None:
+        try:
+            self._field(f, target, prefix)
+        except LoweringError as e:
+            raise e.at("field", prefix + f.name)
+
+    def _field(self, f: ir.Field, target: str, prefix: str) -> None:
         name = prefix + f.name
         src, typ = f.source, f.type
         if typ is None:
@@ -426,12 +432,15 @@ def _lower_inputs(program: ir.Program):
             width = "any number of numbers" if types is None else f"{len(types)} elements"
             if i.kind == "ros2":
                 if not i.ros_type:
-                    raise LoweringError(f"the ROS 2 input {i.name} has no message type")
+                    raise LoweringError(f"the ROS 2 input {i.name} has no message type", ("input", m.name, i.name))
                 if not i.fields:
-                    raise LoweringError(f"the ROS 2 input {i.name} names no numeric field")
-                for leaf in i.fields:
-                    for part in leaf.split("."):
-                        _identifier(part, f"field of {i.ros_type}")
+                    raise LoweringError(f"the ROS 2 input {i.name} names no numeric field", ("input", m.name, i.name))
+                try:
+                    for leaf in i.fields:
+                        for part in leaf.split("."):
+                            _identifier(part, f"field of {i.ros_type}")
+                except LoweringError as e:
+                    raise e.at("input", m.name, i.name)
                 alias = msg_alias(i.ros_type)
                 pkg, name = split_type(i.ros_type)
                 imports[alias] = MsgImport(f"{pkg}.msg", name, alias)
@@ -440,7 +449,8 @@ def _lower_inputs(program: ir.Program):
             elif i.kind == "yarp":
                 desc = f"yarp {i.name}: {width}"
             else:
-                raise LoweringError(f"the ros2 backend cannot read a {i.kind!r} input ({i.name})")
+                raise LoweringError(f"the ros2 backend cannot read a {i.kind!r} input ({i.name})",
+                                    ("input", m.name, i.name))
             inputs.append(InputView(
                 mux=py_literal(m.name), index=k, source=py_literal(i.name), kind=py_literal(i.kind),
                 types=py_literal(types), timeout=py_literal(float(i.timeout)),
@@ -482,8 +492,11 @@ def lower(program: ir.Program) -> NodeView:
         msg_type = out.msg_type or program.message.msg_type
         if not msg_type:
             raise LoweringError("a ROS 2 output needs a message type")
-        alias = msg_alias(msg_type)
-        pkg, name = split_type(msg_type)
+        try:
+            alias = msg_alias(msg_type)
+            pkg, name = split_type(msg_type)
+        except LoweringError as e:
+            raise e.at("type")
         imports[alias] = MsgImport(f"{pkg}.msg", name, alias)
         qos = out.qos or ir.QoS()
         if qos.reliability not in RELIABILITY or qos.durability not in DURABILITY or qos.depth < 1:

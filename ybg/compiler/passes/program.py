@@ -4,7 +4,8 @@ is checked, and the checked :class:`~ybg.compiler.ir.Program`.
 Checks: muxes that no field uses (W501, only on an error-free config),
 problems of the .msg files read (E301), and, on an otherwise error-free
 config, [output]'s timing and policy keys (`rate`, `trigger`, `queue`,
-`on_stale`, `on_nan`, `publish`: W510, N602).
+`on_stale`, `on_nan`, `publish`: W510, N602) and that something makes the
+module publish: an input, or a rate (E216).
 Reads every field. Sets ``program`` when there is no error.
 """
 
@@ -41,6 +42,12 @@ def run(ctx: Context) -> None:
     if s.has_errors:
         return
     muxes = tuple(ctx.muxes.values())
+    if timing.rate is None and not any(m.inputs for m in muxes):
+        sec = ctx.sections.get("output")
+        s.error("E216", "no input and no `rate`: nothing would make the module publish", sec.span if sec else None,
+                "set `rate = <Hz>` in [output] to publish at a fixed rate, or read an input "
+                "(`[mux <name>]` with `ports = ...`)")
+        return
     ctx.program = ir.Program(
         module=ctx.module, source=ctx.source, muxes=muxes, message=message,
         output=output, timing=timing, policy=policy,

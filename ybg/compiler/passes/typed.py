@@ -91,8 +91,10 @@ def _default(ctx: Context, f, path: FieldPath):
         if sub is not None:
             return _struct(ctx, sub, path, {}, {})
     if t.is_message and t.array == "fixed":
+        where = ctx.output_keys.get("type")
         ctx.sink.error("E304", f"`{'.'.join(path)}` is {t}, a fixed-size array of messages, "
-                       "which cannot be filled yet", None)
+                       "which cannot be filled yet", where.span if where else None,
+                       "ybgc fills arrays of numbers, bool or text; use a message type without it")
     return ir.Default(f.default)
 
 
@@ -249,16 +251,33 @@ def _mux_into_field(ctx: Context, item: ast.Item, t: ir.TypeRef, e: ast.Entry):
         s.error("E305", f"`{e.key}` is {t}, but `{mux.name}[{index}]` is one element", item.span,
                 f"take a range: `{mux.name}[{index}:{index + 1}]`")
         return ir.Default()
+    if t.is_message or t.base in ("time", "duration"):
+        s.error("E305", f"`{e.key}` is {t}, a list of {t.base}: a mux fills a list of numbers, bool or text",
+                item.span, "a mux of its width fills one nested message (`pose = m`), not a list of them")
+        return ir.Default()
     if types is not None:
         bad = sorted({x for x in types if not _fits(x, t.base)})
         if bad:
             s.error("E305", f"`{e.key}` is {t}, but mux `{mux.name}` gives {', '.join(bad)}", item.span,
                     "declare the port element types to match, or convert them (`none_double`)")
             return ir.Default()
-        if t.array == "fixed" and len(types) != t.size:
-            s.error("E310", f"`{e.key}` is {t}: it needs exactly {t.size} elements, mux `{mux.name}`"
-                    f" gives {len(types)}", item.span)
+    # the number of elements, when known before run time: the mux's declared
+    # width, or the range written
+    n = len(types) if types is not None else (stop - start if stop is not None else None)
+    if n is not None and t.array == "fixed" and n != t.size:
+        s.error("E310", f"`{e.key}` is {t}: it needs exactly {t.size} elements, `{_written(mux.name, start, stop)}`"
+                f" gives {n}", item.span, f"take {t.size}: `{mux.name}[{start}:{start + (t.size or 0)}]`")
+    if n is not None and t.array == "sequence" and t.size is not None and n > t.size:
+        s.error("E310", f"`{e.key}` is {t}: at most {t.size} elements, `{_written(mux.name, start, stop)}`"
+                f" gives {n}", item.span, f"take at most {t.size}: `{mux.name}[{start}:{start + t.size}]`")
     return ir.MuxRef(mux.name, start, stop, index, False, t.base)
+
+
+def _written(mux: str, start: int, stop: int | None) -> str:
+    """A part of a mux as the config writes it."""
+    if start == 0 and stop is None:
+        return mux
+    return f"{mux}[{start}:{'' if stop is None else stop}]"
 
 
 def _mux_into_message(ctx: Context, item: ast.Item, t: ir.TypeRef, e: ast.Entry):
@@ -276,12 +295,13 @@ def _mux_into_message(ctx: Context, item: ast.Item, t: ir.TypeRef, e: ast.Entry)
         s.error("E309", f"`{e.key}` is a {t.base} of {len(leaves)} numbers, not one element", item.span)
         return ir.Default()
     types = slice_types(mux, start, stop, None)
+    n = len(types) if types is not None else (stop - start if stop is not None else None)
+    if n is not None and n != len(leaves):
+        s.error("E309", f"`{e.key}` is a {t.base} of {len(leaves)} numbers "
+                f"({', '.join(p for p, _ in leaves)}), but `{_written(mux.name, start, stop)}` gives {n}",
+                item.span, f"take a range: `{mux.name}[{start}:{start + len(leaves)}]`")
+        return ir.Default()
     if types is not None:
-        if len(types) != len(leaves):
-            s.error("E309", f"`{e.key}` is a {t.base} of {len(leaves)} numbers "
-                    f"({', '.join(p for p, _ in leaves)}), but mux `{mux.name}` gives {len(types)}",
-                    item.span, f"take a range: `{mux.name}[0:{len(leaves)}]`")
-            return ir.Default()
         bad = sorted({x for x, (_, ft) in zip(types, leaves) if not _fits(x, ft)})
         if bad:
             s.error("E305", f"`{e.key}` holds {', '.join(sorted({ft for _, ft in leaves}))}, "
