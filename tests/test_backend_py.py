@@ -165,9 +165,6 @@ class PyModules(Launcher):
     run as a script by the venv's Python."""
 
     backend = "py"
-    known_gaps = {"ros1 subscriber withdrawn":
-                  "the Python runtime withdraws a ROS 1 output's publisher from the master at exit "
-                  "(YARP 3.5 leaves it registered), not a ROS 1 input's subscriber as the C++ one does"}
 
     def __init__(self, folder: Path):
         self.folder = folder

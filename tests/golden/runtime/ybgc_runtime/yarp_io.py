@@ -247,6 +247,10 @@ class Input(InputState):
 
     def close(self):
         self.port.close()
+        if self.spec.kind == "ros1":
+            # YARP 3.5 leaves a closed topic@node subscriber registered with
+            # the ROS master: withdrawn, so that no publisher points at this process
+            withdraw_from_ros_master(self.local, publisher=False)
 
 
 # --- connections ---------------------------------------------------------------
@@ -574,23 +578,30 @@ class YarpOutput:
         self.port.interrupt()
         self.port.close()
         if self.kind == "ros1":
-            self._unregister_ros1()
+            # YARP 3.5 leaves a closed topic@node publisher registered with the
+            # ROS master: withdrawn, so that nothing points at this process
+            withdraw_from_ros_master(self.port_name, publisher=True)
 
-    def _unregister_ros1(self):
-        """YARP 3.5 leaves a closed topic@node publisher registered with the
-        ROS master; withdraw it, so that nothing points at this process."""
-        topic, _, node = self.port_name.partition("@")
-        contact = yarp.Network.queryName("/ros")
-        if not contact.isValid():
-            return
-        master = xmlrpc.client.ServerProxy("http://%s:%d/" % (contact.getHost(), contact.getPort()),
-                                           transport=_QuickTransport())
-        try:
-            code, _msg, api = master.lookupNode(node, node)
-            if code == 1:
+
+def withdraw_from_ros_master(port_name, publisher):
+    """The topic@node port ``port_name`` withdrawn from the ROS master, as a
+    publisher or a subscriber of its topic (short timeouts; nothing if the
+    master does not answer)."""
+    topic, _, node = port_name.partition("@")
+    contact = yarp.Network.queryName("/ros")
+    if not contact.isValid():
+        return
+    master = xmlrpc.client.ServerProxy("http://%s:%d/" % (contact.getHost(), contact.getPort()),
+                                       transport=_QuickTransport())
+    try:
+        code, _msg, api = master.lookupNode(node, node)
+        if code == 1:
+            if publisher:
                 master.unregisterPublisher(node, topic, api)
-        except (OSError, xmlrpc.client.Error, ValueError):
-            pass
+            else:
+                master.unregisterSubscriber(node, topic, api)
+    except (OSError, xmlrpc.client.Error, ValueError):
+        pass
 
 
 class _QuickTransport(xmlrpc.client.Transport):
