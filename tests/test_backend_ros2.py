@@ -1208,6 +1208,8 @@ def test_package_is_well_formed(tmp_path, stem):
                      f"share/{pkg}/launch/{program.module}.launch.py"):
             assert any(n.endswith(".data/data/" + data) for n in names), (data, names)
         assert f"{pkg}/{exe}.py" in names
+        # the runtime inside the package, as a subpackage of its own
+        assert {f"{pkg}/ybgc_runtime/{m}.py" for m in ("__init__", "core", "yarp_io", "ros2_io")} <= set(names)
         z.extractall(tmp_path / "installed")
     # the installed node runs (its --help, without any middleware)
     out = subprocess.run([VENV_PYTHON, "-c", f"import sys; from {pkg}.{exe} import main; sys.exit(main(['--help']))"],
