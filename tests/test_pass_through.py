@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import pytest
 
+from generated import generate
 from middleware import YarpProducer, YarpReader
-from test_yarp_versions import generate, module_proc, stop_within, wait_log
+from test_yarp_versions import module_proc, stop_within, wait_log
 
 COMMAND = """\
 [module]

@@ -28,7 +28,7 @@ import pytest
 
 import ybg
 import ybg.runtime
-from generated import module_file
+from generated import module_file, ybgc
 from ybg.backends import RenderOptions, get_backend
 from ybg.backends.runtime import CPP_DIR, cpp_files, python_files, python_inline
 from ybg.compiler.pipeline import compile_path
@@ -474,8 +474,7 @@ def test_inlined_python_runtime_defines_what_the_modules_import():
 
 
 def _generate(tmp_path: Path, backend: str, config: Path = EXAMPLE) -> Path:
-    r = subprocess.run([sys.executable, "-m", "ybg.cli", str(config), "--backend", backend, "-o", str(tmp_path)],
-                       capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    r = ybgc(config, "--backend", backend, "-o", tmp_path)
     assert r.returncode == 0, r.stderr + r.stdout
     return tmp_path
 

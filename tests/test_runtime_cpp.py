@@ -9,10 +9,10 @@ stops with a message that says what to do."""
 from __future__ import annotations
 
 import subprocess
-import sys
 from pathlib import Path
 
 import ybg
+from generated import ybgc
 from ybg.backends.runtime import CPP_DIR
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -41,8 +41,7 @@ def test_runtime_unit_tests(yarp, tmp_path):
 
 def test_module_build_refuses_a_runtime_of_another_version(yarp, tmp_path):
     out = tmp_path / "module"
-    r = subprocess.run([sys.executable, "-m", "ybg.cli", str(ROOT / "examples" / "yarp_to_yarp_end_effector.ini"), "--backend", "cpp",
-                        "-o", str(out)], capture_output=True, text=True)
+    r = ybgc(ROOT / "examples" / "yarp_to_yarp_end_effector.ini", "--backend", "cpp", "-o", out)
     assert r.returncode == 0, r.stderr
     header = out / "ybgc_runtime.hpp"
     header.write_text(header.read_text().replace(f'#define YBGC_RUNTIME_VERSION "{ybg.__version__}"',

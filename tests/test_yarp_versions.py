@@ -15,17 +15,16 @@ import os
 import re
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
 
 import middleware
+from generated import generate, ybgc
 from middleware import VENV_PYTHON, Proc, YarpProducer, YarpReader, YarpServer
 
 ROOT = Path(__file__).resolve().parent.parent
-YBGC = Path(sys.executable).parent / "ybgc"
 
 RELAY = """\
 [module]
@@ -41,19 +40,6 @@ ports = /vv/src:o {decl}
 count = counter
 values = [data]
 """
-
-
-def ybgc(*args) -> subprocess.CompletedProcess:
-    return subprocess.run([str(YBGC), *map(str, args)], capture_output=True, text=True, timeout=60)
-
-
-def generate(tmp: Path, text: str, name: str, backend: str) -> Path:
-    cfg = tmp / f"{name}.ini"
-    cfg.write_text(text, encoding="utf-8")
-    out = tmp / f"{name}_{backend}"
-    r = ybgc(cfg, "--backend", backend, "-o", out)
-    assert r.returncode == 0, r.stdout + r.stderr
-    return out
 
 
 def configure(src: Path, install) -> subprocess.CompletedProcess:
