@@ -311,19 +311,25 @@ def lowering_diagnostic(error: LoweringError, backend: str, result: "Result") ->
     return sink.items[0]
 
 
+def _lowering_error(backend: str, program: "Program") -> LoweringError | None:
+    """What ``backend``'s lowering refuses in ``program`` (None: nothing).
+    An object that is no :class:`Backend` has no lowering apart from its
+    rendering, which generation runs anyway."""
+    impl = get_backend(backend)
+    if not isinstance(impl, Backend):
+        return None
+    try:
+        impl.lower(program)
+    except LoweringError as e:
+        return e
+    return None
+
+
 def _builds(backend: str, program: "Program") -> bool:
     """Does ``backend`` take ``program``, by :func:`check` and its lowering?"""
     sink = Sink()
     check(program, backend, sink)
-    if sink.has_errors:
-        return False
-    impl = get_backend(backend)
-    try:
-        if isinstance(impl, Backend):
-            impl.lower(program)
-    except LoweringError:
-        return False
-    return True
+    return not sink.has_errors and _lowering_error(backend, program) is None
 
 
 def check_result(result: "Result", backend: str) -> "Result":
@@ -336,12 +342,9 @@ def check_result(result: "Result", backend: str) -> "Result":
     sink = Sink(result.path)
     check(result.program, backend, sink, result.form == "legacy", result.named)
     if not sink.has_errors:
-        impl = get_backend(backend)
-        if isinstance(impl, Backend):
-            try:
-                impl.lower(result.program)
-            except LoweringError as e:
-                sink.items.append(lowering_diagnostic(e, backend, result))
+        error = _lowering_error(backend, result.program)
+        if error is not None:
+            sink.items.append(lowering_diagnostic(error, backend, result))
     if not sink.items:
         return result
     return dataclasses.replace(result, program=None if sink.has_errors else result.program,

@@ -462,18 +462,6 @@ def _signed(x, bits):
     return ((int(x) + half) % (half << 1)) - half
 
 
-_ADD = {
-    "float64": lambda b, x: b.addFloat64(float(x)),
-    "float32": lambda b, x: b.addFloat32(float(x)),
-    "int64": lambda b, x: b.addInt64(_signed(x, 64)),
-    "int32": lambda b, x: b.addInt32(_signed(x, 32)),
-    "int16": lambda b, x: b.addInt16(_signed(x, 16)),
-    "int8": lambda b, x: b.addInt8(_signed(x, 8)),
-    "string": lambda b, x: b.addString(str(x)),
-    "number": lambda b, x: _add_number(b, x),
-}
-
-
 def _add_number(bottle, x):
     """An undeclared port's element, as it came: an integer as int32 (int64
     beyond its range), anything else as float64."""
@@ -484,6 +472,18 @@ def _add_number(bottle, x):
             bottle.addInt64(_signed(x, 64))
     else:
         bottle.addFloat64(float(x))
+
+
+_ADD = {
+    "float64": lambda b, x: b.addFloat64(float(x)),
+    "float32": lambda b, x: b.addFloat32(float(x)),
+    "int64": lambda b, x: b.addInt64(_signed(x, 64)),
+    "int32": lambda b, x: b.addInt32(_signed(x, 32)),
+    "int16": lambda b, x: b.addInt16(_signed(x, 16)),
+    "int8": lambda b, x: b.addInt8(_signed(x, 8)),
+    "string": lambda b, x: b.addString(str(x)),
+    "number": _add_number,
+}
 
 
 def _add_values(bottle, types, values, wire):
