@@ -66,8 +66,7 @@ def _without_internal_imports(text: str) -> str:
 def python_inline(modules: tuple[str, ...] = PY_MODULES) -> str:
     """The Python runtime as one block of a module (``--single-file``)."""
     parts = [f"# {'=' * 75}\n# ybgc runtime {VERSION}, inlined (--single-file): the same code as the\n"
-             f"# package ybgc_runtime/ that ybgc writes beside a module by default.\n# {'=' * 75}\n"
-             f"RUNTIME_VERSION = {VERSION!r}\n"]
+             f"# package ybgc_runtime/ that ybgc writes beside a module by default.\n# {'=' * 75}\n"]
     for name in modules:
         parts.append(f"\n\n# --- ybgc_runtime/{name}.py {'-' * (58 - len(name))}\n")
         parts.append(_without_internal_imports(_read(RUNTIME_DIR / f"{name}.py")))
