@@ -130,15 +130,21 @@ def test_ros1_output_is_refused_by_cmake_where_yarp_has_none(yarp, tmp_path):
 # running
 
 
+@pytest.mark.parametrize("layout", ["beside", "single-file"])
 @pytest.mark.parametrize("backend", ["py", "cpp"])
-def test_module_relays_and_stops_on_signal(yarp, yarp_server, tmp_path, backend):
-    """A module reads, relays and exits 0 within 2 s of SIGINT on every YARP.
+def test_module_relays_and_stops_on_signal(yarp, yarp_server, tmp_path, backend, layout):
+    """A module reads, relays and exits 0 within 2 s of SIGINT on every YARP,
+    with its runtime beside it and inlined (--single-file: nothing beside it).
     (The Python module hung at start on YARP 3.12 and 4.0, deaf to SIGINT and
     SIGTERM: from 3.12.1 the bindings' BufferedPortBottle.read keeps the
     interpreter lock, and a reader thread blocked in it stopped all others.)"""
     env = yarp_server.env
     name = f"sig_{backend}"
-    out = generate(tmp_path, RELAY.format(name=name, decl="(float64 x3)"), name, backend)
+    options = ("--single-file",) if layout == "single-file" else ()
+    out = generate(tmp_path, RELAY.format(name=name, decl="(float64 x3)"), name, backend, *options)
+    beside = sorted(p.name for p in out.iterdir() if p.name.startswith("ybgc_runtime"))
+    assert beside == ([] if options else (["ybgc_runtime"] if backend == "py"
+                                          else ["ybgc_runtime.cpp", "ybgc_runtime.hpp"]))
     module = module_proc(env, backend, out, name)
     with module, YarpReader(env, "/test/sig:i", source=f"/{name}/out:o") as reader, \
             YarpProducer(env, "/vv/src:o") as producer:
