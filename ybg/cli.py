@@ -269,13 +269,15 @@ def cmd_generate(args) -> int:
     if result.program is None:
         return EXIT_USAGE if _io_error(result) else EXIT_PROBLEMS
     backend = get_backend(args.backend)
+    outdir = Path(args.output) if args.output else Path(result.program.module)
     try:
-        files = backend.render(result.program, RenderOptions(package=args.package, single_file=args.single_file))
+        # the folder, for what runs the module from it (the yarpmanager application)
+        files = backend.render(result.program, RenderOptions(package=args.package, single_file=args.single_file,
+                                                             extra={"workdir": str(outdir.resolve())}))
     except LoweringError as e:  # what `check --backend` reports too: it lowers the program the same way
         result.diagnostics = [lowering_diagnostic(e, args.backend, result)]
         _print([result], "text")
         return EXIT_PROBLEMS
-    outdir = Path(args.output) if args.output else Path(result.program.module)
     try:
         rep = write_files(outdir, files, force=args.force)
     except WriteError as e:

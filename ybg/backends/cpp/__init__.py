@@ -5,9 +5,10 @@ ROS 1 topic (YARP's topic@node ports, with the type promised).
 The module (``module.cpp.j2``) holds this bridge's description, its muxes,
 the message builder and the places for custom code; it runs on the runtime
 library (``ybg/runtime/cpp/``: inputs, layout checks, freshness, matching,
-converters, timing, connections, shutdown), written beside it as
+converters, timing, connections, the RPC port, shutdown), written beside it as
 ``ybgc_runtime.hpp`` and ``ybgc_runtime.cpp`` or inlined with
-``--single-file`` (:mod:`ybg.backends.runtime`). :mod:`.lower` makes every
+``--single-file`` (:mod:`ybg.backends.runtime`); its yarpmanager
+application ``<module>.xml`` beside it (:mod:`ybg.backends.yarpmanager`). :mod:`.lower` makes every
 decision and escapes every value with :mod:`.escape`; the templates only
 print.
 """
@@ -19,7 +20,7 @@ from pathlib import Path
 
 import jinja2
 
-from ybg.backends import Backend, RenderOptions, code_filter, indent_line_filter, template_environment
+from ybg.backends import Backend, RenderOptions, code_filter, indent_line_filter, template_environment, yarpmanager
 from ybg.backends.cpp.lower import LoweringError, lower
 from ybg.backends.runtime import CPP_SOURCE, cpp_files, runtime_text_filter, runtime_view
 
@@ -49,6 +50,10 @@ class CppBackend(Backend):
         }
         if not options.single_file:
             files.update(cpp_files())
+        # run from the folder it was generated into, built as its header says
+        workdir = options.extra.get("workdir")
+        files[yarpmanager.filename(program)] = yarpmanager.application(
+            program, f"build/{view.executable}" if workdir else view.executable, "", workdir)
         return files
 
     def lower(self, program) -> None:

@@ -6,7 +6,8 @@ The module (``module.py.j2``) holds this bridge's data, the message builder
 and the places for custom code; it runs on the runtime library
 (:mod:`ybg.runtime`: ``core`` and ``yarp_io``), written beside it as
 ``ybgc_runtime/`` or inlined with ``--single-file``
-(:mod:`ybg.backends.runtime`). :mod:`.lower` makes every decision; the
+(:mod:`ybg.backends.runtime`); its yarpmanager application ``<module>.xml``
+beside it (:mod:`ybg.backends.yarpmanager`). :mod:`.lower` makes every decision; the
 templates only print.
 """
 
@@ -17,7 +18,7 @@ from pathlib import Path
 
 import jinja2
 
-from ybg.backends import Backend, RenderOptions, code_filter, indent_line_filter, template_environment
+from ybg.backends import Backend, RenderOptions, code_filter, indent_line_filter, template_environment, yarpmanager
 from ybg.backends.py.lower import LoweringError, lower, py_literal
 from ybg.backends.runtime import python_files, runtime_text_filter, runtime_view
 
@@ -54,6 +55,8 @@ class PyBackend(Backend):
         files = {view.filename: environment().get_template("module.py.j2").render(m=view, rt=rt)}
         if not options.single_file:
             files.update(python_files())
+        files[yarpmanager.filename(program)] = yarpmanager.application(
+            program, "python3", view.filename, options.extra.get("workdir"))
         return files
 
     def lower(self, program) -> None:
