@@ -354,7 +354,8 @@ GOLDEN_CASES = [(k, f) for k, f in HAND_PROGRAMS.items()] + [(p.stem, p) for p i
 def test_golden_files(key, what, update_goldens):
     program = config_program(what, "cpp") if isinstance(what, Path) else what()
     files = render(program)
-    assert set(files) == {f"{program.module}.cpp", "CMakeLists.txt", "ybgc_runtime.hpp", "ybgc_runtime.cpp"}
+    assert set(files) == {f"{program.module}.cpp", "CMakeLists.txt", f"{program.module}.xml", "ybgc_runtime.hpp",
+                          "ybgc_runtime.cpp"}
     files = without_runtime(files)  # the runtime's own golden files: tests/test_runtime.py
     folder = GOLDEN / key
     if update_goldens or os.environ.get("YBG_UPDATE_GOLDENS") == "1":

@@ -388,7 +388,8 @@ def test_config_golden(path, update_goldens):
             golden.write_text(text, encoding="utf-8")
         assert golden.exists(), f"missing golden file {golden}; run pytest --update-goldens"
         assert golden.read_text(encoding="utf-8") == text, f"{golden} differs"
-        compile(text, name, "exec")
+        if name.endswith(".py"):  # not the yarpmanager application beside it
+            compile(text, name, "exec")
 
 
 

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <cerrno>
 #include <charconv>
 #include <chrono>
@@ -34,9 +35,14 @@
 #include <yarp/os/Bottle.h>
 #include <yarp/os/BufferedPort.h>
 #include <yarp/os/Carriers.h>
+#include <yarp/os/ConnectionReader.h>
+#include <yarp/os/ConnectionWriter.h>
 #include <yarp/os/Contact.h>
 #include <yarp/os/ContactStyle.h>
 #include <yarp/os/Network.h>
+#include <yarp/os/PortReader.h>
+#include <yarp/os/ResourceFinder.h>
+#include <yarp/os/RpcServer.h>
 #include <yarp/os/Stamp.h>
 #include <yarp/os/Type.h>
 #include <yarp/os/TypedReaderCallback.h>
@@ -1021,9 +1027,163 @@ private:
 };
 
 
+// --- the RPC port (the convention of YARP modules) ------------------------------------------
+
+/// The totals as they stand: what `stats` answers on the RPC port.
+struct Totals
+{
+    struct PerInput
+    {
+        std::string source;
+        std::uint64_t received, dropped, stale, unused;
+    };
+    std::vector<PerInput> inputs;
+    std::uint64_t published = 0;
+    std::uint64_t skipped = 0;
+    std::uint64_t failures = 0;
+};
+
+/// What `help` answers on the RPC port, one line a command.
+const char* const kRpcHelp[] = {
+    "help: this list",
+    "stats: the totals so far: per input (input SOURCE received N dropped N stale N unused N), "
+    "(published N skipped N failures N), (rate ACHIEVED configured HZ|event-driven)",
+    "quit: stop the module (it closes its ports and exits 0, as on SIGINT)",
+};
+
+/// The rate achieved: messages published per second since the previous
+/// reading (the first: since the meter was made, at start).
+class RateMeter
+{
+public:
+    explicit RateMeter(SteadyClock::time_point now) : then_(now) {}
+
+    double read(SteadyClock::time_point now, std::uint64_t published)
+    {
+        const double seconds = std::chrono::duration<double>(now - then_).count();
+        const double rate = seconds > 0 ? static_cast<double>(published - before_) / seconds : 0.0;
+        then_ = now;
+        before_ = published;
+        return rate;
+    }
+
+private:
+    SteadyClock::time_point then_;
+    std::uint64_t before_ = 0;
+};
+
+/// The module's RPC port `<prefix>/rpc:i`, as YARP modules have one (`yarp
+/// rpc /<module>/rpc:i`): `help`, `stats`, `quit` (also `exit`, `bye`: the
+/// RFModule convention). Each command is answered in YARP's own thread for
+/// the port, the totals read under the bridge's lock; the loop and the
+/// inputs never wait for it.
+class RpcPort : public yarp::os::PortReader
+{
+public:
+    /// `rate`: the configured rate in Hz, 0 for event-driven.
+    RpcPort(std::string name, std::function<Totals()> totals, std::function<void()> quit, double rate) :
+            name(std::move(name)), totals_(std::move(totals)), quit_(std::move(quit)), rate_(rate),
+            meter_(SteadyClock::now())
+    {
+    }
+
+    bool open()
+    {
+        port_.setReader(*this);
+        return port_.open(name);
+    }
+
+    void close()
+    {
+        port_.interrupt();
+        port_.close();
+    }
+
+    bool read(yarp::os::ConnectionReader& connection) override
+    {
+        yarp::os::Bottle command;
+        if (!command.read(connection)) {
+            return false;
+        }
+        yarp::os::Bottle reply;
+        respond(command, reply);
+        yarp::os::ConnectionWriter* writer = connection.getWriter();
+        if (writer != nullptr) {
+            reply.write(*writer);
+        }
+        return true;
+    }
+
+    const std::string name;
+
+private:
+    /// `reply` to `command`; false for an unknown one.
+    bool respond(const yarp::os::Bottle& command, yarp::os::Bottle& reply)
+    {
+        const std::string word = command.size() > 0 ? command.get(0).toString() : std::string();
+        if (word == "help") {
+            reply.addVocab32("many");
+            for (const char* line : kRpcHelp) {
+                reply.addString(line);
+            }
+        } else if (word == "stats") {
+            const Totals totals = totals_();
+            reply.addVocab32("many");
+            for (const Totals::PerInput& in : totals.inputs) {
+                yarp::os::Bottle& item = reply.addList();
+                item.addString("input");
+                item.addString(in.source);
+                for (const auto& [key, n] : {std::pair<const char*, std::uint64_t>{"received", in.received},
+                                             {"dropped", in.dropped}, {"stale", in.stale}, {"unused", in.unused}}) {
+                    item.addString(key);
+                    item.addInt64(static_cast<std::int64_t>(n));
+                }
+            }
+            yarp::os::Bottle& counts = reply.addList();
+            for (const auto& [key, n] : {std::pair<const char*, std::uint64_t>{"published", totals.published},
+                                         {"skipped", totals.skipped}, {"failures", totals.failures}}) {
+                counts.addString(key);
+                counts.addInt64(static_cast<std::int64_t>(n));
+            }
+            yarp::os::Bottle& rate = reply.addList();
+            rate.addString("rate");
+            {
+                std::lock_guard<std::mutex> lock(meterMutex_);
+                rate.addFloat64(meter_.read(SteadyClock::now(), totals.published));
+            }
+            rate.addString("configured");
+            if (rate_ > 0) {
+                rate.addFloat64(rate_);
+            } else {
+                rate.addString("event-driven");
+            }
+        } else if (word == "quit" || word == "exit" || word == "bye") {
+            say("asked to quit on the RPC port");
+            quit_();
+            reply.addVocab32("bye");
+        } else {
+            reply.addString("unknown command '" + word + "'; the commands: help, stats, quit");
+            return false;
+        }
+        return true;
+    }
+
+    std::function<Totals()> totals_;
+    std::function<void()> quit_;
+    const double rate_;
+    std::mutex meterMutex_;
+    RateMeter meter_;
+    yarp::os::RpcServer port_;
+};
+
+/// The YARP config file read from a ResourceFinder context given alone (--context CTX).
+const char* const kDefaultConfigFile = "config.ini";
+
 struct Options
 {
     std::string prefix;
+    std::string from;     // --from FILE
+    std::string context;  // --context CTX
     double rate = 0.0;
     bool hasTimeout = false;
     double timeout = 0.0;
@@ -1078,6 +1238,20 @@ public:
         shared_.wake.notify_all();
     }
 
+    /// The totals as they stand, read under the lock (the RPC port's `stats`).
+    Totals totals()
+    {
+        std::lock_guard<std::mutex> lock(shared_.mutex);
+        Totals out;
+        for (const auto& in : inputs_) {
+            out.inputs.push_back({in->spec.source, in->received, in->dropped, in->stalePeriods, in->unused});
+        }
+        out.published = published_;
+        out.skipped = skippedCycles_;
+        out.failures = buildFailures_;
+        return out;
+    }
+
     /// Opens everything, loops until stopped, closes; the exit status.
     int run()
     {
@@ -1097,6 +1271,14 @@ public:
                 say(std::string("cannot open the output ") + spec_.output.port);
                 status = 1;
             }
+        }
+        RpcPort rpc(
+            options_.prefix + "/rpc:i", [this] { return totals(); }, [this] { requestStop(); },
+            eventDriven_ ? 0.0 : options_.rate);
+        const bool rpcOpen = status == 0 && rpc.open();
+        if (status == 0 && !rpcOpen) {
+            say("cannot open the RPC port " + rpc.name);
+            status = 1;
         }
         std::vector<Link> links;
         for (const auto& in : inputs_) {
@@ -1118,6 +1300,9 @@ public:
             } else {
                 loopFixedRate();
             }
+        }
+        if (rpcOpen) {
+            rpc.close();
         }
         // Closing waits for the peers; one that does not answer (a stalled
         // reader) would hold it: after a deadline the names are unregistered
@@ -1316,7 +1501,9 @@ private:
 
 void usage(const BridgeSpec& spec, const std::string& prog, std::FILE* out, bool full)
 {
-    std::fprintf(out, "usage: %s [--prefix P] [--rate HZ] [--timeout S] [--verbose] [--help]\n", prog.c_str());
+    std::fprintf(out,
+                 "usage: %s [--name P] [--rate HZ] [--timeout S] [--verbose] [--from FILE] [--context CTX] [--help]\n",
+                 prog.c_str());
     if (!full) {
         return;
     }
@@ -1326,13 +1513,18 @@ void usage(const BridgeSpec& spec, const std::string& prog, std::FILE* out, bool
     }
     std::fprintf(out,
                  "\noptions:\n"
-                 "  --prefix P    prefix of the module's own port names (default: %s)\n"
+                 "  --name P      prefix of the module's own port names, as YARP modules name it (default: %s)\n"
+                 "  --prefix P    the same as --name\n"
                  "  --rate HZ     fixed output rate in Hz, 0 for event-driven (default: %s)\n"
                  "  --timeout S   freshness timeout of every input in seconds (default: the config's)\n"
                  "  --verbose     print every value after conversion, for every mux\n"
+                 "  --from FILE   read these options (name, prefix, rate, timeout, verbose) from a YARP\n"
+                 "                config file, found by YARP's ResourceFinder; the command line wins\n"
+                 "  --context CTX the ResourceFinder's context to look for the file in (alone: %s)\n"
                  "  --help        print this help and exit\n"
                  "\nGenerated by ybgc from %s.\n",
-                 spec.defaultPrefix, spec.rate > 0 ? formatNumber(spec.rate).c_str() : "event-driven", spec.config);
+                 spec.defaultPrefix, spec.rate > 0 ? formatNumber(spec.rate).c_str() : "event-driven",
+                 kDefaultConfigFile, spec.config);
 }
 
 bool parseNumber(const std::string& text, double& out)
@@ -1346,20 +1538,16 @@ bool parseNumber(const std::string& text, double& out)
     return errno == 0 && end == text.c_str() + text.size() && std::isfinite(out);
 }
 
-/// Parses argv into `opt`: -1 to go on, else the exit status (0 after --help).
-int parseOptions(const BridgeSpec& spec, int argc, char* argv[], Options& opt)
+/// Parses `args` into `opt` (from the config's defaults): -1 to go on, 0
+/// after --help, else `why` says what is wrong.
+int parseArgs(const BridgeSpec& spec, const std::string& prog, const std::vector<std::string>& args, Options& opt,
+              std::string& why)
 {
-    std::string prog = argc > 0 && argv[0][0] != '\0' ? argv[0] : spec.module;
-    prog = prog.substr(prog.rfind('/') + 1);
+    opt = Options();
     opt.prefix = spec.defaultPrefix;
     opt.rate = spec.rate;
-    auto fail = [&](const std::string& text) {
-        usage(spec, prog, stderr, false);
-        std::fprintf(stderr, "%s: error: %s\n", prog.c_str(), text.c_str());
-        return 2;
-    };
-    for (int k = 1; k < argc; ++k) {
-        std::string arg = argv[k];
+    for (std::size_t k = 0; k < args.size(); ++k) {
+        std::string arg = args[k];
         std::string value;
         bool inlineValue = false;
         const std::size_t eq = arg.find('=');
@@ -1374,37 +1562,127 @@ int parseOptions(const BridgeSpec& spec, int argc, char* argv[], Options& opt)
         }
         if (arg == "--verbose") {
             if (inlineValue) {
-                return fail("--verbose takes no value");
+                why = "--verbose takes no value";
+                return 2;
             }
             opt.verbose = true;
             continue;
         }
-        if (arg != "--prefix" && arg != "--rate" && arg != "--timeout") {
-            return fail("unknown option " + arg);
+        if (arg != "--prefix" && arg != "--name" && arg != "--rate" && arg != "--timeout" && arg != "--from"
+            && arg != "--context") {
+            why = "unknown option " + arg;
+            return 2;
         }
         if (!inlineValue) {
-            if (k + 1 >= argc) {
-                return fail(arg + " needs a value");
+            if (k + 1 >= args.size()) {
+                why = arg + " needs a value";
+                return 2;
             }
-            value = argv[++k];
+            value = args[++k];
         }
         if (arg == "--prefix") {
             if (value.empty() || value[0] != '/') {
-                return fail("--prefix must start with /");
+                why = "--prefix must start with /";
+                return 2;
             }
             opt.prefix = value;
+        } else if (arg == "--name") {
+            opt.prefix = value.empty() || value[0] != '/' ? "/" + value : value;  // `--name foo`, as YARP modules take it
+        } else if (arg == "--from") {
+            opt.from = value;
+        } else if (arg == "--context") {
+            opt.context = value;
         } else if (arg == "--rate") {
             if (!parseNumber(value, opt.rate) || opt.rate < 0) {
-                return fail("--rate must be 0 (event-driven) or positive");
+                why = "--rate must be 0 (event-driven) or positive";
+                return 2;
             }
         } else {
             if (!parseNumber(value, opt.timeout) || opt.timeout <= 0) {
-                return fail("--timeout must be positive");
+                why = "--timeout must be positive";
+                return 2;
             }
             opt.hasTimeout = true;
         }
     }
-    if (opt.prefix.size() > 1 && opt.prefix.back() == '/') {
+    return -1;
+}
+
+/// The options in the YARP config file `--from path` / `--context context`
+/// (alone: its kDefaultConfigFile), found by YARP's ResourceFinder as every
+/// YARP module finds its own, appended to `out` as command-line arguments;
+/// false (`why` says it) when there is no such file.
+bool readConfigFile(const BridgeSpec& spec, const std::string& path, const std::string& context,
+                    std::vector<std::string>& out, std::string& why)
+{
+    yarp::os::ResourceFinder finder;
+    finder.setQuiet(true);
+    finder.setDefaultConfigFile(kDefaultConfigFile);
+    std::vector<std::string> args{spec.module};
+    if (!context.empty()) {
+        args.insert(args.end(), {"--context", context});
+    }
+    if (!path.empty()) {
+        args.insert(args.end(), {"--from", path});
+    }
+    std::vector<char*> argv;
+    for (std::string& arg : args) {
+        argv.push_back(&arg[0]);
+    }
+    const bool configured = finder.configure(static_cast<int>(argv.size()), argv.data());
+    const std::string found = configured ? finder.findFile("from") : std::string();
+    if (found.empty()) {
+        why = "YARP's ResourceFinder finds no config file " + (path.empty() ? std::string(kDefaultConfigFile) : path)
+            + (context.empty() ? std::string() : " in the context " + context);
+        return false;
+    }
+    for (const char* key : {"name", "prefix", "rate", "timeout"}) {
+        if (finder.check(key)) {
+            out.push_back(std::string("--") + key);
+            out.push_back(finder.find(key).toString());
+        }
+    }
+    if (finder.check("verbose")) {
+        std::string flag = finder.find("verbose").toString();
+        std::transform(flag.begin(), flag.end(), flag.begin(), [](unsigned char c) { return std::tolower(c); });
+        if (flag == "" || flag == "true" || flag == "1") {
+            out.push_back("--verbose");
+        } else if (flag != "false" && flag != "0") {
+            why = found + ": verbose must be true or false";
+            return false;
+        }
+    }
+    return true;
+}
+
+/// Parses argv into `opt`: -1 to go on, else the exit status (0 after
+/// --help). `--from` / `--context`: the options in that YARP config file
+/// come first, so that the command line wins over the file and the file
+/// over the config.
+int parseOptions(const BridgeSpec& spec, int argc, char* argv[], Options& opt)
+{
+    std::string prog = argc > 0 && argv[0][0] != '\0' ? argv[0] : spec.module;
+    prog = prog.substr(prog.rfind('/') + 1);
+    auto fail = [&](const std::string& text) {
+        usage(spec, prog, stderr, false);
+        std::fprintf(stderr, "%s: error: %s\n", prog.c_str(), text.c_str());
+        return 2;
+    };
+    std::vector<std::string> args(argv + (argc > 0 ? 1 : 0), argv + argc);
+    std::string why;
+    int status = parseArgs(spec, prog, args, opt, why);
+    if (status < 0 && (!opt.from.empty() || !opt.context.empty())) {
+        std::vector<std::string> withFile;
+        if (!readConfigFile(spec, opt.from, opt.context, withFile, why)) {
+            return fail(why);
+        }
+        withFile.insert(withFile.end(), args.begin(), args.end());
+        status = parseArgs(spec, prog, withFile, opt, why);
+    }
+    if (status >= 0) {
+        return status == 0 ? 0 : fail(why);
+    }
+    while (opt.prefix.size() > 1 && opt.prefix.back() == '/') {
         opt.prefix.pop_back();
     }
     return -1;

@@ -1511,8 +1511,8 @@ void usage(const BridgeSpec& spec, const std::string& prog, std::FILE* out, bool
     }
     std::fprintf(out,
                  "\noptions:\n"
-                 "  --name P, --prefix P  prefix of the module's own port names, as YARP modules name it\n"
-                 "                        (--prefix: the same; default: %s)\n"
+                 "  --name P      prefix of the module's own port names, as YARP modules name it (default: %s)\n"
+                 "  --prefix P    the same as --name\n"
                  "  --rate HZ     fixed output rate in Hz, 0 for event-driven (default: %s)\n"
                  "  --timeout S   freshness timeout of every input in seconds (default: the config's)\n"
                  "  --verbose     print every value after conversion, for every mux\n"
@@ -1578,8 +1578,14 @@ int parseArgs(const BridgeSpec& spec, const std::string& prog, const std::vector
             }
             value = args[++k];
         }
-        if (arg == "--prefix" || arg == "--name") {
+        if (arg == "--prefix") {
+            if (value.empty() || value[0] != '/') {
+                why = "--prefix must start with /";
+                return 2;
+            }
             opt.prefix = value;
+        } else if (arg == "--name") {
+            opt.prefix = value.empty() || value[0] != '/' ? "/" + value : value;  // `--name foo`, as YARP modules take it
         } else if (arg == "--from") {
             opt.from = value;
         } else if (arg == "--context") {
@@ -1673,9 +1679,6 @@ int parseOptions(const BridgeSpec& spec, int argc, char* argv[], Options& opt)
     }
     if (status >= 0) {
         return status == 0 ? 0 : fail(why);
-    }
-    if (opt.prefix.empty() || opt.prefix[0] != '/') {
-        opt.prefix = "/" + opt.prefix;  // `--name foo`, as YARP modules take it
     }
     while (opt.prefix.size() > 1 && opt.prefix.back() == '/') {
         opt.prefix.pop_back();

@@ -14,7 +14,8 @@ import xmlrpc.client
 import yarp
 
 from .core import _FLOAT_TYPES, _INT_TYPES, BACKLOG, Bridge, InputState  # ybgc:runtime-import
-from .core import Array, Msg, Scalar, Splice, parse_options  # ybgc:runtime-import
+from .core import DEFAULT_CONFIG_FILE, Array, Msg, RateMeter, Scalar, Splice, parse_options  # ybgc:runtime-import
+from .core import truthy  # ybgc:runtime-import
 
 # --- reading and checking input Bottles --------------------------------------
 
@@ -354,7 +355,10 @@ def ros1_problem():
 
 class YarpBridge(Bridge):
     """The bridge on YARP: its inputs are YARP ports (or ROS 1 topics
-    through YARP); it opens them, watches the connections and closes them."""
+    through YARP); it opens them, watches the connections and closes them;
+    its RPC port answers `help`, `stats` and `quit`."""
+
+    rpc = None
 
     def make_input(self, mux, spec, local, timeout):
         return Input(self, spec, local, timeout)
@@ -382,6 +386,10 @@ class YarpBridge(Bridge):
                 opened.append(inp)
             if not self.output.open():
                 self.log("cannot open the output %s" % self.output.port_name)
+                return 1
+            self.rpc = RpcPort(self, self.prefix + "/rpc:i")
+            if not self.rpc.open():
+                self.log("cannot open the RPC port %s" % self.rpc.name)
                 return 1
             pairs = [(i.source, i.local, i.port.getInputCount) for i in self.inputs
                      if i.spec.kind == "yarp"]
@@ -411,8 +419,13 @@ class YarpBridge(Bridge):
         watcher_done = self.watcher.stop() if self.watcher is not None else True
         names = [inp.local for inp in opened] + [self.output.port_name]
         closed = []
+        if self.rpc is not None:
+            names.append(self.rpc.name)
 
         def close_all():
+            if self.rpc is not None:
+                self.rpc.close()
+                closed.append(self.rpc.name)
             # interrupted first, so that no new Bottle comes in; closed once
             # YARP's reader threads have handed every Bottle they hold to the
             # callbacks (which return at once now): YARP 3.12's bindings keep
@@ -613,8 +626,137 @@ class _QuickTransport(xmlrpc.client.Transport):
         return connection
 
 
+# --- the RPC port and the ResourceFinder (YARP modules' conventions) -------------------
+
+#: what `help` answers on the RPC port, one line a command
+RPC_HELP = (
+    "help: this list",
+    "stats: the totals so far: per input (input SOURCE received N dropped N stale N unused N), "
+    "(published N skipped N failures N), (rate ACHIEVED configured HZ|event-driven)",
+    "quit: stop the module (it closes its ports and exits 0, as on SIGINT)",
+)
+
+
+def rpc_respond(command, reply, bridge, meter):
+    """``reply`` to an RPC ``command`` (Bottles): `help`, `stats`, `quit`
+    (also `exit`, `bye`: the RFModule convention). False for an unknown one."""
+    word = command.get(0).toString() if command.size() > 0 else ""
+    if word == "help":
+        reply.addVocab32("many")
+        for line in RPC_HELP:
+            reply.addString(line)
+    elif word == "stats":
+        inputs, published, skipped, failures = bridge.totals()
+        reply.addVocab32("many")
+        for source, received, dropped, stale, unused in inputs:
+            item = reply.addList()
+            item.addString("input")
+            item.addString(source)
+            for key, n in (("received", received), ("dropped", dropped), ("stale", stale), ("unused", unused)):
+                item.addString(key)
+                item.addInt64(n)
+        item = reply.addList()
+        for key, n in (("published", published), ("skipped", skipped), ("failures", failures)):
+            item.addString(key)
+            item.addInt64(n)
+        item = reply.addList()
+        item.addString("rate")
+        item.addFloat64(meter.read(time.monotonic(), published))
+        item.addString("configured")
+        if bridge.rate is None:
+            item.addString("event-driven")
+        else:
+            item.addFloat64(bridge.rate)
+    elif word in ("quit", "exit", "bye"):
+        bridge.log("asked to quit on the RPC port")
+        bridge.request_stop()
+        reply.addVocab32("bye")
+    else:
+        reply.addString("unknown command %r; the commands: help, stats, quit" % word)
+        return False
+    return True
+
+
+class RpcPort(yarp.PortReader):
+    """The module's RPC port ``<prefix>/rpc:i``, as YARP modules have one
+    (`yarp rpc /<module>/rpc:i`): each command is answered in YARP's own
+    thread for the port, reading the totals under the bridge's lock; the
+    loop and the inputs never wait for it."""
+
+    def __init__(self, bridge, name):
+        yarp.PortReader.__init__(self)
+        self.bridge = bridge
+        self.name = name
+        self.meter = RateMeter(time.monotonic())
+        self.port = yarp.RpcServer()
+        self.busy = False
+
+    def open(self):
+        self.port.setReader(self)
+        return self.port.open(self.name)
+
+    def read(self, connection):
+        self.busy = True
+        try:
+            command = yarp.Bottle()
+            if self.bridge.stopping or not command.read(connection):
+                return False
+            reply = yarp.Bottle()
+            rpc_respond(command, reply, self.bridge, self.meter)
+            writer = connection.getWriter()
+            if writer is not None:
+                reply.write(writer)
+            return True
+        except Exception as e:  # never a traceback out of YARP's thread
+            self.bridge.log("RPC port: %s: %s" % (type(e).__name__, e))
+            return False
+        finally:
+            self.busy = False
+
+    def close(self):
+        """Interrupted, then closed once no command is being answered (a
+        binding call keeps the interpreter lock: closing while YARP's thread
+        waits for it to answer would deadlock)."""
+        self.port.interrupt()
+        end = time.monotonic() + 0.3
+        while self.busy and time.monotonic() < end:
+            time.sleep(0.005)
+        self.port.close()
+
+
+def read_config_file(spec, path, context):
+    """The options in the YARP config file ``--from path`` / ``--context
+    context`` (alone: its DEFAULT_CONFIG_FILE), found by YARP's
+    ResourceFinder as every YARP module finds its own, as command-line
+    arguments; ValueError when there is no such file."""
+    finder = yarp.ResourceFinder()
+    finder.setQuiet(True)
+    finder.setDefaultConfigFile(DEFAULT_CONFIG_FILE)
+    args = [spec.module]
+    if context:
+        args += ["--context", context]
+    if path:
+        args += ["--from", path]
+    found = finder.findFile("from") if finder.configure(args) else ""
+    if not found:
+        raise ValueError("YARP's ResourceFinder finds no config file %s%s" % (
+            path or DEFAULT_CONFIG_FILE, " in the context " + context if context else ""))
+    out = []
+    for key in ("name", "prefix", "rate", "timeout"):
+        if finder.check(key):
+            out += ["--" + key, finder.find(key).toString()]
+    if finder.check("verbose"):
+        flag = truthy(finder.find("verbose").toString())
+        if flag is None:
+            raise ValueError("%s: verbose must be true or false" % found)
+        if flag:
+            out.append("--verbose")
+    return out
+
+
 def run(spec, argv, default_prefix, make_output, build, compute):
     """Parse the command line, run the bridge until SIGINT/SIGTERM."""
-    options = parse_options(spec, argv, default_prefix)
+    options = parse_options(spec, argv, default_prefix,
+                            lambda path, context: read_config_file(spec, path, context))
     bridge = YarpBridge(spec, options, make_output(), build, compute)
     return bridge.run()
