@@ -17,7 +17,7 @@ import pytest
 
 from generated import generate
 from middleware import Proc, YarpProducer, YarpReader
-from test_rpc import rpc, stats, wait_stats
+from test_rpc import rpc, wait_stats
 from test_yarp_versions import build_cpp
 
 NAME = "app_bridge"
