@@ -214,7 +214,8 @@ class CppModules(Launcher):
 
 class TestCppBehaviour(BridgeBehaviour, Ros1Behaviour, ModuleCommandLine):
     backend = "cpp"
-    help_options = ("--prefix P", "--rate HZ", "--timeout S", "--verbose", "--help")
+    help_options = ("--name P", "--prefix P", "--rate HZ", "--timeout S", "--verbose", "--from FILE", "--context CTX",
+                    "--help")
 
     @pytest.fixture
     def modules(self, builds) -> CppModules:

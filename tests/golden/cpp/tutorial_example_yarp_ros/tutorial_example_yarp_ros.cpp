@@ -9,8 +9,9 @@
 //     cmake -S . -B build -DCMAKE_PREFIX_PATH=<YARP install prefix>
 //     cmake --build build
 // Run it with the YARP name server up:
-//     ./build/tutorial_example_yarp_ros [--prefix P] [--rate HZ] [--timeout S] [--verbose]
-// --help prints what it reads and publishes. Behaviour: docs/runtime.md of ybgc.
+//     ./build/tutorial_example_yarp_ros [--name P] [--rate HZ] [--timeout S] [--verbose] [--from FILE] [--context CTX]
+// --help prints what it reads and publishes. Its RPC port (`yarp rpc <name>/rpc:i`)
+// answers help, stats and quit; yarpmanager runs it from the .xml beside it. Behaviour: docs/runtime.md of ybgc.
 //
 // It runs on ybgc's runtime library, ybgc_runtime.hpp and
 // ybgc_runtime.cpp beside it (namespace ybgc; the CMakeLists.txt builds both).

@@ -4,9 +4,10 @@
 # converts the values and publishes one message built from them.
 # Run it with the YARP name server up:
 #
-#     python3 tutorial_example_yarp_ros.py [--prefix P] [--rate HZ] [--timeout S] [--verbose]
+#     python3 tutorial_example_yarp_ros.py [--name P] [--rate HZ] [--timeout S] [--verbose] [--from FILE] [--context CTX]
 #
-# --help prints what this bridge reads and publishes. It runs on ybgc's
+# --help prints what this bridge reads and publishes; its RPC port (`yarp rpc <name>/rpc:i`)
+# answers help, stats and quit; yarpmanager runs it from the .xml beside it. It runs on ybgc's
 # runtime library (the folder ybgc_runtime/ beside it); behaviour: docs/runtime.md.
 
 import os
