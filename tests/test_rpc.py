@@ -22,7 +22,7 @@ import pytest
 
 from generated import generate
 import middleware
-from middleware import VENV_PYTHON, Proc, YarpProducer, YarpServer
+from middleware import VENV_PYTHON, Proc, Ros2Domain, Ros2Publisher, YarpProducer, YarpServer
 from test_yarp_versions import build_cpp, stop_within, wait_log
 
 NAME = "rpc_bridge"
@@ -242,3 +242,49 @@ def test_stats_rate_and_config_file_flags():
     assert stop.value.code == 2
     with pytest.raises(SystemExit):
         core.parse_options(spec, ["--prefix", "x"], "/m")
+
+
+ROS2_CONFIG = """\
+[module]
+name = rpc_ros2
+
+[output]
+port = /rpc_ros2/out:o
+
+[mux goal]
+topics = /rpc_goal (geometry_msgs/PointStamped point)
+via = ros2
+
+[message]
+values = [goal]
+"""
+
+
+def test_ros2_node_rpc_port(tmp_path):
+    """The ros2 node runs on the same YARP bridge, so a ROS 2 -> YARP node
+    (a YARP module to its YARP consumers) has the RPC port too: `stats`
+    counts the ROS 2 messages taken and the Bottles written, `quit` stops it
+    with exit 0. (On one YARP: the port is the Python runtime's, tested on
+    every YARP above.)"""
+    out = generate(tmp_path, ROS2_CONFIG, "rpc_ros2", "ros2")
+    (path,) = out.glob("*_node.py")
+    port = "/rpc_ros2/rpc:i"
+    with YarpServer() as server, Ros2Domain() as domain:
+        env = dict(server.env, **domain.ros_env)
+        for key in ("ROS_HOME", "ROS_LOG_DIR"):
+            env[key] = domain.env[key]
+        with Proc([VENV_PYTHON, path], env=env, name="rpc_ros2") as node, \
+                Ros2Publisher(env, "/rpc_goal", "geometry_msgs/msg/PointStamped") as pub:
+            wait_log(node, r"publishing")
+            server.wait_port(port)
+            pub.wait_matched(1, timeout=60)
+            wait_log(node, r"/rpc_goal: 1 publisher")
+            for k in range(5):
+                pub.publish({"point": {"x": float(k), "y": 0.0, "z": 1.0}})
+            got = wait_stats(server, port, lambda s: s["published"][0] == 5)
+            assert got["inputs"] == {"/rpc_goal": (5, 0, 0, 0)}, got["text"]
+            assert "bye" in rpc(server, port, "quit")
+            rc = node.wait_exit(timeout=10)
+            log = node.log_text()
+    assert rc == 0, log[-3000:]
+    assert "asked to quit on the RPC port" in log and "published 5 messages" in log, log[-3000:]
