@@ -42,8 +42,8 @@ want_apt() {
 if [ -z "${YBG_SETUP_MINIMAL:-}" ]; then
   want_apt swig libace-dev cmake g++ make
   # ROS 1 (Noetic-era, Debian) for YARP's own ROS 1 bridge (to_ros = true).
-  want_apt ros-core python3-rospy python3-sensor-msgs python3-geometry-msgs \
-           python3-std-msgs ros-sensor-msgs ros-std-msgs ros-geometry-msgs
+  want_apt ros-core python3-rospy python3-sensor-msgs python3-geometry-msgs python3-tf2-msgs \
+           python3-std-msgs ros-sensor-msgs ros-std-msgs ros-geometry-msgs ros-tf2-msgs
 fi
 if [ ${#need_apt[@]} -gt 0 ]; then
   log "apt-get install ${need_apt[*]}"
