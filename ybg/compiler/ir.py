@@ -256,7 +256,18 @@ class Default:
     value: Union[str, int, float, bool, tuple, None] = None
 
 
-Source = Union[Literal, MuxRef, Counter, Timestamp, Seconds, Default, "Struct"]
+@dataclass(frozen=True)
+class MessageArray:
+    """An array of messages of ``msg_type`` with as many elements as the
+    config gives (``transforms[0].child_frame_id = ...``; a fixed-size array
+    has its size). Each element is a :class:`Struct`, or a :class:`MuxRef`
+    filling the element's numeric fields (``points[0] = goal``)."""
+
+    elements: tuple[Union["Struct", MuxRef], ...]
+    msg_type: str
+
+
+Source = Union[Literal, MuxRef, Counter, Timestamp, Seconds, Default, "Struct", MessageArray]
 
 
 @dataclass(frozen=True)
@@ -378,6 +389,7 @@ _SOURCE_KINDS = {
     "seconds": Seconds,
     "default": Default,
     "struct": Struct,
+    "message_array": MessageArray,
 }
 _KIND_OF = {cls: kind for kind, cls in _SOURCE_KINDS.items()}
 
@@ -415,6 +427,8 @@ def _source(d: dict[str, Any]) -> Any:
     kind = d["kind"]
     if kind == "struct":
         return _struct(d)
+    if kind == "message_array":
+        return MessageArray(_tuple(d["elements"], _source), d["msg_type"])
     if kind == "literal":
         return Literal(tuple(d["values"]), d["element_type"], d["is_list"])
     if kind == "mux":
@@ -480,7 +494,7 @@ def from_json(text: str) -> Program:
 
 __all__ = [
     "ElementGroup", "Input", "Converter", "Mux", "TypeRef", "Literal", "MuxRef",
-    "Counter", "Timestamp", "Seconds", "Default", "Field", "Struct", "QoS",
+    "Counter", "Timestamp", "Seconds", "Default", "Field", "Struct", "MessageArray", "QoS",
     "DEFAULT_QUEUE", "Output", "Timing", "Policy", "Program", "to_dict", "to_json", "from_dict",
     "from_json", "IR_VERSION", "NUMERIC_TYPES", "INTEGER_TYPES", "FLOAT_TYPES",
     "ELEMENT_TYPES",

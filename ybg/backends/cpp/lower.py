@@ -209,7 +209,7 @@ class _Builder:
         try:
             self._field(f, parent, depth, indent)
         except LoweringError as e:
-            raise e.at("field", ".".join(self.path))
+            raise e.at("field", ".".join(self.path).replace(".[", "["))
         finally:
             self.path.pop()
 
@@ -224,7 +224,22 @@ class _Builder:
             self.struct(src, var, depth + 1, indent + 1)
             self.emit(indent, "}")
             return
+        if isinstance(src, ir.MessageArray):
+            self.message_array(src, parent, depth, indent)
+            return
         self.source(src, f.type, parent, depth, indent)
+
+    def message_array(self, src: ir.MessageArray, parent: str, depth: int, indent: int) -> None:
+        """A list holding one nested list per element."""
+        if not src.elements:
+            self.emit(indent, f"{parent}.addList();")
+            return
+        var = f"b{depth + 1}"
+        self.emit(indent, "{")
+        self.emit(indent + 1, f"yarp::os::Bottle& {var} = {parent}.addList();")
+        for k, element in enumerate(src.elements):
+            self.field(ir.Field(f"[{k}]", element, ir.TypeRef(src.msg_type)), var, depth + 1, indent + 1)
+        self.emit(indent, "}")
 
     def describe(self, src) -> str:
         if isinstance(src, ir.Counter):

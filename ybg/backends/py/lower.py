@@ -200,7 +200,7 @@ class _Builder:
         try:
             self._field(f, indent)
         except LoweringError as e:
-            raise e.at("field", ".".join(self.path))
+            raise e.at("field", ".".join(self.path).replace(".[", "["))
         finally:
             self.path.pop()
 
@@ -211,7 +211,27 @@ class _Builder:
             msg_type = src.msg_type or (f.type.base if f.type is not None and f.type.is_message else None)
             self.struct(src, msg_type, indent, head, "),")
             return
+        if isinstance(src, ir.MessageArray):
+            self.message_array(src, indent, head)
+            return
         self.emit(indent, head + self.expr(src, f.type) + "),")
+
+    def message_array(self, src: ir.MessageArray, indent: int, head: str) -> None:
+        """An Array of messages: each element a Msg."""
+        if not src.elements:
+            self.emit(indent, f"{head}Array({py_literal(src.msg_type)}, ())),")
+            return
+        self.emit(indent, f"{head}Array({py_literal(src.msg_type)}, (")
+        for k, element in enumerate(src.elements):
+            self.path.append(f"[{k}]")
+            try:
+                if isinstance(element, ir.Struct):
+                    self.struct(element, src.msg_type, indent + 1, "", ",")
+                else:
+                    self.emit(indent + 1, self.expr(element, ir.TypeRef(src.msg_type)) + ",")
+            finally:
+                self.path.pop()
+        self.emit(indent, "))),")
 
     def expr(self, src, typ: ir.TypeRef | None) -> str:
         if isinstance(src, ir.Literal):

@@ -246,6 +246,7 @@ class _MessageBuilder:
         self.program = program
         self.lines: list[Line] = []
         self.muxes: list[str] = []
+        self.element_types: list[str] = []  # of the arrays of messages, to import
 
     def emit(self, text: str) -> None:
         self.lines.append(Line(1, text))
@@ -286,7 +287,30 @@ class _MessageBuilder:
         if isinstance(src, ir.MuxRef) and src.into_fields is not None:
             self.into_fields(src, typ, _attr(target, f.name), name)
             return
+        if isinstance(src, ir.MessageArray):
+            self.message_array(src, typ, target, f.name, name)
+            return
         self.emit(_assign(target, f.name, self.value(src, typ, name)))
+
+    def message_array(self, src: ir.MessageArray, typ: ir.TypeRef, target: str, field: str, name: str) -> None:
+        """One new message per element, then each element's fields."""
+        if typ.array is None or not typ.is_message or typ.base != src.msg_type:
+            raise LoweringError(f"field {name}: an array of {src.msg_type} for a {typ} field")
+        _check_size(typ, len(src.elements), f"field {name}")
+        if src.msg_type not in self.element_types:
+            self.element_types.append(src.msg_type)
+        cls = msg_alias(src.msg_type)
+        n = len(src.elements)
+        self.emit(_assign(target, field, f"[{cls}() for _ in range({n:d})]" if n else "[]"))
+        element_type = ir.TypeRef(src.msg_type)
+        for k, element in enumerate(src.elements):
+            item, where = f"{_attr(target, field)}[{k:d}]", f"{name}[{k:d}]"
+            if isinstance(element, ir.Struct):
+                self.fields(element, item, where + ".")
+            elif isinstance(element, ir.MuxRef) and element.into_fields is not None:
+                self.into_fields(element, element_type, item, where)
+            else:
+                raise LoweringError(f"field {where}: an element is a message or a mux filling one")
 
     def into_fields(self, ref: ir.MuxRef, typ: ir.TypeRef, target: str, name: str) -> None:
         if typ.array is not None or not typ.is_message:
@@ -507,6 +531,9 @@ def lower(program: ir.Program) -> NodeView:
             qos=QosView(RELIABILITY[qos.reliability], DURABILITY[qos.durability], int(qos.depth)))
         mb = _MessageBuilder(program)
         mb.message(program.message, alias)
+        for element_type in mb.element_types:
+            pkg, name = split_type(element_type)
+            imports[msg_alias(element_type)] = MsgImport(f"{pkg}.msg", name, msg_alias(element_type))
         builder, needed = tuple(mb.lines), tuple(mb.muxes)
         desc = f"{ros2_type_name(msg_type)} on the ROS 2 topic {out.name}"
     elif out.kind == "yarp":

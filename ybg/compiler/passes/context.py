@@ -17,8 +17,9 @@ from ybg.compiler.diagnostics import Sink
 from ybg.compiler.msgtypes import MsgDef, TypeStore, load_store
 from ybg.compiler.options import Options
 
-#: a field of [message] as a path: ``header.frame_id`` is ``("header", "frame_id")``
-FieldPath = tuple[str, ...]
+#: a field of [message] as a path: ``header.frame_id`` is ``("header", "frame_id")``,
+#: ``transforms[0].child_frame_id`` is ``("transforms", 0, "child_frame_id")``
+FieldPath = tuple["str | int", ...]
 
 
 @dataclass
