@@ -110,6 +110,12 @@ if ! "$vpy" -c 'import rclpy, sensor_msgs.msg, std_msgs.msg, geometry_msgs.msg' 
   log "installing ROS 2 rclpy wheels with Fast DDS"
   pip_install ros-rclpy ros-sensor-msgs ros-std-msgs ros-geometry-msgs ros-rmw-fastrtps-cpp
 fi
+# Message packages with arrays of messages, for the tests of those
+# (visualization_msgs/MarkerArray, trajectory_msgs/JointTrajectory).
+if ! "$vpy" -c 'import trajectory_msgs.msg, visualization_msgs.msg' 2>/dev/null; then
+  log "installing the ROS 2 trajectory_msgs and visualization_msgs wheels"
+  pip_install ros-trajectory-msgs ros-visualization-msgs
+fi
 # The ROS 2 wheels pull `lark-parser` 0.12 (for rosidl's code generators, not
 # needed at run time), which installs into the same `lark` folder as lark 1.x
 # and overwrites it. ybgc needs lark 1.x: remove both, put lark 1.x back.

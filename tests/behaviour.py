@@ -42,7 +42,7 @@ from middleware import (ROS1_PYTHON, Proc, Ros2Publisher, RospySubscriber, YarpP
                         YarpReader)
 from ybg.compiler import ir
 from ybg.compiler.ir import (Converter, Counter, Default, ElementGroup, Field, Input, Literal, Mux,
-                             MuxRef, Output, Policy, Program, Seconds, Struct, Timestamp, Timing,
+                             MessageArray, MuxRef, Output, Policy, Program, Seconds, Struct, Timestamp, Timing,
                              TypeRef)
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -246,6 +246,9 @@ def expected(program: Program, muxes: dict[str, list], named: bool,
     def source(src, f: Field):
         if isinstance(src, Struct):
             return struct(src)
+        if isinstance(src, MessageArray):  # each element: a message, or a mux filling its numbers
+            element = Field("", None, TypeRef(src.msg_type))
+            return [source(e, element) for e in src.elements]
         if isinstance(src, Literal):
             vals = [int(v) if isinstance(v, bool) and not named else v for v in src.values]
             return typed(f, vals if src.is_list else vals[0])

@@ -279,7 +279,7 @@ def field_span(doc: "Document", path: str) -> "Span | None":
         e = entries.get(".".join(parts[:k]))
         if e is not None:
             return e.span
-    inside = [e for key, e in entries.items() if key.startswith(path + ".")]
+    inside = [e for key, e in entries.items() if key.startswith((path + ".", path + "["))]
     return inside[0].span if inside else sec.span
 
 

@@ -218,6 +218,12 @@ class _Builder:
 
     def message_array(self, src: ir.MessageArray, indent: int, head: str) -> None:
         """An Array of messages: each element a Msg."""
+        if self.program.output.kind == "ros1":
+            raise LoweringError(
+                "an array of messages cannot reach ROS 1 from Python: YARP translates a Bottle to "
+                "ROS 1 by a map that has no arrays of messages, and YARP's Python bindings cannot "
+                "promise the type that would let the module send the message serialized itself "
+                "(the cpp backend does)")
         if not src.elements:
             self.emit(indent, f"{head}Array({py_literal(src.msg_type)}, ())),")
             return
