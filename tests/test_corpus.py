@@ -60,7 +60,10 @@ def test_invalid_config_exact_code_and_position(path: Path):
     code, line, col = m.group(1), int(m.group(2)), int(m.group(3))
     backend = re.search(r"# backend: (\S+)", head)
     yarp = re.search(r"# yarp: (\S+)", head)
-    result = compile_path(path, Options(yarp=yarp.group(1)) if yarp else None)
+    msg_path = re.search(r"# msg-path: (\S+)", head)  # relative to tests/
+    options = Options(yarp=yarp.group(1) if yarp else None,
+                      msg_path=(str(path.parent.parent / msg_path.group(1)),) if msg_path else ())
+    result = compile_path(path, options)
     if backend:
         result = check_result(result, backend.group(1))
     shown = [d for d in result.diagnostics if d.severity.value != "note" or code.startswith("N")]
