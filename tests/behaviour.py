@@ -207,6 +207,8 @@ def _default(typ: TypeRef, named: bool):
     if typ.base in ("time", "duration"):
         return {"secs": 0, "nsecs": 0} if named else [0, 0]
     v = 0.0 if typ.base in ir.FLOAT_TYPES else ("" if typ.base == "string" else 0)
+    if typ.base == "bool" and named:
+        v = False
     return [v] * typ.size if typ.array == "fixed" else v
 
 

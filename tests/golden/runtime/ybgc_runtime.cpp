@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <deque>
 #include <functional>
 #include <initializer_list>
@@ -949,6 +950,78 @@ void withdrawFromRosMaster(const std::string& port, bool publisher)
     yarp::os::Network::write(master, cmd, reply, style);
 }
 
+// --- ROS 1 serialization ------------------------------------------------------------------
+
+namespace {
+
+void putLittleEndian(std::string& out, std::uint64_t x, int bytes)
+{
+    for (int k = 0; k < bytes; ++k) {
+        out.push_back(static_cast<char>((x >> (8 * k)) & 0xff));
+    }
+}
+
+bool ros1Items(const yarp::os::Bottle& b, const char*& shape, std::string& out);
+
+bool ros1Value(const yarp::os::Value& v, const char*& shape, std::string& out)
+{
+    if (v.isList()) {
+        const char kind = *shape;
+        if (kind != 's' && kind != 'f') {
+            return false;
+        }
+        ++shape;
+        if (kind == 's') {
+            putLittleEndian(out, v.asList()->size(), 4);
+        }
+        return ros1Items(*v.asList(), shape, out);
+    }
+    if (v.isString()) {
+        const std::string text = v.asString();
+        putLittleEndian(out, text.size(), 4);
+        out += text;
+    } else if (v.isFloat64()) {
+        const double x = v.asFloat64();
+        std::uint64_t bits = 0;
+        std::memcpy(&bits, &x, sizeof bits);
+        putLittleEndian(out, bits, 8);
+    } else if (v.isFloat32()) {
+        const float x = v.asFloat32();
+        std::uint32_t bits = 0;
+        std::memcpy(&bits, &x, sizeof bits);
+        putLittleEndian(out, bits, 4);
+    } else if (v.isInt8()) {
+        putLittleEndian(out, static_cast<std::uint8_t>(v.asInt8()), 1);
+    } else if (v.isInt16()) {
+        putLittleEndian(out, static_cast<std::uint16_t>(v.asInt16()), 2);
+    } else if (v.isInt32()) {
+        putLittleEndian(out, static_cast<std::uint32_t>(v.asInt32()), 4);
+    } else if (v.isInt64()) {
+        putLittleEndian(out, static_cast<std::uint64_t>(v.asInt64()), 8);
+    } else {
+        return false;
+    }
+    return true;
+}
+
+bool ros1Items(const yarp::os::Bottle& b, const char*& shape, std::string& out)
+{
+    for (std::size_t k = 0; k < b.size(); ++k) {
+        if (!ros1Value(b.get(k), shape, out)) {
+            return false;
+        }
+    }
+    return true;
+}
+
+}  // namespace
+
+bool ros1Bytes(const yarp::os::Bottle& msg, const char* shape, std::string& out)
+{
+    out.clear();
+    return ros1Items(msg, shape, out) && *shape == '\0';
+}
+
 // --- the output ---------------------------------------------------------------------------
 
 /// Writes each message on a BufferedPort, never waiting for a slow reader
@@ -961,7 +1034,11 @@ public:
     bool open()
     {
         port_.setWriteOnly();
-        if (spec_.kind == OutputKind::Ros1 && spec_.msgType[0] != '\0') {
+        if (spec_.kind == OutputKind::Ros1 && serialized()) {
+            // the type itself, not a Bottle for YARP to translate: the blob goes as it
+            // is (named on the wire too, or opening the port makes it a Bottle again)
+            port_.promiseType(yarp::os::Type::byName(spec_.msgType, spec_.msgType));
+        } else if (spec_.kind == OutputKind::Ros1 && spec_.msgType[0] != '\0') {
             port_.promiseType(yarp::os::Type::byNameOnWire(spec_.msgType));
         }
         if (!port_.open(spec_.port)) {
@@ -978,16 +1055,30 @@ public:
     {
         yarp::os::Bottle& b = port_.prepare();
         b.clear();
+        prepared_ = &b;
         return b;
     }
+
+    /// Is the message sent serialized by ros1Bytes (OutputSpec::ros1Shape)?
+    bool serialized() const { return spec_.ros1Shape != nullptr && spec_.ros1Shape[0] != '\0'; }
     void unprepare() { port_.unprepare(); }
 
     /// Writes the prepared message. A message written while the previous one
     /// is still being sent is dropped for the connections that are still
     /// busy; so it waits for them a little (50 ms at most), unless a reader
-    /// has already shown that it stalls.
-    void write()
+    /// has already shown that it stalls. False (nothing written) when a
+    /// serialized message does not have the layout of its type.
+    bool write()
     {
+        if (serialized() && prepared_ != nullptr) {
+            std::string bytes;
+            if (!ros1Bytes(*prepared_, spec_.ros1Shape, bytes)) {
+                port_.unprepare();
+                return false;
+            }
+            prepared_->clear();
+            prepared_->add(yarp::os::Value(bytes.data(), static_cast<int>(bytes.size())));
+        }
         if (port_.isWriting()) {
             if (patient_) {
                 const SteadyClock::time_point deadline = SteadyClock::now() + std::chrono::milliseconds(50);
@@ -1000,6 +1091,7 @@ public:
             patient_ = true;
         }
         port_.write();
+        return true;
     }
 
     void close()
@@ -1017,6 +1109,7 @@ private:
     const OutputSpec& spec_;
     yarp::os::BufferedPort<yarp::os::Bottle> port_;
     std::string registered_;
+    yarp::os::Bottle* prepared_ = nullptr;  // the message being built
     bool patient_ = true;
 };
 
@@ -1229,7 +1322,13 @@ private:
             }
             return;
         }
-        output_.write();
+        if (!output_.write()) {
+            if (++buildFailures_ == 1) {
+                say("cannot serialize the message as " + std::string(spec_.output.msgType)
+                    + "; further failures are only counted");
+            }
+            return;
+        }
         ++published_;
     }
 

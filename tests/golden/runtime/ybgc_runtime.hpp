@@ -231,7 +231,20 @@ struct OutputSpec
     const char* port;        // the port opened (topic@node for ROS 1)
     const char* msgType;     // ROS type promised on the port ("" for none)
     const char* connectTo;   // a port to keep connected to ("" for none)
+    /// ROS 1 only, for a message holding an array of messages (which YARP's
+    /// Bottle translation cannot express): the message is sent serialized,
+    /// ros1Bytes(message, ros1Shape), as the one blob of a Bottle ("": the
+    /// Bottle itself, translated by YARP).
+    const char* ros1Shape = "";
 };
+
+/// The ROS 1 serialization of a message built as a Bottle laid out like its
+/// definition: each item by its tag (int8..int64, float32, float64 little
+/// endian; a string with its length), each nested list by the next letter of
+/// ``shape`` (depth first): 's' a sequence, written with its length, 'f' a
+/// nested message, a time or a fixed-size array, written without. False when
+/// the Bottle and the shape disagree.
+bool ros1Bytes(const yarp::os::Bottle& msg, const char* shape, std::string& out);
 
 struct BridgeSpec
 {

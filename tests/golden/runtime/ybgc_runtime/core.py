@@ -63,7 +63,8 @@ class Scalar:
 
 class Array:
     """A list of values: ``type`` is one element type, or a tuple of one
-    element type per value."""
+    element type per value; or an array of messages: ``type`` is the
+    message type ("pkg/Name") and each value a Msg."""
 
     __slots__ = ("type", "values")
 

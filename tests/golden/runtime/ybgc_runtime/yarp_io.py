@@ -496,13 +496,23 @@ def _add_values(bottle, types, values, wire):
             add(bottle, x)
 
 
+def is_message_type(type_):
+    """Is an Array's ``type`` a message type ("pkg/Name"), its values messages?"""
+    return isinstance(type_, str) and "/" in type_
+
+
 def add_node(bottle, node, wire):
     """Append ``node`` to ``bottle`` with YARP's ROS 1 wire mapping: a
-    message is a nested list of its fields, a time is (sec nsec)."""
+    message is a nested list of its fields, a time is (sec nsec), an array
+    of messages a list of such lists."""
     if isinstance(node, Scalar):
         _ADD[wire[node.type]](bottle, node.value)
     elif isinstance(node, Splice):
         _add_values(bottle, node.type, node.values, wire)
+    elif isinstance(node, Array) and is_message_type(node.type):
+        inner = bottle.addList()
+        for child in node.values:
+            add_node(inner, child, wire)
     elif isinstance(node, Array):
         _add_values(bottle.addList(), node.type, node.values, wire)
     elif isinstance(node, Msg):
