@@ -136,14 +136,59 @@ def input_values(inp: Input, k: int, offset: float = 0.0) -> list:
 
 def topic_values(inp: Input) -> list:
     """The values a publisher of the topic input ``inp`` sends, in the
-    order of the input's fields (a ROS topic without fields: POINT)."""
+    order of the input's fields (a ROS topic without fields: POINT); for an
+    input of the elements of an array of messages, three rows."""
+    if inp.each is not None:
+        return [[x for path, t in element_fields(inp) for x in _row_part(t, k)] for k in range(3)]
     if not inp.fields:
         return [POINT["x"], POINT["y"], POINT["z"]]
     return [0.5 * (j + 1) - 1.25 for j in range(len(inp.fields))]
 
 
+def element_fields(inp: Input) -> list[tuple[str, TypeRef]]:
+    """(field, type) of each field an input reads of the elements of ``inp.each``."""
+    from ybg.compiler.msgtypes import load_store
+
+    store = load_store("ros2", None)
+    element = store.resolve(inp.ros_type).field(inp.each).type.base
+    out = []
+    for path in inp.fields:
+        cur, t = store.resolve(element), None
+        for part in path.split("."):
+            t = cur.field(part).type
+            cur = store.resolve(t.base) if t.is_message else None
+        out.append((path, t))
+    return out
+
+
+def _row_part(t: TypeRef, k: int) -> list:
+    """Row ``k``'s values of a field of type ``t``: a duration as seconds
+    (whole nanoseconds), an array as four numbers, a number as one."""
+    if t.base in ("builtin_interfaces/Duration", "builtin_interfaces/Time"):
+        return [0.5 * (k + 1) + 0.25]  # exact in binary, as sec + nanosec / 1e9 gives it
+    if t.array is not None:
+        return [0.25 * j - 0.1 * k for j in range(4)]
+    return [1.5 + k]
+
+
 def topic_message(inp: Input, values: list) -> dict:
-    """The message (nested dicts) whose fields ``inp.fields`` hold ``values``."""
+    """The message (nested dicts) whose fields ``inp.fields`` hold ``values``
+    (for ``inp.each``: one row of values per element)."""
+    if inp.each is not None:
+        elements = []
+        for row in values:
+            element: dict = {}
+            rest = list(row)
+            for path, t in element_fields(inp):
+                part, rest = rest[:len(_row_part(t, 0))], rest[len(_row_part(t, 0)):]
+                if t.base in ("builtin_interfaces/Duration", "builtin_interfaces/Time"):
+                    sec, nanosec = divmod(round(part[0] * 1e9), 1000000000)
+                    value = {"sec": sec, "nanosec": nanosec}
+                else:
+                    value = part if t.array is not None else part[0]
+                element[path] = value
+            elements.append(element)
+        return {inp.each: elements}
     msg: dict = {}
     for path, v in zip(inp.fields, values):
         node = msg
@@ -167,27 +212,37 @@ def sent_values(program: Program, offset: float = 0.0) -> dict[str, list]:
 
 
 def mux_values(program: Program, sent: dict[str, list]) -> dict[str, list]:
-    """The mux values after conversion, for the values ``sent`` on each input."""
+    """The mux values after conversion, for the values ``sent`` on each input
+    (a mux of rows: each row converted alike)."""
     out = {}
     for m in program.muxes:
+        if m.rows:
+            (inp,) = m.inputs
+            out[m.name] = [_converted([float(x) for x in row], m.converters) for row in sent[inp.name]]
+            continue
         values: list = []
         for inp in m.inputs:
             raw = sent[inp.name]
             types = inp.element_types or ("float64",) * len(raw)
             for x, t in zip(raw, types):
                 values.append(float(x) if t in ir.FLOAT_TYPES else (bool(x) if t == "bool" else x))
-        for c in m.converters:
-            if c.scale == 1.0 and c.offset == 0.0 and not c.to_float:
-                continue
-            stop = len(values) if c.stop is None else min(c.stop, len(values))
-            for i in range(c.start, stop):
-                x = values[i]
-                if isinstance(x, str):
-                    continue
-                y = x * c.scale + c.offset
-                values[i] = float(y) if c.to_float or isinstance(x, float) else int(y)
-        out[m.name] = values
+        out[m.name] = _converted(values, m.converters)
     return out
+
+
+def _converted(values: list, converters) -> list:
+    values = list(values)
+    for c in converters:
+        if c.scale == 1.0 and c.offset == 0.0 and not c.to_float:
+            continue
+        stop = len(values) if c.stop is None else min(c.stop, len(values))
+        for i in range(c.start, stop):
+            x = values[i]
+            if isinstance(x, str):
+                continue
+            y = x * c.scale + c.offset
+            values[i] = float(y) if c.to_float or isinstance(x, float) else int(y)
+    return values
 
 
 def envelopes(program: Program, stamps: dict[str, float]) -> dict[str, float]:

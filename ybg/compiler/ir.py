@@ -72,6 +72,10 @@ class Input:
     ``geometry_msgs/PointStamped`` is ``(1, 0)``; a one-field array input is
     the path of the array). A backend reading the topic through YARP finds
     each field there in the Bottle, which YARP lays out like the definition.
+    ``each`` (ROS 2 inputs): an array of messages of the message (``points``
+    of ``trajectory_msgs/JointTrajectory``); ``fields`` are then fields of
+    its elements, and each element gives one row of the mux (a time or
+    duration as one float64, seconds).
     """
 
     name: str
@@ -81,6 +85,7 @@ class Input:
     fields: tuple[str, ...] | None = None
     timeout: float = 1.0
     positions: tuple[tuple[int, ...], ...] | None = None
+    each: str | None = None
 
     @property
     def width(self) -> int | None:
@@ -131,7 +136,14 @@ class Mux:
     verbose: bool = False
 
     @property
+    def rows(self) -> bool:
+        """Does the mux hold one row per element of an array of messages
+        (an input with ``each``), each row converted alike?"""
+        return any(i.each is not None for i in self.inputs)
+
+    @property
     def width(self) -> int | None:
+        """The number of elements (of each row, for a mux of rows)."""
         widths = [i.width for i in self.inputs]
         if any(w is None for w in widths):
             return None
@@ -465,7 +477,8 @@ def from_dict(d: dict[str, Any]) -> Program:
         layout = None if x["layout"] is None else _tuple(x["layout"], lambda g: ElementGroup(**g))
         fields_ = None if x["fields"] is None else tuple(x["fields"])
         positions = None if x.get("positions") is None else tuple(tuple(p) for p in x["positions"])
-        return Input(x["name"], x["kind"], layout, x["ros_type"], fields_, x["timeout"], positions)
+        return Input(x["name"], x["kind"], layout, x["ros_type"], fields_, x["timeout"], positions,
+                     x.get("each"))
 
     muxes = _tuple(
         d["muxes"],

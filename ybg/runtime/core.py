@@ -22,7 +22,9 @@ _INT_BITS = {"int8": 8, "uint8": 8, "byte": 8, "char": 8, "int16": 16, "uint16":
 InputSpec = collections.namedtuple("InputSpec", "mux index source kind types timeout positions",
                                    defaults=(None,))
 ConverterSpec = collections.namedtuple("ConverterSpec", "name scale offset to_float start stop")
-MuxSpec = collections.namedtuple("MuxSpec", "name inputs converters verbose types")
+#: rows: the mux holds one row (a list of values) per element of an array of
+#: messages read from ROS 2, each row converted alike
+MuxSpec = collections.namedtuple("MuxSpec", "name inputs converters verbose types rows", defaults=(False,))
 BridgeSpec = collections.namedtuple(
     "BridgeSpec", "module config description muxes needed rate trigger queue on_stale on_nan publish",
     defaults=("always",))
@@ -78,6 +80,18 @@ class Splice(Array):
     """Values appended one by one into the enclosing list (untyped Bottles)."""
 
     __slots__ = ()
+
+
+class Rows(Array):
+    """The rows of a mux read from an array of messages (``values`` a list
+    of rows), each a nested list: appended one by one into the enclosing
+    list, or with ``nested`` inside one list of their own (untyped Bottles)."""
+
+    __slots__ = ("nested",)
+
+    def __init__(self, type_, values, nested=False):
+        Array.__init__(self, type_, values)
+        self.nested = nested
 
 
 def time_msg(ns, style):
@@ -356,7 +370,10 @@ class Bridge:
     def _publish(self, raw, envelopes):
         values = {}
         for mux in self.spec.muxes:
-            v = convert(raw[mux.name], mux.converters)
+            if mux.rows:
+                v = [convert(row, mux.converters) for row in raw[mux.name]]
+            else:
+                v = convert(raw[mux.name], mux.converters)
             values[mux.name] = v
         self.compute(values)
         for mux in self.spec.muxes:

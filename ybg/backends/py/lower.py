@@ -106,6 +106,7 @@ class MuxView:
     converters: tuple[ConverterView, ...]
     verbose: str
     types: str
+    rows: bool = False  # one row per element of an array of messages (ros2 inputs)
 
 
 @dataclass(frozen=True)
@@ -179,6 +180,7 @@ class _Builder:
         self.lines: list[Line] = []
         self.muxes: list[str] = []
         self.path: list[str] = []  # the field being built, as a path
+        self.uses_rows = False  # a mux of rows in the message: the runtime's Rows
 
     def emit(self, indent: int, text: str) -> None:
         self.lines.append(Line(indent, text))
@@ -268,6 +270,11 @@ class _Builder:
     def mux_ref(self, ref: ir.MuxRef, typ: ir.TypeRef | None) -> str:
         values = self.mux_values(ref.mux)
         etype = py_literal(ref.element_type)
+        if self.program.mux(ref.mux).rows:  # one nested list per row, whole
+            if ref.index is not None or ref.start != 0 or ref.stop is not None or ref.into_fields:
+                raise LoweringError(f"a part of mux {ref.mux}, which holds rows")
+            self.uses_rows = True
+            return f"Rows({etype}, {values}{'' if ref.splice else ', nested=True'})"
         if ref.index is not None:
             return f"Scalar({etype}, {values}[{ref.index:d}])"
         if ref.start == 0 and ref.stop is None:

@@ -76,6 +76,7 @@ class TopicInputView:
     index: int
     msg_class: str
     leaves: str
+    each: str = "None"  # the array of messages whose elements give one row each
 
 
 @dataclass(frozen=True)
@@ -119,6 +120,7 @@ class NodeView:
     yarp_output: OutputView | None
     wire: tuple[tuple[str, str], ...]
     builder: tuple[Line, ...]
+    uses_rows: bool = False  # the message holds a mux of rows: import the runtime's Rows
 
 
 @dataclass(frozen=True)
@@ -468,8 +470,14 @@ def _lower_inputs(program: ir.Program):
                 alias = msg_alias(i.ros_type)
                 pkg, name = split_type(i.ros_type)
                 imports[alias] = MsgImport(f"{pkg}.msg", name, alias)
-                topics.append(TopicInputView(py_literal(m.name), k, alias, py_literal(tuple(i.fields))))
+                if i.each is not None:
+                    _identifier(i.each, f"field of {i.ros_type}")
+                topics.append(TopicInputView(py_literal(m.name), k, alias, py_literal(tuple(i.fields)),
+                                             py_literal(i.each)))
                 desc = f"ROS 2 topic {i.name} ({ros2_type_name(i.ros_type)} {', '.join(i.fields)}): {width}"
+                if i.each is not None:
+                    desc = (f"ROS 2 topic {i.name} ({ros2_type_name(i.ros_type)}): a row of {width} for each "
+                            f"element of {i.each} ({', '.join(i.fields)})")
             elif i.kind == "yarp":
                 desc = f"yarp {i.name}: {width}"
             else:
@@ -486,7 +494,7 @@ def _lower_inputs(program: ir.Program):
                 start=py_literal(int(c.start)), stop=py_literal(None if c.stop is None else int(c.stop)))
             for c in m.converters)
         muxes.append(MuxView(py_literal(m.name), tuple(inputs), convs, py_literal(bool(m.verbose)),
-                             py_literal(m.element_types)))
+                             py_literal(m.element_types), m.rows))
     return tuple(muxes), tuple(topics), imports
 
 
@@ -511,6 +519,7 @@ def lower(program: ir.Program) -> NodeView:
                             "port (every input and the output are ROS 2 topics)")
     ros_output = None
     yarp_output = None
+    uses_rows = False
     wire: tuple[tuple[str, str], ...] = ()
     if out.kind == "ros2":
         msg_type = out.msg_type or program.message.msg_type
@@ -541,6 +550,7 @@ def lower(program: ir.Program) -> NodeView:
         bb = BottleBuilder(program)
         bb.struct(program.message, program.message.msg_type or out.msg_type, 1, "return ", "")
         builder, needed = tuple(bb.lines), tuple(bb.muxes)
+        uses_rows = bb.uses_rows
         wire = tuple((py_literal(k), py_literal(v)) for k, v in sorted(WIRE_YARP.items()))
         desc = f"untyped Bottles on the YARP port {out.name}" if not out.msg_type else \
             f"{out.msg_type} Bottles on the YARP port {out.name}"
@@ -586,6 +596,7 @@ def lower(program: ir.Program) -> NodeView:
         yarp_output=yarp_output,
         wire=wire,
         builder=builder,
+        uses_rows=uses_rows,
     )
 
 

@@ -111,6 +111,8 @@ def _item(ctx: Context, item: ast.Item, e: ast.Entry):
             if got is None:
                 return ir.Default()
             mux, start, stop, index = got
+            if _part_of_rows(ctx, mux, start, stop, index, item.items[0].span):
+                return ir.Default()
             return ir.MuxRef(mux.name, start, stop, index, False, _common_type(slice_types(mux, start, stop, index)))
         return _list(ctx, item.items, e)
     if isinstance(item, ast.Word) and item.text == "counter":
@@ -124,6 +126,8 @@ def _item(ctx: Context, item: ast.Item, e: ast.Entry):
         if got is None:
             return ir.Default()
         mux, start, stop, index = got
+        if _part_of_rows(ctx, mux, start, stop, index, item.span):
+            return ir.Default()
         return ir.MuxRef(mux.name, start, stop, index, index is None and _splice(ctx),
                          _common_type(slice_types(mux, start, stop, index)))
     if isinstance(item, (ast.Str, ast.Word)):
@@ -134,6 +138,17 @@ def _item(ctx: Context, item: ast.Item, e: ast.Entry):
     ctx.sink.error("E105", "unexpected value in [message]", item.span,
                    "values are text, numbers, lists `[a, b]`, mux names, counter, time or timestamp")
     return ir.Default()
+
+
+def _part_of_rows(ctx: Context, mux: ir.Mux, start: int, stop: int | None, index: int | None, span) -> bool:
+    """A part of a mux of rows (one per element of an array of messages),
+    which goes into a Bottle whole: reported, True."""
+    if mux.rows and (index is not None or start != 0 or stop is not None):
+        ctx.sink.error("E305", f"mux `{mux.name}` holds one row per element of an array of messages: "
+                       "it goes whole into the Bottle, one list per row", span,
+                       f"write `{mux.name}` (the rows one by one) or `[{mux.name}]` (in one list)")
+        return True
+    return False
 
 
 def _literal(ctx: Context, item):

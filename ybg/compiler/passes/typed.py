@@ -322,12 +322,26 @@ def _literal(ctx: Context, item: ast.Item, base: str, key: str):
     return n
 
 
+def _rows_into_typed(ctx: Context, mux: ir.Mux, item: ast.Item, e: ast.Entry) -> bool:
+    """A mux of rows (one per element of an array of messages) fills an
+    untyped Bottle only: reported, True."""
+    if not mux.rows:
+        return False
+    each = next(i.each for i in mux.inputs if i.each)
+    ctx.sink.error("E305", f"`{e.key}` is a field of a typed message, but mux `{mux.name}` holds one row per "
+                   f"element of `{each}`", item.span,
+                   "a mux of rows fills an untyped Bottle: a YARP port without `type`, one list per row")
+    return True
+
+
 def _mux_into_field(ctx: Context, item: ast.Item, t: ir.TypeRef, e: ast.Entry):
     s = ctx.sink
     got = mux_slice(ctx, item)
     if got is None:
         return ir.Default()
     mux, start, stop, index = got
+    if _rows_into_typed(ctx, mux, item, e):
+        return ir.Default()
     types = slice_types(mux, start, stop, index)
     if index is None and t.array is None:
         s.error("E305", f"`{e.key}` is one {t.base}, but `{mux.name}` is a list of elements", item.span,
@@ -374,6 +388,8 @@ def _mux_into_message(ctx: Context, item: ast.Item, t: ir.TypeRef, e: ast.Entry)
     if got is None:
         return ir.Default()
     mux, start, stop, index = got
+    if _rows_into_typed(ctx, mux, item, e):
+        return ir.Default()
     leaves = numeric_leaves(ctx.store, t.base)
     if leaves is None:
         s.error("E309", f"`{e.key}` is a {t.base}, which is not all numbers: a mux cannot fill it",
