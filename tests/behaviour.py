@@ -517,11 +517,41 @@ def typed_ros1_input_program() -> Program:
     return result.program
 
 
+INDEXED = """\
+[module]
+name = indexed_bridge
+
+[output]
+port = /indexed_bridge/out:o
+
+[mux m]
+ports = /test/a:o (float64 x3)
+
+[message]
+points[1].x = m[1]
+points[0].x = m[0]
+points[0].label = "first"
+points[1].label = "second"
+points[2] = [m]
+count = counter
+"""
+
+
+def indexed_program() -> Program:
+    """An untyped Bottle with indexed labels: a nested list per index."""
+    from ybg.compiler.pipeline import compile_text
+
+    result = compile_text(INDEXED, "indexed_bridge.ini")
+    assert result.program is not None, "\n".join(str(d) for d in result.diagnostics)
+    return result.program
+
+
 #: every program the behaviour tests run, by key (= its module name): a
 #: backend that builds ahead (cpp) builds them all
 PROGRAMS: dict[str, Callable[[], Program]] = {
     "values_bridge": values_program,
     "relay_bridge": relay_program,
+    "indexed_bridge": indexed_program,
     "queue64_bridge": lambda: simple_program("queue64_bridge", inputs=("/test/a:o", "/test/b:o"), queue=64),
     "queue1_bridge": lambda: simple_program("queue1_bridge", inputs=("/test/a:o", "/test/b:o"), queue=1),
     "strict_bridge": lambda: simple_program("strict_bridge", on_nan="drop",
@@ -861,6 +891,25 @@ class BridgeBehaviour:
         assert "input /t/arm:o: received 2, dropped 0, stale periods" in log
         assert totals(log)["/t/arm:o"] == (2, 0, 0)
         assert totals(log)["published"] == 2
+
+    def test_indexed_labels_nest_one_list_per_index(self, modules, yarp_server, env):
+        """Indexed labels of an untyped Bottle (the elements of an array):
+        one nested list per index, in the order of the indices, each holding
+        its parts in the order written."""
+        with modules.module("indexed_bridge", env) as module, \
+                YarpReader(env, "/test/indexed:i", source="/indexed_bridge/out:o") as reader, \
+                YarpProducer(env, "/test/a:o") as a:
+            module.wait_log("connected /test/a:o -> /indexed_bridge/m/in0:i")
+            reader.wait_connected()
+            a.write([1.5, -2.25, 3.0])
+            (got,) = reader.wait_for(1)
+            a.write([4.0, 5.0, 6.0])
+            (_, second) = reader.wait_for(2)
+            rc, elapsed = module.interrupt(signal.SIGINT)
+        assert got.data == [[[1.5, "first"], [-2.25, "second"], [1.5, -2.25, 3.0]], 0]
+        assert got.types == [[["float64", "string"], ["float64", "string"], ["float64"] * 3], "int32"]
+        assert second.data == [[[4.0, "first"], [5.0, "second"], [4.0, 5.0, 6.0]], 1]
+        assert_clean_exit(yarp_server, module, rc, elapsed)
 
     @pytest.mark.parametrize("args", [(), ("--rate", "20")], ids=["event-driven", "fixed-rate"])
     def test_producer_never_starts(self, modules, yarp_server, env, args):
