@@ -410,6 +410,45 @@ def test_undeclared_values_go_on_as_they_came():
     assert out.get(1).isInt32() and out.get(2).isFloat64() and out.get(3).isInt64()
 
 
+def test_arrays_of_messages_and_rows_in_a_bottle():
+    """An Array of messages: a nested list of one nested list per message;
+    Rows (a mux read from an array of messages): a nested list per row,
+    appended one by one or, nested, inside one list of their own."""
+    import yarp
+
+    from ybg.runtime.core import Rows
+    from ybg.runtime.yarp_io import fill_bottle
+    from ybg.backends.wire import WIRE_YARP
+
+    point = lambda x: Msg("geometry_msgs/Point", (("x", Scalar("float64", x)), ("n", Scalar("int32", 2))))
+    tree = Msg(None, (("points", Array("geometry_msgs/Point", (point(1.5), point(-2.0)))),
+                      ("none", Array("geometry_msgs/Point", ())),
+                      ("rows", Rows("number", [[0.5, 1], [1.25, 2.0]])),
+                      ("nested", Rows("float64", [[1.0]], nested=True))))
+    out = fill_bottle(yarp.Bottle(), tree, WIRE_YARP)
+    assert out.toString() == "((1.5 2) (-2.0 2)) () (0.5 1) (1.25 2.0) ((1.0))"
+    assert out.get(2).asList().get(1).isInt32() and out.get(3).asList().get(1).isFloat64()
+
+
+def test_rows_are_converted_alike():
+    """A mux of rows: the converters apply to each row, on the row's range."""
+    b, out = bridge(muxes=("a",))
+    mux = b.spec.muxes[0]._replace(rows=True, converters=(ConverterSpec("x10", 10.0, 0.0, True, 1, None),))
+    b.spec = b.spec._replace(muxes=(mux,))
+    b.publishing = True
+    arrive(b, "a", [[0.5, 1.0, 2.0], [1.5, 3.0]], now=0.0)
+    assert out.messages == [{"a": [[0.5, 10.0, 20.0], [1.5, 30.0]]}]
+
+
+def test_a_ros2_duration_is_read_as_seconds():
+    from types import SimpleNamespace
+
+    ros2_io = pytest.importorskip("ybg.runtime.ros2_io")
+    element = SimpleNamespace(time_from_start=SimpleNamespace(sec=1, nanosec=250000000), positions=[0.5, 1])
+    getters = tuple((p, lambda m, p=p: getattr(m, p)) for p in ("time_from_start", "positions"))
+    assert ros2_io.message_values(element, getters, None, False) == ([1.25, 0.5, 1.0], None)
+
+
 def parse_bottle_of(text):
     from ybg.runtime.yarp_io import parse_bottle
     return parse_bottle(bottle(text), None, False, False)

@@ -135,6 +135,43 @@ void testPut()
     CHECK(time->size() == 2 && time->get(0).asInt32() == 12 && time->get(1).asInt32() == 500'000'007);
 }
 
+// A message holding an array of messages, serialized as ROS 1 does (little
+// endian, a sequence with its length, a string with its length, a nested
+// message or a time without): what the C++ module sends to a ROS 1 topic.
+void testRos1Bytes()
+{
+    yarp::os::Bottle msg;
+    yarp::os::Bottle& array = msg.addList();    // 's': a sequence of one element
+    yarp::os::Bottle& element = array.addList();  // 'f': the element
+    yarp::os::Bottle& header = element.addList();  // 'f'
+    header.addInt32(7);
+    ybgc::putTime(header, 1'000'000'002, Wire::Int32, Wire::Int32);  // 'f'
+    header.addString("ab");
+    element.addString("c");
+    element.addInt8(-1);
+    element.addFloat64(0.5);
+    element.addFloat32(0.25f);
+    element.addInt16(-2);
+    element.addInt64(std::int64_t{1} << 40);
+    msg.addList();  // 's': an empty sequence
+    const unsigned char want[] = {
+        1, 0, 0, 0,                       // one element
+        7, 0, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0, 2, 0, 0, 0, 'a', 'b',  // header
+        1, 0, 0, 0, 'c', 0xff,
+        0, 0, 0, 0, 0, 0, 0xe0, 0x3f,     // 0.5
+        0, 0, 0x80, 0x3e,                 // 0.25f
+        0xfe, 0xff,                       // -2
+        0, 0, 0, 0, 0, 1, 0, 0,           // 2^40
+        0, 0, 0, 0,                       // no element
+    };
+    std::string bytes;
+    CHECK(ybgc::ros1Bytes(msg, "sfffs", bytes));
+    CHECK(bytes == std::string(reinterpret_cast<const char*>(want), sizeof want));
+    CHECK(!ybgc::ros1Bytes(msg, "sfff", bytes));    // a list with no letter left
+    CHECK(!ybgc::ros1Bytes(msg, "sfffss", bytes));  // a letter with no list left
+    CHECK(!ybgc::ros1Bytes(msg, "xfffs", bytes));
+}
+
 ybgc::InputSpec yarpInput(bool declared, std::vector<ybgc::Group> layout)
 {
     return ybgc::InputSpec{0, 0, "/src:o", ybgc::InputKind::Yarp, 0.5, declared, std::move(layout), {}};
@@ -402,6 +439,7 @@ int main()
     testElements();
     testConvert();
     testPut();
+    testRos1Bytes();
     testParseBottle();
     testAppendAndEnvelope();
     testMatchingTriggerAllByEnvelope();
