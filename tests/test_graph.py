@@ -152,6 +152,7 @@ def test_the_figure_in_docs_is_the_thesis_figure5_config():
     """docs/ shows the graph of the thesis' figure-5 config as ybgc draws it
     (regenerate: ybgc graph ../shared/legacy/thesis_figure5_rviz.ini -o docs/graph_thesis_figure5.svg)."""
     assert DOCS_SVG.read_text(encoding="utf-8") == render(program_of(FIGURE5), "svg")
+    assert render(program_of(FIGURE5), "mermaid") in (ROOT / "docs" / "graph.md").read_text(encoding="utf-8")
 
 
 def test_cli_formats_and_outputs(tmp_path):

@@ -157,8 +157,11 @@ def is_config_file(path: str) -> bool:
 def folder_configs(folder: Path = Path(".")) -> list[str]:
     """The ybgc configs of ``folder``: its ``.ini`` files that are ybgc
     configs (:func:`is_config_file`), and ``ybgc.ini`` whatever it holds."""
-    found = sorted(p for p in folder.iterdir() if p.suffix == ".ini" and p.is_file()
-                   and (p.name == FOLDER_CONFIG or is_config_file(str(p))))
+    try:
+        found = sorted(p for p in folder.iterdir() if p.suffix == ".ini" and p.is_file()
+                       and (p.name == FOLDER_CONFIG or is_config_file(str(p))))
+    except OSError as e:
+        _usage_error(f"cannot read the folder {folder.resolve()}: {e.strerror or e}", "name the config")
     return [str(p if folder != Path(".") else p.relative_to(folder)) for p in found]
 
 
