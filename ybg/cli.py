@@ -214,7 +214,7 @@ def _compile(path: str, args, options):
     from ybg.compiler.pipeline import compile_path
 
     result = compile_path(path, options)
-    if args.backend is None:
+    if getattr(args, "backend", None) is None:
         return result
     from ybg.backends import check_result
     return check_result(result, args.backend)
@@ -353,7 +353,6 @@ def cmd_graph(args) -> int:
     from ybg.writer import write_text_atomic
 
     fmt = args.format or SUFFIXES.get(Path(args.output or "").suffix.lower(), "svg")
-    args.backend = None
     result = _compile(args.file or folder_config("graph"), args, _options(args))
     _print([result], "text")
     if result.program is None or result.errors:
