@@ -78,8 +78,7 @@ def build_parser() -> argparse.ArgumentParser:
     _common(c)
 
     f = sub.add_parser("fmt", help="rewrite configs in canonical form")
-    f.add_argument("files", nargs="*", metavar="CONFIG", help=f"default: the folder's config ({FOLDER_CONFIG}, "
-                   "or the one config there)")
+    f.add_argument("files", nargs="*", metavar="CONFIG", help=_FOLDER_HELP)
     f.add_argument("--check", action="store_true", help="only report files that would change (exit 1)")
     f.add_argument("--diff", action="store_true", help="print the changes instead of writing")
     f.add_argument("--to", choices=("named",), help="convert a legacy config to the named form")
@@ -162,7 +161,7 @@ def folder_configs(folder: Path = Path(".")) -> list[str]:
                        and (p.name == FOLDER_CONFIG or is_config_file(str(p))))
     except OSError as e:
         _usage_error(f"cannot read the folder {folder.resolve()}: {e.strerror or e}", "name the config")
-    return [str(p if folder != Path(".") else p.relative_to(folder)) for p in found]
+    return [str(p) for p in found]
 
 
 def _usage_error(message: str, hint: str) -> None:
@@ -189,9 +188,8 @@ def folder_config(command: str) -> str:
 
 def _select(args) -> list[str]:
     if not args.files:  # check: every config of the folder; fmt: the folder's one
-        if args.command == "check" and folder_configs():
-            return folder_configs()
-        return [folder_config(args.command)]
+        configs = folder_configs() if args.command == "check" else []
+        return configs or [folder_config(args.command)]
     if not getattr(args, "skip_foreign", False):
         return list(args.files)
     return [f for f in args.files if is_config_file(f)]
