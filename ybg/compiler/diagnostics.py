@@ -127,6 +127,7 @@ CODES: dict[str, str] = {
     "N601": "legacy form",
     "N602": "a fixed rate that publishes new data only",
     "W510": "`publish` without a rate",
+    "W511": "a nested message takes part of an undeclared port: the rest is dropped",
 }
 
 

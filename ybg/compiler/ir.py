@@ -85,6 +85,7 @@ class Input:
     fields: tuple[str, ...] | None = None
     timeout: float = 1.0
     positions: tuple[tuple[int, ...], ...] | None = None
+    reads: int | None = None
     each: str | None = None
 
     @property
@@ -478,7 +479,7 @@ def from_dict(d: dict[str, Any]) -> Program:
         fields_ = None if x["fields"] is None else tuple(x["fields"])
         positions = None if x.get("positions") is None else tuple(tuple(p) for p in x["positions"])
         return Input(x["name"], x["kind"], layout, x["ros_type"], fields_, x["timeout"], positions,
-                     x.get("each"))
+                     x.get("reads"), x.get("each"))
 
     muxes = _tuple(
         d["muxes"],

@@ -109,7 +109,7 @@ def _input(ctx: Context, item: ast.Item, is_topic: bool, via: str, timeout: floa
                     f"write `{name} (geometry_msgs/Point)`, or `{name} (sensor_msgs/JointState position)` "
                     "to take one numeric field")
             return None
-        return ir.Input(name, via, layout, ros_type, fields, timeout, positions, each)
+        return ir.Input(name, via, layout, ros_type, fields, timeout, positions, each=each)
     problem = port_problem(name)
     if problem:
         s.error("E401", f"invalid YARP port name `{name}`: {problem}", head.span,

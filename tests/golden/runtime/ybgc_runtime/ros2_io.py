@@ -103,6 +103,8 @@ class Stamps:
 def _leaf_numbers(value):
     if isinstance(value, (bool, int, float)):
         return [value]
+    if hasattr(value, "sec") and hasattr(value, "nanosec"):  # a time or duration: seconds
+        return [value.sec + value.nanosec / 1e9]
     if hasattr(value, "tolist"):  # array.array, numpy arrays
         value = value.tolist()
     if isinstance(value, (list, tuple)):
@@ -156,12 +158,14 @@ class Ros2Input(InputState):
     the message's header.stamp if it has one); the subscription's callback
     runs on the node's executor thread."""
 
-    def __init__(self, bridge, spec, node, msg_class, leaves, timeout):
+    def __init__(self, bridge, spec, node, msg_class, leaves, timeout, each=None):
         self.init_state(bridge, spec, timeout)
         self.local = spec.source
         self.node = node
         self.msg_class = msg_class
         self.getters = tuple((path, operator.attrgetter(path)) for path in leaves)
+        # an array of messages whose elements give one row each
+        self.elements = operator.attrgetter(each) if each else None
         self.subscription = None
 
     def open(self):
@@ -186,8 +190,11 @@ class Ros2Input(InputState):
     def _on_message(self, msg):
         now = time.monotonic()
         try:
-            values, reason = message_values(msg, self.getters, self.spec.types,
-                                            self.bridge.spec.on_nan == "drop")
+            if self.elements is None:
+                values, reason = message_values(msg, self.getters, self.spec.types,
+                                                self.bridge.spec.on_nan == "drop")
+            else:
+                values, reason = self._rows(msg)
         except Exception as e:
             values, reason = None, "cannot read its fields (%s)" % e
         envelope = None
@@ -195,6 +202,18 @@ class Ros2Input(InputState):
         if stamp is not None and (stamp.sec or stamp.nanosec):
             envelope = stamp.sec + stamp.nanosec * 1e-9
         self.bridge.on_bottle(self, values, reason, now, envelope)
+
+    def _rows(self, msg):
+        """(one row per element, None), or (None, reason): a message with an
+        element that does not check is dropped whole."""
+        rows = []
+        for k, element in enumerate(self.elements(msg)):
+            row, reason = message_values(element, self.getters, self.spec.types,
+                                         self.bridge.spec.on_nan == "drop")
+            if reason is not None:
+                return None, "element %d: %s" % (k, reason)
+            rows.append(row)
+        return rows, None
 
     def interrupt(self):
         pass
@@ -296,8 +315,8 @@ class NodeBridge(YarpBridge):
 
     def make_input(self, mux, spec, local, timeout):
         if spec.kind == "ros2":
-            msg_class, leaves = self.topic_inputs[(mux.name, spec.index)]
-            return Ros2Input(self, spec, self.node, msg_class, leaves, timeout)
+            msg_class, leaves, *each = self.topic_inputs[(mux.name, spec.index)]
+            return Ros2Input(self, spec, self.node, msg_class, leaves, timeout, *each)
         return YarpBridge.make_input(self, mux, spec, local, timeout)
 
     def _build(self, ctx):

@@ -14,7 +14,7 @@ import xmlrpc.client
 import yarp
 
 from .core import _FLOAT_TYPES, _INT_TYPES, BACKLOG, Bridge, InputState  # ybgc:runtime-import
-from .core import Array, Msg, Scalar, Splice, parse_options  # ybgc:runtime-import
+from .core import Array, Msg, Rows, Scalar, Splice, parse_options  # ybgc:runtime-import
 
 # --- reading and checking input Bottles --------------------------------------
 
@@ -507,6 +507,10 @@ def add_node(bottle, node, wire):
     of messages a list of such lists."""
     if isinstance(node, Scalar):
         _ADD[wire[node.type]](bottle, node.value)
+    elif isinstance(node, Rows):
+        target = bottle.addList() if node.nested else bottle
+        for row in node.values:
+            _add_values(target.addList(), node.type, row, wire)
     elif isinstance(node, Splice):
         _add_values(bottle, node.type, node.values, wire)
     elif isinstance(node, Array) and is_message_type(node.type):
