@@ -15,7 +15,6 @@ pub: sent (n, t), done.
 """
 import importlib
 import queue
-import threading
 import time
 
 import peer_io
