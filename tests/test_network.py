@@ -114,13 +114,15 @@ def relay(stack: contextlib.ExitStack, rig: Rig, modules, *args, rate=50.0, coun
           started=True):
     """The relay module on the module host, a reader on the consumers host
     kept connected to its output, a producer of SRC on the producers host
-    writing ``[k]`` ``rate`` times a second: (module, reader, producer),
-    each stopped when ``stack`` closes."""
+    writing ``[k]`` ``rate`` times a second once the module has connected
+    it (None: on command): (module, reader, producer), each stopped when
+    ``stack`` closes."""
     module = rig.place("module", modules.module("relay_bridge", rig.env("module"), *args))
     reader = rig.place("consumers", YarpReader(rig.env("consumers"), "/test/in:i", source=OUT))
     producer = rig.place("producers", YarpProducer(rig.env("producers"), SRC,
                                                    bottles=[[float(k)] for k in range(10)],
-                                                   rate=rate, count=count))
+                                                   rate=rate, count=count,
+                                                   wait_connected=rate is not None))
     stack.enter_context(module)
     stack.enter_context(reader)
     stack.callback(producer.stop)
