@@ -17,6 +17,7 @@ import argparse
 import json
 import os
 import platform
+import signal
 import statistics
 import sys
 import tempfile
@@ -91,6 +92,8 @@ def main(argv=None) -> int:
     if why:
         print(why, file=sys.stderr)
         return 2
+    # stopped: the rig's namespaces and processes are removed (atexit)
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(1))
     backends = [b for b in args.backends.split(",") if b]
     results = run(backends, args.rounds)
     RESULTS.parent.mkdir(parents=True, exist_ok=True)

@@ -285,12 +285,14 @@ class Watcher(threading.Thread):
                 # any other input connection (a query) does not count for it
                 if linked is not None and self.connected.get((src, dst)) and linked():
                     continue
-                self._check(src, dst)
+                self._check(src, dst, linked)
             self.done.wait(self.PERIOD)
 
-    def _check(self, src, dst):
+    def _check(self, src, dst, linked=None):
         up = yarp.Network.exists(src, True) and yarp.Network.exists(dst, True)
-        if up and yarp.Network.isConnected(src, dst, True):
+        # a source that lists a connection to this module's input when the input
+        # shows none lists one to a predecessor (killed): connected again
+        if up and (linked is None or linked()) and yarp.Network.isConnected(src, dst, True):
             if (src, dst) not in self.made or _lists_input(dst, src) is not False:
                 return
             # the destination was restarted: the connection listed is to its predecessor
