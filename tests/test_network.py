@@ -43,6 +43,8 @@ OUT = "/relay_bridge/out:o"
 #: how long a host is cut off, and a producer floods
 CUT = 5.0
 FLOOD = 10.0
+#: a Bottle on its way when its producer was stopped, never reported sent
+SENT_UNSAID = 1
 #: growth of a module's resident memory that still counts as flat, in kB
 #: (an allocator's arenas; a queue that grew with the backlog would pass it)
 FLAT_KB = 8 * 1024
@@ -133,7 +135,9 @@ def relay(stack: contextlib.ExitStack, rig: Rig, modules, *args, rate=50.0, coun
 
 
 def sent_total(producer: YarpProducer) -> int:
-    """Bottles the producer wrote, over all its runs."""
+    """Bottles the producer wrote, over all its runs. A producer stopped
+    in the middle of a write may have sent one more than it said: the
+    totals are checked against ``sent_total() + 1`` (SENT_UNSAID)."""
     with producer._cond:
         return sum(1 for e in producer.events if e["ev"] == "sent")
 
@@ -189,6 +193,10 @@ def test_yarp_to_yarp_across_hosts(rig, modules):
         for d in data:
             producer.write(d)
             reader.wait_for(len(reader.bottles) + 1)
+            # the module's output sees the reader take it: a message written
+            # while the previous one is still being sent waits a little, then
+            # is dropped (a reader that lags misses messages)
+            time.sleep(0.3)
         t = stop_module(rig, module)
     got = reader.bottles
     assert exactly([g.data for g in got], [[k, *map(float, d)] for k, d in enumerate(data)])
@@ -262,7 +270,7 @@ def fault_name_server_restarted(rig: Rig, modules) -> dict:
         settle(reader, t["published"])
     sent = sent_total(producer)
     assert module.count(rf"connected {SRC} -> {IN}") == 2
-    assert t[SRC][0] <= sent and t[SRC][1:3] == (0, 2)
+    assert t[SRC][0] <= sent + SENT_UNSAID and t[SRC][1:3] == (0, 2)
     assert t["published"] == len(reader.bottles) == t[SRC][0] - t[SRC][3]
     return {"registered again (s)": registered_again, "late producer found (s)": found,
             "sent": sent, "received": t[SRC][0], "unused": t[SRC][3],
@@ -304,7 +312,7 @@ def fault_producer_cut(rig: Rig, modules) -> dict:
     assert counters == list(range(len(counters)))
     received, dropped, periods, unused = t[SRC]
     assert (dropped, periods) == (0, 2)
-    assert received <= sent and t["published"] == received - unused, (t, sent)
+    assert received <= sent + SENT_UNSAID and t["published"] == received - unused, (t, sent)
     assert rss1 - rss0 < FLAT_KB, (rss0, rss1)
     return {"fresh again after the link (s)": recovered, "sent": sent, "received": received,
             "unused": unused, "rss before (kB)": rss0, "rss after (kB)": rss1}
@@ -345,7 +353,7 @@ def fault_consumer_cut(rig: Rig, modules) -> dict:
     assert module.count(r"is stale") == 0  # the input was read all along
     # every Bottle that reached the module counted (those in flight when the
     # producer stopped never did)
-    assert t[SRC][1:3] == (0, 0) and written <= t[SRC][0] <= sent, (t, sent)
+    assert t[SRC][1:3] == (0, 0) and written <= t[SRC][0] <= sent + SENT_UNSAID, (t, sent)
     assert rss_cut - rss0 < FLAT_KB and rss1 - rss0 < FLAT_KB, (rss0, rss_cut, rss1)
     counters = [b.data[0] for b in reader.bottles]
     assert counters == sorted(set(counters))  # in order, none twice
