@@ -11,9 +11,9 @@ figures (bench/network_faults.py). See docs/network.md.
 Each host is a namespace of its own (loopback up, one veth to the hub, a
 route for multicast so that DDS discovery crosses the bridge). The addresses
 exist only inside these namespaces; every namespace is named after this
-process (``ybg<pid>-<host>``), so two runs at once never share one, and all
-are deleted by ``Rig.stop()`` (the fixtures' finalizer) or, after a crash,
-by the ``atexit`` hook. Cutting a host off (``Rig.cut``) sets its port on
+process (``ybg<pid>n<k>-<host>``, a fresh rig per test), so two runs at
+once never share one, and all are deleted by ``Rig.stop()`` (the fixtures'
+finalizer) or, after a crash, by the ``atexit`` hook. Cutting a host off (``Rig.cut``) sets its port on
 the bridge down, as a pulled cable: the host keeps its address and routes,
 its packets go nowhere until ``Rig.restore``.
 
