@@ -190,13 +190,9 @@ def test_yarp_to_yarp_across_hosts(rig, modules):
         assert rig.registered(IN) == rig.ip("module") and rig.registered(OUT) == rig.ip("module")
         assert rig.registered("/test/in:i") == rig.ip("consumers")
         data = [[1.5, -2.0, 3], [4.25, 5, -6.5], [1e-9, 0.0, 7]]
-        for d in data:
+        for k, d in enumerate(data):
             producer.write(d)
-            reader.wait_for(len(reader.bottles) + 1)
-            # the module's output sees the reader take it: a message written
-            # while the previous one is still being sent waits a little, then
-            # is dropped (a reader that lags misses messages)
-            time.sleep(0.3)
+            reader.wait_for(k + 1)
         t = stop_module(rig, module)
     got = reader.bottles
     assert exactly([g.data for g in got], [[k, *map(float, d)] for k, d in enumerate(data)])
