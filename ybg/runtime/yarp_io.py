@@ -258,7 +258,8 @@ class Watcher(threading.Thread):
     source exists and is not connected, so that a source that starts late or
     is restarted is picked up. ``linked``, when given, tells from the
     module's own port, without asking the network, that the link is up: only
-    a missing one costs name-server queries. A destination restarted under
+    a missing one costs name-server queries, besides one a period about the
+    module's first port (``_register_again``). A destination restarted under
     the same name is reconnected too: the old connection stays listed until
     a write fails on it, which for a module that writes only on new data (a
     command) would lose the next command; the destination, asked for its

@@ -737,7 +737,9 @@ struct Link
 /// Every 0.5 s, connects each link whose source exists and that is not
 /// connected, so that a source that starts late or is restarted is picked
 /// up. An input port that has a connection is left alone (no network
-/// traffic); the network is asked only about a missing one. Its own thread:
+/// traffic); the network is asked only about a missing one, and once a
+/// period whether the name server still knows the module's first port
+/// (registerAgain). Its own thread:
 /// the loop never waits for it. Its state is shared with the thread, so that
 /// a thread held up by a peer that does not answer can be left behind at exit.
 class Watcher
