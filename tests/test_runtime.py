@@ -583,3 +583,47 @@ def test_thesis_demonstrations_give_thin_modules():
             name, count = lines.module_lines(demo, backend)
             assert 40 < count <= lines.LIMIT, (demo, backend, name, count)
     assert lines.table() in (ROOT / "docs" / "runtime.md").read_text(encoding="utf-8")
+
+
+WATCHER_SCRIPT = r"""
+import sys, yarp
+from ybg.runtime.yarp_io import Watcher
+yarp.Network.init()
+port = yarp.BufferedPortBottle()
+assert port.open("/rt/own:i")
+watcher = Watcher([], lambda text: print(text, flush=True), [port])
+watcher.start()
+print("ready", flush=True)
+sys.stdin.readline()
+watcher.stop()
+port.close()
+"""
+
+
+def test_watcher_registers_the_ports_again_with_a_restarted_name_server(yarp_server, tmp_path):
+    """A name server killed and started again knows no port: the watcher
+    registers the module's own ports again (at their address, said once),
+    so that sources started since can be connected to them."""
+    import middleware
+
+    env = dict(yarp_server.env)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(ROOT), env.get("PYTHONPATH")) if p)
+    log = tmp_path / "watcher.log"
+    with open(log, "w") as out:
+        proc = subprocess.Popen([sys.executable, "-c", WATCHER_SCRIPT], env=env, stdin=subprocess.PIPE,
+                                stdout=out, stderr=subprocess.STDOUT, text=True)
+    try:
+        middleware._wait_until(lambda: "ready" in log.read_text(), 30, "the watcher")
+        before = yarp_server.yarp("name", "query", "/rt/own:i").stdout
+        assert "registration name /rt/own:i" in before
+        yarp_server.proc.kill()
+        yarp_server.proc.start()
+        middleware._wait_until(lambda: yarp_server.exists("/root"), 30, "the name server again")
+        middleware._wait_until(lambda: yarp_server.exists("/rt/own:i"), 30, "/rt/own:i registered again")
+        assert yarp_server.yarp("name", "query", "/rt/own:i").stdout == before  # the same address
+        proc.communicate("\n", timeout=30)
+    finally:
+        proc.kill()
+    text = log.read_text()
+    assert proc.returncode == 0, text
+    assert text.count("registered them again") == 1, text

@@ -711,6 +711,9 @@ public:
         }
     }
 
+    /// Its port's name and address, once open.
+    yarp::os::Contact where() const { return port_.where(); }
+
     const std::string local;  // this module's own port
     std::string registered;   // its name in the name server (topic-@node for ROS)
 
@@ -735,17 +738,21 @@ struct Link
 /// Every 0.5 s, connects each link whose source exists and that is not
 /// connected, so that a source that starts late or is restarted is picked
 /// up. An input port that has a connection is left alone (no network
-/// traffic); the network is asked only about a missing one. Its own thread:
+/// traffic); the network is asked only about a missing one, and once a
+/// period whether the name server still knows the module's first port
+/// (registerAgain). Its own thread:
 /// the loop never waits for it. Its state is shared with the thread, so that
 /// a thread held up by a peer that does not answer can be left behind at exit.
 class Watcher
 {
 public:
-    explicit Watcher(std::vector<Link> links) : state_(std::make_shared<State>())
+    /// `own`: the module's own ports, kept registered with the name server.
+    Watcher(std::vector<Link> links, std::vector<yarp::os::Contact> own) : state_(std::make_shared<State>())
     {
         state_->connected.assign(links.size(), false);
         state_->made.assign(links.size(), false);
         state_->links = std::move(links);
+        state_->own = std::move(own);
     }
 
     void start()
@@ -777,6 +784,7 @@ private:
     struct State
     {
         std::vector<Link> links;
+        std::vector<yarp::os::Contact> own;
         std::vector<bool> connected;
         std::vector<bool> made;  // connected by this watcher
         std::mutex mutex;
@@ -790,6 +798,7 @@ private:
         std::unique_lock<std::mutex> lock(s.mutex);
         while (!s.done) {
             lock.unlock();
+            registerAgain(s);
             for (std::size_t k = 0; k < s.links.size(); ++k) {
                 check(s, k);
                 std::lock_guard<std::mutex> again(s.mutex);
@@ -802,6 +811,24 @@ private:
         }
         s.finished = true;
         s.wake.notify_all();
+    }
+
+    /// A name server restarted has forgotten every port: the module's own
+    /// ports are registered again (asked about the first one only), so that
+    /// a source started since is connected to them and a consumer finds the
+    /// output. Connections made before never needed it.
+    static void registerAgain(const State& s)
+    {
+        if (s.own.empty() || yarp::os::Network::queryName(s.own.front().getName()).isValid()) {
+            return;
+        }
+        bool all = true;
+        for (const yarp::os::Contact& where : s.own) {
+            all = yarp::os::Network::registerContact(where).isValid() && all;
+        }
+        if (all) {
+            say("the name server had forgotten this module's ports: registered them again");
+        }
     }
 
     static void check(State& s, std::size_t k)
@@ -1074,6 +1101,9 @@ public:
     bool serialized() const { return spec_.ros1Shape != nullptr && spec_.ros1Shape[0] != '\0'; }
     void unprepare() { port_.unprepare(); }
 
+    /// Its port's name and address, once open.
+    yarp::os::Contact where() const { return port_.where(); }
+
     /// Writes the prepared message. A message written while the previous one
     /// is still being sent is dropped for the connections that are still
     /// busy; so it waits for them a little (50 ms at most), unless a reader
@@ -1212,7 +1242,16 @@ public:
         if (spec_.output.connectTo[0] != '\0') {
             links.push_back({spec_.output.port, spec_.output.connectTo, nullptr});
         }
-        Watcher watcher(std::move(links));
+        std::vector<yarp::os::Contact> own;
+        for (const auto& in : inputs_) {
+            if (in->spec.kind == InputKind::Yarp) {
+                own.push_back(in->where());
+            }
+        }
+        if (spec_.output.kind == OutputKind::Yarp) {
+            own.push_back(output_.where());
+        }
+        Watcher watcher(std::move(links), std::move(own));
         if (status == 0) {
             say("publishing " + output_.describe() + ", "
                 + (eventDriven_ ? std::string("event-driven") : formatNumber(options_.rate) + " Hz"));
