@@ -6,6 +6,7 @@ its counts frozen; the output's rate achieved against the rate configured;
 the ``diagnostics`` parameter turns it off."""
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 from types import SimpleNamespace
@@ -18,17 +19,23 @@ from middleware import YarpProducer
 from test_backend_ros2 import Node, QosSubscriber, stop_clean, totals
 
 
-@pytest.fixture
-def mw(ros2_domain):
+@contextlib.contextmanager
+def yarp_and_ros2(ros2_domain):
     """A YARP name server (PyPI's YARP 3.5: the node's ROS 2 side does not
     depend on the YARP version, which test_backend_ros2 runs on every one)
-    and a ROS 2 domain, in one environment."""
+    and a ROS 2 domain, in one environment (``.env``)."""
     with middleware.YarpServer(install=middleware.yarp_install("3.5")) as server:
         env = dict(server.env)
         env.update(ros2_domain.ros_env)
         for key in ("ROS_HOME", "ROS_LOG_DIR"):
             env[key] = ros2_domain.env[key]
         yield SimpleNamespace(env=env, yarp=server, ros2=ros2_domain)
+
+
+@pytest.fixture
+def mw(ros2_domain):
+    with yarp_and_ros2(ros2_domain) as both:
+        yield both
 
 CONFIG = """\
 [module]
