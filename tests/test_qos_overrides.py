@@ -3,7 +3,8 @@ parameters (as rclcpp and rclpy nodes do) on top of the config's QoS, seen
 from the subscriber's side: a TRANSIENT_LOCAL subscriber that joins late gets
 the last message only when the override makes the publisher transient_local;
 a RELIABLE subscriber does not match a publisher overridden to best effort
-while a BEST_EFFORT one does; a bad value is an error, not a traceback."""
+while a BEST_EFFORT one does; ``.subscription.`` overrides the QoS of a topic
+the node reads; a bad value is an error, not a traceback."""
 from __future__ import annotations
 
 import time
@@ -11,7 +12,7 @@ import time
 import pytest
 
 from generated import generate
-from middleware import YarpProducer
+from middleware import Ros2Publisher, YarpProducer
 from test_backend_ros2 import Node, QosSubscriber, stop_clean
 from test_diagnostics import statuses, yarp_and_ros2
 from ybg.compiler.ir import QoS
@@ -66,13 +67,15 @@ def published(diag) -> int:
     return int(statuses(diag.messages[-1].msg)[OUTPUT][2]["published"])
 
 
-def wait_incompatible(sub, policy, timeout=60.0):
-    """rclpy's warning in the subscriber's log: the node's publisher was
-    discovered and refused for ``policy``."""
+def wait_incompatible(peer, policy, found="publisher discovered", verb="offering", timeout=60.0):
+    """rclpy's warning in a peer's log: the node's publisher (subscription)
+    was discovered and refused for ``policy``."""
     end = time.monotonic() + timeout
-    text = f"offering incompatible QoS. No messages will be received from it. Last incompatible policy: {policy}"
-    while text not in sub.log_text():
-        assert time.monotonic() < end, f"no incompatible {policy} in:\n{sub.log_text()[-2000:]}"
+    text = f"New {found} on topic"
+    tail = f"{verb} incompatible QoS. No messages will be "
+    last = f"Last incompatible policy: {policy}"
+    while not all(t in peer.log_text() for t in (text, tail, last)):
+        assert time.monotonic() < end, f"no incompatible {policy} in:\n{peer.log_text()[-2000:]}"
         time.sleep(0.05)
 
 
@@ -92,6 +95,7 @@ def test_late_transient_local_subscriber(mw, tmp_path, override):
                              QoS(reliability="reliable", durability="transient_local")).start()
         if override:
             assert late.wait_for(1)[0].msg == VALUE  # the message published before it joined
+            late.wait_publishers(1)
             assert late.publisher_qos[0]["durability"] == "transient_local"
         else:
             # the config's volatile publisher: a transient_local subscriber is
@@ -139,3 +143,42 @@ def test_a_bad_override_is_an_error(mw, tmp_path):
         assert "Traceback" not in log, log
     finally:
         node.stop()
+
+
+READER = """\
+[module]
+name = qos_reader
+
+[output]
+port = /qos_reader/out:o
+
+[mux goal]
+topics = /qos/goal (geometry_msgs/Point)
+via = ros2
+
+[message]
+point = goal
+"""
+
+
+@pytest.mark.parametrize("override", [True, False], ids=["transient_local", "config"])
+def test_subscription_override(mw, tmp_path, override):
+    """The node's subscription asks for transient_local with the override: a
+    volatile publisher is then incompatible (its rclpy says so), as it is not
+    with the node's own best-effort volatile subscription."""
+    folder = generate(tmp_path, READER, "qos_reader", "ros2")
+    args = ["--ros-args", "-p", "qos_overrides./qos/goal.subscription.durability:=transient_local"]
+    pub = Ros2Publisher(mw.env, "/qos/goal", "geometry_msgs/msg/Point").start()
+    node = Node(mw.env, folder / "qos_reader_node.py", *(args if override else [])).start()
+    try:
+        node.wait_log("publishing")
+        if override:
+            wait_incompatible(pub, "DURABILITY", "subscription discovered", "requesting")
+            assert pub.matched == 0
+        else:
+            node.wait_log("/qos/goal: 1 publisher\n")
+            pub.wait(lambda: pub.matched == 1, 60, "the node's subscription matched")
+        stop_clean(node)
+    finally:
+        node.stop()
+        pub.stop()
