@@ -37,6 +37,7 @@ def mw(ros2_domain):
     with yarp_and_ros2(ros2_domain) as both:
         yield both
 
+
 CONFIG = """\
 [module]
 name = diag_bridge
