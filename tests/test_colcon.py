@@ -41,24 +41,40 @@ class EntryPoint(Node):
                              "bash", workspace, self.path], env=env, name=executable)
 
 
-def test_tutorial_package_built_by_colcon(mw, tmp_path):
+def tutorial_config(tmp_path, msg_package="ybg_demo_msgs") -> Path:
+    """The tutorial config converted for ROS 2 by ``ybgc fmt --to named --ros2``
+    (its message in ``msg_package``)."""
     named = tmp_path / "tutorial.ini"
     r = ybgc("fmt", "--to", "named", "--ros2", "--msg-path", ROOT / "msgpkgs", TUTORIAL, "-o", named)
     assert r.returncode == 0, r.stderr
     text = named.read_text()
     assert "type = ybg_demo_msgs/MotorsInertial" in text and "via = ros2" in text
     assert "inertial = mux2" in text and "motors = mux1" in text
+    named.write_text(text.replace("ybg_demo_msgs/", msg_package + "/"))
+    return named
 
-    ws = tmp_path / "ws"
-    r = ybgc(named, "--backend", "ros2", "--package", "--msg-path", ROOT / "msgpkgs", "-o", ws / "src" / PACKAGE)
-    assert r.returncode == 0, r.stderr
-    r = subprocess.run([str(COLCON), "build"], cwd=ws, env=mw.env, capture_output=True, text=True, timeout=300)
+
+def colcon_build(env, ws: Path, *args) -> str:
+    r = subprocess.run([str(COLCON), "build", *args], cwd=ws, env=env, capture_output=True, text=True,
+                       timeout=600)
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     assert f"Finished <<< {PACKAGE}" in r.stdout
     assert (ws / "install" / PACKAGE / "share" / PACKAGE / "package.xml").is_file()
-    assert "<exec_depend>ybg_demo_msgs</exec_depend>" in (ws / "src" / PACKAGE / "package.xml").read_text()
+    return r.stdout
 
-    sub = QosSubscriber(mw.env, "/motors_inertial_port", "ybg_demo_msgs/msg/MotorsInertial").start()
+
+def workspace_env(env, ws: Path) -> dict:
+    """``env`` after ``source install/setup.bash`` of the workspace."""
+    r = subprocess.run(["bash", "-c", 'source "$1/install/setup.bash" && env -0', "bash", ws],
+                       env=env, capture_output=True, timeout=60)
+    assert r.returncode == 0, r.stderr
+    return dict(item.split("=", 1) for item in r.stdout.decode().split("\0") if "=" in item)
+
+
+def run_tutorial(mw, ws: Path, msg_type: str, sub_env=None) -> None:
+    """Producers -> the installed entry point -> an rclpy subscriber of
+    ``msg_type``: the tutorial's message, exact."""
+    sub = QosSubscriber(sub_env or mw.env, "/motors_inertial_port", msg_type).start()
     head = YarpProducer(mw.env, "/dummy_head/state:o").start()
     inertial = YarpProducer(mw.env, "/inertial").start()
     node = EntryPoint(mw.env, ws, f"{PACKAGE}_node").start()
@@ -66,6 +82,10 @@ def test_tutorial_package_built_by_colcon(mw, tmp_path):
         node.wait_log("publishing")
         head.wait_outputs(1)
         inertial.wait_outputs(1)
+        # matched before the Bottles: the inputs go stale (and the node
+        # silent) one second after them
+        sub.wait_publishers(1)
+        node.wait_log("/motors_inertial_port: 1 subscriber\n")
         degrees = [10.0, -20.5, 90.0]
         imu = [0.5, -1.25, 9.81, 1, 2, 3, 0.125, 0.0, -0.5, 30.0, 45.0, 60.0]
         head.write(degrees)
@@ -86,3 +106,35 @@ def test_tutorial_package_built_by_colcon(mw, tmp_path):
         for p in (node, head, inertial, sub):
             p.stop()
         shutil.rmtree(ws / "build", ignore_errors=True)
+
+
+def test_tutorial_package_built_by_colcon(mw, tmp_path):
+    """The node's package alone in the workspace; ybg_demo_msgs from the setup."""
+    named = tutorial_config(tmp_path)
+    ws = tmp_path / "ws"
+    r = ybgc(named, "--backend", "ros2", "--package", "--msg-path", ROOT / "msgpkgs", "-o", ws / "src" / PACKAGE)
+    assert r.returncode == 0, r.stderr
+    assert "<exec_depend>ybg_demo_msgs</exec_depend>" in (ws / "src" / PACKAGE / "package.xml").read_text()
+    colcon_build(mw.env, ws)
+    run_tutorial(mw, ws, "ybg_demo_msgs/msg/MotorsInertial")
+
+
+def test_message_package_and_node_in_one_workspace(mw, tmp_path):
+    """A user's own message package beside the node's in one workspace, both
+    built by one ``colcon build`` with the wheels' rosidl (the message package
+    first, as the node's package depends on it); the subscriber uses the
+    workspace's environment too."""
+    ws = tmp_path / "ws"
+    msgs = ws / "src" / "my_robot_msgs"
+    shutil.copytree(ROOT / "msgpkgs" / "ybg_demo_msgs", msgs)
+    for name in ("package.xml", "CMakeLists.txt"):
+        (msgs / name).write_text((msgs / name).read_text().replace("ybg_demo_msgs", "my_robot_msgs"))
+    named = tutorial_config(tmp_path, "my_robot_msgs")
+    r = ybgc(named, "--backend", "ros2", "--package", "--msg-path", ws / "src", "-o", ws / "src" / PACKAGE)
+    assert r.returncode == 0, r.stderr
+    # with the wheels, ament finds rosidl's type supports through AMENT_PREFIX_PATH
+    env = dict(mw.env, AMENT_PREFIX_PATH=str(Path(VENV_PYTHON).parent.parent))
+    out = colcon_build(env, ws, "--cmake-args", f"-DCMAKE_PROJECT_INCLUDE={ROOT / 'scripts' / 'msgpkg_wheels.cmake'}",
+                       "-DBUILD_TESTING=OFF", f"-DPython3_EXECUTABLE={VENV_PYTHON}")
+    assert out.index("Finished <<< my_robot_msgs") < out.index(f"Starting >>> {PACKAGE}")
+    run_tutorial(mw, ws, "my_robot_msgs/msg/MotorsInertial", workspace_env(mw.env, ws))
