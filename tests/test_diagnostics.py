@@ -166,3 +166,33 @@ def test_the_parameter_turns_diagnostics_off(mw, tmp_path):
     finally:
         for p in (node, arm, hand, out, diag):
             p.stop()
+
+
+def test_status_levels():
+    """The levels and texts of the statuses, from the runtime's state alone."""
+    from ybg.runtime import ros2_io
+
+    def head(status):  # the level (a byte in the message) as a number, and the text
+        return status[0][0], status[1]
+
+    bridge = SimpleNamespace(rate=None, published=7, skipped_cycles=0, build_errors=2)
+    status = ros2_io.output_status(bridge, 2.5)
+    assert head(status) == (OK, "event-driven: 2.50 Hz")
+    values = status[2]
+    assert dict(values)["rate configured (Hz)"] == "event-driven"
+    assert dict(values)["build failures"] == "2"
+    bridge.rate = 20.0
+    assert head(ros2_io.output_status(bridge, 18.0)) == (OK, "18.00 Hz of 20 Hz")
+    assert head(ros2_io.output_status(bridge, 17.99)) == (WARN, "rate too low: 17.99 Hz of 20 Hz")
+
+    inp = SimpleNamespace(state="waiting", arrival=None, received=0, dropped=0, stale_periods=0,
+                          unused=0, timeout=0.5)
+    assert head(ros2_io.input_status(inp, 100.0)) == (ERROR, "no data received yet")
+    inp.state, inp.arrival, inp.received, inp.dropped = "stale", 97.75, 12, 3
+    status = ros2_io.input_status(inp, 100.0)
+    assert head(status) == (WARN, "stale: no data for 2.2 s")
+    values = status[2]
+    assert dict(values) == {"received": "12", "dropped": "3", "stale periods": "0", "unused": "0",
+                            "age (s)": "2.250", "timeout (s)": "0.5"}
+    inp.state = "fresh"
+    assert head(ros2_io.input_status(inp, 97.875)) == (OK, "fresh")
