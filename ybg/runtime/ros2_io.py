@@ -390,6 +390,8 @@ class Diagnostics:
         self.name = node.get_name()
         self.hardware_id = bridge.spec.module
         self.samples = collections.deque(maxlen=RATE_WINDOW + 1)  # (time, published)
+        with bridge.cond:
+            self.samples.append((time.monotonic(), bridge.published))
         self.publisher = node.create_publisher(DiagnosticArray, "/diagnostics", 1)
         self.timer = node.create_timer(period, self.publish, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
@@ -458,7 +460,7 @@ def node_options(node, default_prefix, default_rate):
     if period <= 0:
         raise ParameterError("parameter diagnostic_updater.period must be positive")
     return argparse.Namespace(prefix=prefix, rate=rate, timeout=timeout or None, verbose=verbose,
-                              diagnostics=period if diagnostics else None)
+                              diagnostics_period=period if diagnostics else None)
 
 
 def _parse_command_line(spec, args, default_prefix, default_rate):
@@ -516,8 +518,8 @@ def run_node(spec, argv, node_name, default_prefix, default_rate, topic_inputs,
             print("%s: %s" % (spec.module, e), flush=True)
             return 2
         bridge = NodeBridge(spec, options, node, make_output(node), build, compute, topic_inputs)
-        if options.diagnostics:
-            Diagnostics(bridge, node, options.diagnostics)
+        if options.diagnostics_period:
+            Diagnostics(bridge, node, options.diagnostics_period)
         started.append(bridge)
         if pending:
             bridge.request_stop()
