@@ -135,7 +135,8 @@ if ! "$vpy" -c 'import colcon_core, colcon_ros, colcon_python_setup_py, colcon_c
 fi
 # The ROS 2 wheels pull `lark-parser` 0.12 (for rosidl's code generators, not
 # needed at run time), which installs into the same `lark` folder as lark 1.x
-# and overwrites it. ybgc needs lark 1.x: remove both, put lark 1.x back.
+# and overwrites it. ybgc needs lark 1.x: remove both, put lark 1.x back
+# (rosidl's parser works with lark 1.x: the message packages below use it).
 if "$vpy" -m pip show -q lark-parser >/dev/null 2>&1; then
   log "replacing lark-parser 0.12 (pulled by the ROS 2 wheels) with lark 1.x"
   "$vpy" -m pip uninstall -y -q lark-parser lark >/dev/null
