@@ -41,7 +41,7 @@ jobs=${YBG_BUILD_JOBS:-$(nproc)}
 recipe=1
 fixups=$root/scripts/msgpkg_wheels.cmake
 
-usage() { sed -n '2,22p' "${BASH_SOURCE[0]}"; }
+usage() { sed -n '2,21p' "${BASH_SOURCE[0]}"; }
 die() { printf 'error: %s\n' "$*" >&2; exit 1; }
 
 pkgs=()
