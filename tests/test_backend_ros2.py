@@ -97,15 +97,15 @@ def example(stem: str) -> Program:
     return compiled(str(EXAMPLES / f"{stem}.ini"))
 
 
-def skip_unless_messages_import(program: Program) -> None:
-    """Skip a run of a node whose message packages rclpy cannot import here.
-    tf2_msgs has no PyPI wheel: examples/tf_frames_ros2.ini checks and
-    generates, and its runs (test_yarp_to_ros2, test_differential_with_the_py_module,
-    TestRos2Behaviour::test_config_end_to_end) take place once the setup
-    builds tf2_msgs from its definitions."""
+def require_message_packages(program: Program) -> None:
+    """Fail, saying how to get them, when rclpy cannot import the node's
+    message packages: tf2_msgs has no PyPI wheel, scripts/setup.sh builds it
+    from msgpkgs/ (scripts/build_msgpkg.sh) into the venv."""
     missing = [p for p in used_packages(program) if importlib.util.find_spec(p) is None]
     if missing:
-        pytest.skip(f"{', '.join(missing)} does not import in this Python (no wheel installed)")
+        pytest.fail(f"{', '.join(missing)} does not import in this Python: run scripts/setup.sh, which "
+                    "builds the message packages PyPI has no wheel for (scripts/build_msgpkg.sh msgpkgs/...)",
+                    pytrace=False)
 
 
 def yarp_to_ros2_examples():
@@ -343,7 +343,7 @@ class Ros2Modules(Launcher):
 
     def module(self, key, env, *args, gate_output=False) -> Module:
         program = self.program(key)
-        skip_unless_messages_import(program)
+        require_message_packages(program)
         path = write_node(program, self.folder / program.module)
         return Module([VENV_PYTHON, path, *ros_args(args)], env=env, name=f"{program.module}_node",
                       gate_output=gate_output)
@@ -669,7 +669,7 @@ def test_lowering_errors():
 
 def start_yarp_to_ros2(mw, stem, folder, *args):
     program = example(stem)
-    skip_unless_messages_import(program)
+    require_message_packages(program)
     path = write_node(program, folder)
     started = []
     try:
@@ -1177,7 +1177,7 @@ def test_differential_with_the_py_module(mw, tmp_path, stem):
     """The py module renders the same message tree as a Bottle: every field
     value (and every envelope stamp) is the same as in the ROS 2 message."""
     program = example(stem)
-    skip_unless_messages_import(program)
+    require_message_packages(program)
     # values, not QoS, are compared here (QoS: test_yarp_to_ros2): reliable
     # delivery, so that a best-effort example (imu) loses no message under load
     if program.output.qos is not None:
