@@ -34,6 +34,7 @@ from behaviour import (DEG, PROGRAMS, ROS1_PROGRAMS, TIMED, BridgeBehaviour, Lau
                        Module, ModuleCommandLine, Ros1Behaviour, config_program, escape_program,
                        needs_ros1, relay_program, supported_configs, values_program)
 from generated import without_runtime
+from middleware import VENV
 from ybg.backends import get_backend
 from ybg.backends.cpp import CppBackend
 from ybg.backends.cpp.escape import (CPP_KEYWORDS, cpp_comment, cpp_float, cpp_identifier, cpp_int,
@@ -89,6 +90,12 @@ BUILD_PROGRAMS = _build_programs()
 
 # --------------------------------------------------------------------------
 # building: every module of the session in one CMake project
+
+
+def ros2_wheels_option() -> str:
+    """The CMake option that builds a module publishing to ROS 2 against the
+    ROS 2 wheels of the test environment (docs/ros2-native.md)."""
+    return f"-DYBGC_ROS2_PYTHON_ENV={VENV}"
 
 
 class Builds:
@@ -147,7 +154,7 @@ class Builds:
         env = dict(os.environ)
         # a build type of no flags at all (the modules default to Release only when none is given)
         cfg = subprocess.run(["cmake", "-S", str(src), "-B", str(build), f"-DCMAKE_PREFIX_PATH={self.install.cmake_prefix_path()}",
-                              "-DCMAKE_CXX_FLAGS=-Werror", "-DCMAKE_BUILD_TYPE=Tests"],
+                              "-DCMAKE_CXX_FLAGS=-Werror", "-DCMAKE_BUILD_TYPE=Tests", ros2_wheels_option()],
                              capture_output=True, text=True, env=env)
         self.log = cfg.stdout + cfg.stderr
         if cfg.returncode != 0:
@@ -183,12 +190,23 @@ def builds(tmp_path_factory, yarp) -> Builds:
 
 
 class CppModules(Launcher):
-    """The built executable of a program, run with its command line."""
+    """The built executable of a program, run with its command line (a
+    module that publishes to ROS 2: in the test's ROS 2 domain)."""
 
     backend = "cpp"
 
-    def __init__(self, builds: Builds):
+    def __init__(self, builds: Builds, request=None):
         self.builds = builds
+        self.request = request
+
+    def environment(self, env: dict) -> dict:
+        domain = self.request.getfixturevalue("ros2_domain")
+        return {**env, **domain.ros_env, "ROS_HOME": domain.env["ROS_HOME"], "ROS_LOG_DIR": domain.env["ROS_LOG_DIR"]}
+
+    def subscriber(self, env: dict, program: Program):
+        from test_backend_ros2 import subscriber_for  # the rclpy subscriber of the ros2 node's tests
+
+        return subscriber_for(env, program)
 
     @staticmethod
     def key(key) -> str:
@@ -217,8 +235,8 @@ class TestCppBehaviour(BridgeBehaviour, Ros1Behaviour, ModuleCommandLine):
     help_options = ("--prefix P", "--rate HZ", "--timeout S", "--verbose", "--help")
 
     @pytest.fixture
-    def modules(self, builds) -> CppModules:
-        return CppModules(builds)
+    def modules(self, builds, request) -> CppModules:
+        return CppModules(builds, request)
 
 
 # --------------------------------------------------------------------------

@@ -14,6 +14,7 @@ from __future__ import annotations
 import os
 import re
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from ybg.backends.cpp.escape import (cpp_comment, cpp_float, cpp_identifier, cpp_int,
                                      cpp_std_string, cpp_string, mangle)
@@ -21,6 +22,9 @@ from ybg.backends import Line, LoweringError
 from ybg.backends.wire import WIRE_ROS1 as _WIRE_ROS1
 from ybg.backends.wire import WIRE_YARP as _WIRE_YARP
 from ybg.compiler import ir
+
+if TYPE_CHECKING:
+    from ybg.backends.cpp.ros2 import Ros2View
 
 #: The runtime's `Wire` enumerator of each element type (the shared tables of
 #: ybg.backends, in C++ spelling: "float64" -> "Float64").
@@ -99,6 +103,8 @@ class ModuleView:
     builder: tuple[Line, ...]
     sizes: str
     ros1: bool                       # uses YARP's ROS 1 support (output or an input)
+    ros2: "Ros2View | None" = None   # publishes to ROS 2 through rcl (.ros2)
+    message_cpp: str = "yarp::os::Bottle"  # the C++ type buildMessage fills
 
 
 # --------------------------------------------------------------------------
@@ -427,10 +433,11 @@ def _executable(module: str) -> tuple[str, str]:
     return target, module
 
 
-def lower(program: ir.Program) -> ModuleView:
-    """The view-model of the module generated for ``program``."""
+def lower(program: ir.Program, builder=_Builder) -> ModuleView:
+    """The view-model of the module generated for ``program``; ``builder``
+    writes the message (a ROS 2 output's: :mod:`.ros2`)."""
     out = program.output
-    if out.kind not in ("yarp", "ros1"):
+    if out.kind not in ("yarp", "ros1") and builder is _Builder:
         raise LoweringError(f"the cpp backend cannot publish to a {out.kind!r} output")
     target, executable = _executable(program.module)
     members = _members(program)
@@ -468,7 +475,7 @@ def lower(program: ir.Program) -> ModuleView:
         srcs = ", ".join(comment(i.name) for i in m.inputs)
         mux_views.append(MuxView(members[m.name], cpp_string(m.name), srcs, tuple(gather), bool(m.verbose)))
 
-    b = _Builder(program, members, input_ids)
+    b = builder(program, members, input_ids)
     b.struct(program.message, "msg", 0, 1)
     checks: list[Line] = []
     for name in b.needed:
@@ -493,6 +500,11 @@ def lower(program: ir.Program) -> ModuleView:
         where = f"the ROS 1 topic {comment(out.name)} (port {comment(port)})"
         kind = "ybgc::OutputKind::Ros1"
         plain_where = f"the ROS 1 topic {out.name} (port {port})"
+    elif out.kind == "ros2":
+        port = out.name
+        where = f"the ROS 2 topic {comment(port)}"
+        kind = "ybgc::OutputKind::Ros2"
+        plain_where = f"the ROS 2 topic {port}"
     else:
         port = out.name
         where = f"the YARP port {comment(port)}"
