@@ -962,14 +962,15 @@ void withdrawFromRosMaster(const std::string& port, bool publisher)
 
 // --- the output ---------------------------------------------------------------------------
 
-/// Writes each message on a BufferedPort, never waiting for a slow reader
-/// (a reader that lags misses messages, the module does not stall).
-class Output
+/// Writes each message, a Bottle built by MakeMessage, on a BufferedPort,
+/// never waiting for a slow reader (a reader that lags misses messages, the
+/// module does not stall).
+class Output : public MessageSink
 {
 public:
-    explicit Output(const OutputSpec& spec) : spec_(spec) {}
+    Output(const OutputSpec& spec, MakeMessage make) : spec_(spec), make_(std::move(make)) {}
 
-    bool open()
+    bool open() override
     {
         port_.setWriteOnly();
         if (spec_.kind == OutputKind::Ros1 && spec_.msgType[0] != '\0') {
@@ -983,7 +984,25 @@ public:
     }
 
     /// Its name in the name server (topic+@node for ROS).
-    const std::string& registered() const { return registered_; }
+    std::string registered() const override { return registered_; }
+
+    /// The wall clock.
+    std::int64_t nowNs() override
+    {
+        return std::chrono::duration_cast<std::chrono::nanoseconds>(
+                   std::chrono::system_clock::now().time_since_epoch()).count();
+    }
+
+    bool publish(const Inputs& in, const Context& ctx, std::string& failure) override
+    {
+        yarp::os::Bottle& msg = prepare();
+        if (!make_(in, ctx, msg, failure)) {
+            unprepare();
+            return false;
+        }
+        write();
+        return true;
+    }
 
     yarp::os::Bottle& prepare()
     {
@@ -1013,19 +1032,20 @@ public:
         port_.write();
     }
 
-    void close()
+    void close() override
     {
         port_.interrupt();
         port_.close();
     }
 
-    std::string describe() const
+    std::string describe() const override
     {
         return std::string(spec_.msgType[0] != '\0' ? spec_.msgType : "untyped Bottles") + " on " + spec_.port;
     }
 
 private:
     const OutputSpec& spec_;
+    MakeMessage make_;
     yarp::os::BufferedPort<yarp::os::Bottle> port_;
     std::string registered_;
     bool patient_ = true;
@@ -1057,8 +1077,8 @@ std::string formatNumber(double x)
 class Bridge : public ArrivalListener
 {
 public:
-    Bridge(const BridgeSpec& spec, const Options& options, MakeMessage make) :
-            spec_(spec), options_(options), make_(std::move(make)), output_(spec.output),
+    Bridge(const BridgeSpec& spec, const Options& options, MessageSink& output) :
+            spec_(spec), options_(options), output_(output),
             eventDriven_(!(options.rate > 0))
     {
         shared_.dropNan = spec.dropNan;
@@ -1105,6 +1125,7 @@ public:
         if (status == 0) {
             outputOpen = output_.open();
             if (!outputOpen) {
+                output_.close();
                 say(std::string("cannot open the output ") + spec_.output.port);
                 status = 1;
             }
@@ -1198,7 +1219,7 @@ private:
         for (std::size_t k = 0; k < opened; ++k) {
             yarp::os::Network::unregisterName(inputs_[k]->registered);
         }
-        if (outputOpen) {
+        if (outputOpen && !output_.registered().empty()) {
             yarp::os::Network::unregisterName(output_.registered());
         }
         withdrawRos(opened, outputOpen);
@@ -1225,22 +1246,18 @@ private:
         matcher_->take();
         Context ctx;
         ctx.counter = published_;
-        ctx.wallNs = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                         std::chrono::system_clock::now().time_since_epoch()).count();
+        ctx.wallNs = output_.nowNs();
         ctx.seconds = static_cast<double>(ctx.wallNs) / 1e9;
         ctx.verbose = options_.verbose;
         ctx.inputs = &matcher_->latest();
-        yarp::os::Bottle& msg = output_.prepare();
         std::string failure;
-        if (!make_(matcher_->latest(), ctx, msg, failure)) {
-            output_.unprepare();
+        if (!output_.publish(matcher_->latest(), ctx, failure)) {
             if (++buildFailures_ == 1) {
                 say("cannot build the message: a mux has fewer elements than the message needs ("
                     + failure + "); further failures are only counted");
             }
             return;
         }
-        output_.write();
         ++published_;
     }
 
@@ -1311,11 +1328,10 @@ private:
 
     const BridgeSpec& spec_;
     const Options options_;
-    MakeMessage make_;
     Shared shared_;
     std::vector<std::unique_ptr<Input>> inputs_;
     std::unique_ptr<Matcher> matcher_;  // which Bottles each message uses
-    Output output_;
+    MessageSink& output_;
     const bool eventDriven_;
     bool publishing_ = false;  // guarded by Shared::mutex
     std::atomic<std::uint64_t> published_{0};
@@ -1452,6 +1468,12 @@ bool ros1Available(std::string& why)
 /// Parses the command line and runs the bridge until SIGINT or SIGTERM.
 int run(const BridgeSpec& spec, int argc, char* argv[], MakeMessage make)
 {
+    Output output(spec.output, std::move(make));
+    return run(spec, argc, argv, output);
+}
+
+int run(const BridgeSpec& spec, int argc, char* argv[], MessageSink& output)
+{
     gModule = spec.module;
     Options options;
     const int status = parseOptions(spec, argc, argv, options);
@@ -1478,7 +1500,7 @@ int run(const BridgeSpec& spec, int argc, char* argv[], MakeMessage make)
         say("cannot use ROS 1 topics: " + why);
         return 1;
     }
-    Bridge bridge(spec, options, std::move(make));
+    Bridge bridge(spec, options, output);
     signals.start([&bridge] { bridge.requestStop(); });
     const int result = bridge.run();
     signals.finish();
