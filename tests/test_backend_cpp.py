@@ -37,7 +37,7 @@ from behaviour import (DEG, PROGRAMS, ROS1_PROGRAMS, TIMED, BridgeBehaviour, Lau
                        Module, ModuleCommandLine, Ros1Behaviour, config_program, escape_program,
                        needs_ros1, relay_program, supported_configs, values_program)
 from generated import without_runtime
-from middleware import VENV, YarpProducer
+from middleware import VENV, Ros2Publisher, YarpProducer
 from ybg.backends import check_result, get_backend
 from ybg.backends.cpp import CppBackend
 from ybg.backends.cpp.escape import (CPP_KEYWORDS, cpp_comment, cpp_float, cpp_identifier, cpp_int,
@@ -577,6 +577,44 @@ def test_ros2_output_publishes_what_the_ros2_node_publishes(builds, yarp_server,
         assert rc == 0 and elapsed < 2.0, native.log_text()[-2000:]
         log = native.log_text()
         assert f"published {rounds} messages" in log and "Traceback" not in log, log[-2000:]
+    finally:
+        for p in reversed(procs):
+            p.stop()
+
+
+def test_ros2_output_use_sim_time_stamps_with_the_clock_topic(builds, yarp_server, ros2_domain):
+    """`--ros-args -p use_sim_time:=true`, as for every ROS 2 node: the stamps
+    are the simulated time of /clock; the module's own options still work
+    after `--`."""
+    from test_backend_ros2 import subscriber_for
+
+    program = builds.programs["vizzy_rviz_joint_states"]
+    env = ros2_environment(yarp_server.env, ros2_domain)
+    clock = Ros2Publisher(env, "/clock", "rosgraph_msgs/msg/Clock",
+                          messages=[{"clock": {"sec": 4242, "nanosec": 500}}], rate=50)
+    sub = subscriber_for(env, program)
+    module = Module([builds.exe("vizzy_rviz_joint_states"), "--ros-args", "-p", "use_sim_time:=true", "--",
+                     "--rate", "20"], env=env, name="vizzy_sim_time")
+    producers = [YarpProducer(env, "/vizzy/torso/state:o", bottles=[[10.0]], rate=20),
+                 YarpProducer(env, "/vizzy/left_shoulder_arm/state:o", bottles=[[float(k) for k in range(8)]],
+                              rate=20)]
+    procs = [clock, sub, module, *producers]
+    try:
+        for p in procs:
+            p.start()
+        module.wait_log("use_sim_time: stamps from /clock")
+        module.wait_log("20 Hz")
+        clock.wait_matched(1, timeout=60)
+        sim = {"sec": 4242, "nanosec": 500}
+        first = sub.wait_after(0.0, pred=lambda m: m.msg["header"]["stamp"] == sim)
+        got = sub.wait_for(sub.messages.index(first) + 4)
+        # simulated time from the start: 0 until the first /clock message, never the wall clock
+        stamps = [m.msg["header"]["stamp"] for m in got]
+        k = stamps.index(sim)
+        assert set(map(str, stamps[:k])) <= {str({"sec": 0, "nanosec": 0})} and stamps[k:] == [sim] * len(stamps[k:])
+        assert first.msg["position"][0] == 10.0 * DEG
+        rc, elapsed = module.interrupt(signal.SIGINT)
+        assert rc == 0 and elapsed < 2.0, module.log_text()[-2000:]
     finally:
         for p in reversed(procs):
             p.stop()

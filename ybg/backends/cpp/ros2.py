@@ -25,6 +25,8 @@ from ybg.backends.ros2.lower import node_name, split_type, used_packages
 from ybg.compiler import ir
 
 _TIME_TYPES = ("builtin_interfaces/Time", "time")
+#: the message packages the runtime's ROS 2 side uses itself
+RUNTIME_PACKAGES = ("builtin_interfaces", "rosgraph_msgs")
 
 
 @dataclass(frozen=True)
@@ -244,7 +246,8 @@ def ros2_view(program: ir.Program) -> Ros2View:
         raise LoweringError("a ROS 2 output needs its message type", ("type",))
     try:
         pkg, name = split_type(msg_type)
-        packages = used_packages(program)
+        # and those of the runtime: builtin_interfaces (stamps), rosgraph_msgs (/clock, use_sim_time)
+        packages = tuple(sorted(set(used_packages(program)) | set(RUNTIME_PACKAGES)))
     except LoweringError as e:
         raise e.at("type")
     qos = out.qos or ir.QoS()
@@ -270,7 +273,9 @@ def lower(program: ir.Program) -> ModuleView:
     if program.output.kind != "ros2":
         raise LoweringError(f"not a ROS 2 output: {program.output.kind!r}")
     view = lower_module(program, builder=CStructBuilder)
-    return dataclasses.replace(view, ros2=ros2_view(program), message_cpp="Message")
+    ros_args = cpp_string("ROS arguments after --ros-args (-p use_sim_time:=true: stamps from /clock)")
+    return dataclasses.replace(view, ros2=ros2_view(program), message_cpp="Message",
+                               description=view.description + (ros_args,))
 
 
 __all__ = ["CStructBuilder", "Ros2View", "lower", "ros2_view", "snake_case"]

@@ -192,11 +192,15 @@ using FillMessage = std::function<bool(void* msg, const Inputs&, const Context&,
 /// Publishes through rcl: one context, node, ROS clock and publisher, opened
 /// by the bridge once its inputs are open. One message is kept and filled
 /// again for each publish (the fields the config leaves unset keep the
-/// defaults of the message's definition).
+/// defaults of the message's definition). `rosArgs`: the command line's ROS
+/// arguments (`--ros-args ...`), given to rcl; with the parameter
+/// use_sim_time true (`--ros-args -p use_sim_time:=true`), the node's clock
+/// is the simulated time of /clock, as for every ROS 2 node.
 class Publisher : public MessageSink
 {
 public:
-    Publisher(const Ros2Spec& spec, const MessageType& type, FillMessage fill);
+    Publisher(const Ros2Spec& spec, const MessageType& type, FillMessage fill,
+              std::vector<std::string> rosArgs = {});
     ~Publisher() override;
 
     bool open() override;
@@ -207,13 +211,21 @@ public:
 
 private:
     struct Rcl;
+    bool useSimTime();
+    bool startClock();
+    void followClock();
     const Ros2Spec& spec_;
+    std::vector<std::string> rosArgs_;
     const MessageType& type_;
     FillMessage fill_;
     std::unique_ptr<Rcl> rcl_;
     void* msg_ = nullptr;
     bool reportedPublishError_ = false;
 };
+
+/// Moves the ROS arguments of a command line (from `--ros-args` to `--` or
+/// the end, as ROS 2 spells them) out of `argv`, into the result.
+std::vector<std::string> takeRosArgs(int& argc, char* argv[]);
 
 /// Parses the command line and runs the bridge with its ROS 2 output until
 /// SIGINT or SIGTERM; the exit status. `fill` is the module's builder for a
@@ -222,9 +234,10 @@ template <class Msg>
 int run(const BridgeSpec& spec, const Ros2Spec& ros2, const MessageType& type, int argc, char* argv[],
         bool (*fill)(const Inputs&, const Context&, Msg&, std::string&))
 {
+    std::vector<std::string> rosArgs = takeRosArgs(argc, argv);
     Publisher publisher(ros2, type, [fill](void* msg, const Inputs& in, const Context& ctx, std::string& failure) {
         return fill(in, ctx, *static_cast<Msg*>(msg), failure);
-    });
+    }, std::move(rosArgs));
     return ybgc::run(spec, argc, argv, publisher);
 }
 

@@ -9,7 +9,8 @@
 //     cmake -S . -B build -DCMAKE_PREFIX_PATH=<YARP install prefix>
 //     cmake --build build
 // with ROS 2 sourced (or -DYBGC_ROS2_PYTHON_ENV=<venv> for ROS 2's Python wheels:
-// docs/ros2-native.md of ybgc). It publishes through rcl, the C API of ROS 2.
+// docs/ros2-native.md of ybgc). It publishes through rcl, the C API of ROS 2;
+// ROS arguments go after --ros-args (-p use_sim_time:=true: stamps from /clock).
 // Run it with the YARP name server up:
 //     ./build/imu_ros2 [--prefix P] [--rate HZ] [--timeout S] [--verbose]
 // --help prints what it reads and publishes. Behaviour: docs/runtime.md of ybgc.
@@ -49,6 +50,7 @@ const ybgc::BridgeSpec kSpec = {
         "module imu_ros2: 1 input(s) in 1 mux(es)",
         "publishes sensor_msgs/Imu on the ROS 2 topic /imu/data",
         "publishing at 100 Hz, on_stale=skip, on_nan=pass",
+        "ROS arguments after --ros-args (-p use_sim_time:=true: stamps from /clock)",
     },
     "/imu_ros2",  // default --prefix
     {
