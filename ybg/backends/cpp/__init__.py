@@ -1,6 +1,8 @@
 """The ``cpp`` backend: a C++17 YARP module and its CMakeLists.txt, which
 reads YARP ports or ROS 1 topics and writes a Bottle on a YARP port or a
-ROS 1 topic (YARP's topic@node ports, with the type promised).
+ROS 1 topic (YARP's topic@node ports, with the type promised), or publishes
+a ROS 2 message through rcl (:mod:`.ros2`: its C struct filled field by
+field; the runtime's ``ybgc_ros2.hpp``/``.cpp`` beside it).
 
 The module (``module.cpp.j2``) holds this bridge's description, its muxes,
 the message builder and the places for custom code; it runs on the runtime
