@@ -94,6 +94,12 @@ def build_generated_cpp(config: Path, out: Path, ros2: bool = False) -> Path:
     return exes[0]
 
 
+def build_rcl_source(build_root: Path) -> Path:
+    """bench/rcl/rcl_source, against the venv's ROS 2 wheels; returns the binary."""
+    cmake_build(BENCH / "rcl", build_root / "rcl", options=(f"-DYBGC_ROS2_PYTHON_ENV={mw.VENV}",))
+    return build_root / "rcl" / "rcl_source"
+
+
 def generated_python(config: Path, backend: str, out: Path) -> Path:
     """Generate the Python module (py) or node (ros2); returns the script."""
     generate(config, backend, out)
