@@ -618,3 +618,24 @@ def test_ros2_output_use_sim_time_stamps_with_the_clock_topic(builds, yarp_serve
     finally:
         for p in reversed(procs):
             p.stop()
+
+
+def test_ros2_output_refuses_what_the_c_struct_builder_cannot_fill():
+    """A field type without a C conversion (wstring) and an input that is a
+    ROS 2 topic are lowering errors at their place, never C++ that does not
+    compile."""
+    def program(field: Field, inputs=(Input("/value:o"),)) -> Program:
+        return Program(module="label", source="label.ini", muxes=(Mux("m", inputs),),
+                       message=Struct((field,), "my_msgs/Label"), output=Output("ros2", "/label", "my_msgs/Label"),
+                       ros="ros2", distro="jazzy")
+
+    with pytest.raises(LoweringError) as e:
+        CppBackend().lower(program(Field("text", MuxRef("m", index=0), TypeRef("wstring"))))
+    assert e.value.where == ("field", "text") and "wstring" in str(e.value)
+    topic = Input("/goal", kind="ros2", ros_type="geometry_msgs/PointStamped", fields=("point.x",))
+    with pytest.raises(LoweringError) as e:
+        CppBackend().lower(program(Field("value", MuxRef("m", index=0), TypeRef("float64")), (topic,)))
+    assert e.value.where == ("input", "m", "/goal")
+    files = CppBackend().render(program(Field("value", MuxRef("m", index=0), TypeRef("float64"))))
+    assert "ybgc::ros2::set(msg.value, mux.m[0]);" in files["label.cpp"]
+    assert "#include <my_msgs/msg/label.h>" in files["label.cpp"]

@@ -140,6 +140,8 @@ class CStructBuilder:
                 raise LoweringError(f"field {name}: a nested message for a {typ} field")
             self.struct(src, target)
             return
+        if not typ.is_message and typ.base not in ir.ELEMENT_TYPES and typ.base not in _TIME_TYPES:
+            raise LoweringError(f"field {name}: the C++ module cannot fill a {typ.base} field")
         self.emit(what)
         if isinstance(src, ir.MuxRef) and src.into_fields is not None:
             self.into_fields(src, typ, target, name)
