@@ -272,17 +272,7 @@ class _Builder:
                               f"{self.wire_of(src.element_type)});")
             return
         if isinstance(src, ir.Timestamp):
-            if src.clock == "envelope":
-                if src.mux is None:
-                    raise LoweringError("an envelope timestamp names its mux")
-                self.mux(src.mux)
-                ids = ", ".join(str(i) for i in self.input_ids[src.mux])
-                ns = f"ctx.envelopeNs({{{ids}}})"
-            elif src.clock == "wall":
-                ns = "ctx.wallNs"
-            else:
-                raise LoweringError(f"unknown clock {src.clock!r}")
-            self.time(parent, ns, src.style, indent)
+            self.time(parent, self.stamp_ns(src), src.style, indent)
             return
         if isinstance(src, ir.Seconds):
             self.emit(indent, f"{parent}.addFloat64(ctx.seconds);")
@@ -291,6 +281,18 @@ class _Builder:
             self.default(typ, parent, depth, indent)
             return
         raise LoweringError(f"unknown source {type(src).__name__}")
+
+    def stamp_ns(self, src: ir.Timestamp) -> str:
+        """The C++ expression of a timestamp, in nanoseconds since the epoch."""
+        if src.clock == "envelope":
+            if src.mux is None:
+                raise LoweringError("an envelope timestamp names its mux")
+            self.mux(src.mux)
+            ids = ", ".join(str(i) for i in self.input_ids[src.mux])
+            return f"ctx.envelopeNs({{{ids}}})"
+        if src.clock == "wall":
+            return "ctx.wallNs"
+        raise LoweringError(f"unknown clock {src.clock!r}")
 
     def time(self, parent: str, ns: str, style: str, indent: int) -> None:
         if style == "ros2":

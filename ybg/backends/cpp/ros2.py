@@ -16,12 +16,13 @@ import dataclasses
 import re
 from dataclasses import dataclass
 
-from ybg.backends import Line, LoweringError
+from ybg.backends import LoweringError
 from ybg.backends.cpp.lower import ModuleView, comment
+from ybg.backends.cpp.lower import _Builder as BottleBuilder
 from ybg.backends.cpp.lower import _size as index_text
 from ybg.backends.cpp.lower import lower as lower_module
 from ybg.backends.cpp.escape import cpp_float, cpp_identifier, cpp_int, cpp_std_string, cpp_string
-from ybg.backends.ros2.lower import node_name, split_type, used_packages
+from ybg.backends.ros2.lower import _check_size, node_name, slice_stop, split_type, used_packages
 from ybg.compiler import ir
 
 _TIME_TYPES = ("builtin_interfaces/Time", "time")
@@ -55,13 +56,6 @@ def _member(name: str) -> str:
         raise LoweringError(f"field {name!r} cannot be a member of a C struct ({e})") from None
 
 
-def _check_size(typ: ir.TypeRef, n: int, what: str) -> None:
-    if typ.array == "fixed" and typ.size is not None and n != typ.size:
-        raise LoweringError(f"{what}: {n} values for the fixed-size field {typ}")
-    if typ.array == "sequence" and typ.size is not None and n > typ.size:
-        raise LoweringError(f"{what}: {n} values for the bounded field {typ}")
-
-
 def _literal(value, base: str) -> str:
     """A constant of the config as a C++ literal of a ``base`` field's kind."""
     if base in ir.FLOAT_TYPES:
@@ -84,35 +78,13 @@ def _value_type(base: str) -> str:
     return "std::int64_t"
 
 
-class CStructBuilder:
-    """Writes the body of ``buildMessage`` for the message's C struct, with the
-    interface of :mod:`.lower`'s Bottle builder (``struct``, ``lines``,
-    ``needed``, ``need_size``)."""
+class CStructBuilder(BottleBuilder):
+    """Writes the body of ``buildMessage`` for the message's C struct: the
+    Bottle builder's bookkeeping of the muxes the message reads (``mux``,
+    ``needed``, ``need_size``) and lines (``lines``), with statements of its own."""
 
-    def __init__(self, program: ir.Program, members: dict[str, str], input_ids: dict[str, list[int]]):
-        self.program = program
-        self.members = members
-        self.input_ids = input_ids
-        self.lines: list[Line] = []
-        self.needed: list[str] = []
-        self.need_size: dict[str, int] = {}
-        self.path: list[str] = []
-
-    def emit(self, text: str, indent: int = 1) -> None:
-        if "\n" in text or "\r" in text:
-            raise AssertionError("a generated line holds a line break")
-        self.lines.append(Line(indent, text))
-
-    def mux(self, name: str, need: int = 0) -> str:
-        try:
-            self.program.mux(name)
-            member = self.members[name]
-        except KeyError:
-            raise LoweringError(f"the message reads an unknown mux {name!r}") from None
-        if name not in self.needed:
-            self.needed.append(name)
-        self.need_size[name] = max(self.need_size.get(name, 0), need)
-        return f"mux.{member}"
+    def line(self, text: str, indent: int = 1) -> None:
+        self.emit(indent, text)
 
     def struct(self, struct: ir.Struct, target: str, depth: int = 0, indent: int = 1) -> None:
         for f in struct.fields:
@@ -133,7 +105,7 @@ class CStructBuilder:
             raise LoweringError(f"field {name}: a ROS 2 message field needs its type")
         what = f"// {comment(name)} ({comment(str(typ))})"
         if isinstance(src, ir.Default):
-            self.emit(f"{what}: the definition's default")
+            self.line(f"{what}: the definition's default")
             return
         if isinstance(src, ir.Struct):
             if typ.array is not None or not typ.is_message:
@@ -142,7 +114,7 @@ class CStructBuilder:
             return
         if not typ.is_message and typ.base not in ir.ELEMENT_TYPES and typ.base not in _TIME_TYPES:
             raise LoweringError(f"field {name}: the C++ module cannot fill a {typ.base} field")
-        self.emit(what)
+        self.line(what)
         if isinstance(src, ir.MuxRef) and src.into_fields is not None:
             self.into_fields(src, typ, target, name)
         elif isinstance(src, ir.Timestamp):
@@ -161,9 +133,9 @@ class CStructBuilder:
             else:
                 value, text = "ctx.seconds", "ybgc::reprFloat(ctx.seconds)"
             if typ.base == "string":
-                self.emit(f"ybgc::ros2::setString({target}, {text});")
+                self.line(f"ybgc::ros2::setString({target}, {text});")
             else:
-                self.emit(f"ybgc::ros2::assign({target}, {value});")
+                self.line(f"ybgc::ros2::assign({target}, {value});")
         else:
             raise LoweringError(f"field {name}: unknown source {type(src).__name__}")
 
@@ -175,22 +147,12 @@ class CStructBuilder:
             raise LoweringError(f"field {name}: {ref.stop - ref.start} values for {len(leaves)} fields")
         values = self.mux(ref.mux, ref.start + len(leaves))
         for k, leaf in enumerate(leaves):
-            self.emit(f"ybgc::ros2::set({target}.{_member(leaf)}, {values}[{ref.start + k:d}]);")
+            self.line(f"ybgc::ros2::set({target}.{_member(leaf)}, {values}[{ref.start + k:d}]);")
 
     def timestamp(self, src: ir.Timestamp, typ: ir.TypeRef, target: str, name: str) -> None:
         if typ.base not in _TIME_TYPES or typ.array is not None:
             raise LoweringError(f"field {name}: a timestamp into a {typ} field")
-        if src.clock == "envelope":
-            if src.mux is None:
-                raise LoweringError(f"field {name}: an envelope timestamp names its mux")
-            self.mux(src.mux)
-            ids = ", ".join(str(i) for i in self.input_ids[src.mux])
-            ns = f"ctx.envelopeNs({{{ids}}})"
-        elif src.clock == "wall":
-            ns = "ctx.wallNs"
-        else:
-            raise LoweringError(f"unknown clock {src.clock!r}")
-        self.emit(f"ybgc::ros2::setTime({target}, {ns});")
+        self.line(f"ybgc::ros2::setTime({target}, {self.stamp_ns(src)});")
 
     def literal(self, lit: ir.Literal, typ: ir.TypeRef, target: str, name: str) -> None:
         if not lit.is_list:
@@ -199,46 +161,39 @@ class CStructBuilder:
             if typ.array is not None:
                 raise LoweringError(f"field {name}: one value for the array field {typ}")
             if typ.base == "string":
-                self.emit(f"ybgc::ros2::setString({target}, {cpp_std_string(str(lit.values[0]))});")
+                self.line(f"ybgc::ros2::setString({target}, {cpp_std_string(str(lit.values[0]))});")
             else:
-                self.emit(f"ybgc::ros2::assign({target}, {_literal(lit.values[0], typ.base)});")
+                self.line(f"ybgc::ros2::assign({target}, {_literal(lit.values[0], typ.base)});")
             return
         if typ.array is None:
             raise LoweringError(f"field {name}: a list for the scalar field {typ}")
         _check_size(typ, len(lit.values), f"field {name}")
         if not lit.values:
-            self.emit(f"ybgc::ros2::resize({target}, 0);")
+            self.line(f"ybgc::ros2::resize({target}, 0);")
         elif typ.base == "string":
             items = ", ".join(cpp_std_string(str(v)) for v in lit.values)
-            self.emit(f"ybgc::ros2::setStrings({target}, {{{items}}});")
+            self.line(f"ybgc::ros2::setStrings({target}, {{{items}}});")
         else:
             items = ", ".join(_literal(v, typ.base) for v in lit.values)
-            self.emit(f"ybgc::ros2::setValues<{_value_type(typ.base)}>({target}, {{{items}}});")
+            self.line(f"ybgc::ros2::setValues<{_value_type(typ.base)}>({target}, {{{items}}});")
 
     def mux_ref(self, ref: ir.MuxRef, typ: ir.TypeRef, target: str, name: str) -> None:
         if ref.index is not None:
             if typ.array is not None:
                 raise LoweringError(f"field {name}: one value for the array field {typ}")
             values = self.mux(ref.mux, ref.index + 1)
-            self.emit(f"ybgc::ros2::set({target}, {values}[{ref.index:d}]);")
+            self.line(f"ybgc::ros2::set({target}, {values}[{ref.index:d}]);")
             return
         if typ.array is None:
             raise LoweringError(f"field {name}: a list of mux values for the scalar field {typ}")
-        width = self.program.mux(ref.mux).width
-        if width is not None:
-            stop = width if ref.stop is None else ref.stop
-            if stop > width or ref.start > stop:
-                raise LoweringError(f"field {name}: elements [{ref.start}, {stop}) of a mux of {width}")
-            _check_size(typ, stop - ref.start, f"field {name}")
-        elif ref.stop is not None:
-            _check_size(typ, ref.stop - ref.start, f"field {name}")
+        slice_stop(self.program, ref, typ, name)
         # a slice needs its end (or, open-ended, its start) within the mux: never shortened
         values = self.mux(ref.mux, ref.start if ref.stop is None else ref.stop)
         bound = typ.size if typ.array == "sequence" and typ.size is not None else 0
-        self.emit(f"if (!ybgc::ros2::setRange({target}, {values}, {index_text(ref.start)}, "
+        self.line(f"if (!ybgc::ros2::setRange({target}, {values}, {index_text(ref.start)}, "
                   f"{index_text(ref.stop)}, {bound:d})) {{")
-        self.emit("return false;", 2)
-        self.emit("}")
+        self.line("return false;", 2)
+        self.line("}")
 
 
 def ros2_view(program: ir.Program) -> Ros2View:
