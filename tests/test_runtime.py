@@ -490,7 +490,7 @@ def test_versions_agree():
 
 
 def runtime_files() -> dict[str, str]:
-    return {**python_files(), **cpp_files()}
+    return {**python_files(), **cpp_files(ros2=True)}
 
 
 @pytest.mark.parametrize("name", sorted(runtime_files()))

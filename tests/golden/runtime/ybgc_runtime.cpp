@@ -1062,14 +1062,20 @@ bool ros1Bytes(const yarp::os::Bottle& msg, const char* shape, std::string& out)
 
 // --- the output ---------------------------------------------------------------------------
 
-/// Writes each message on a BufferedPort, never waiting for a slow reader
-/// (a reader that lags misses messages, the module does not stall).
-class Output
+std::string tooShort(const std::string& sizes)
+{
+    return "a mux has fewer elements than the message needs (" + sizes + ")";
+}
+
+/// Writes each message, a Bottle built by MakeMessage, on a BufferedPort,
+/// never waiting for a slow reader (a reader that lags misses messages, the
+/// module does not stall).
+class Output : public MessageSink
 {
 public:
-    explicit Output(const OutputSpec& spec) : spec_(spec) {}
+    Output(const OutputSpec& spec, MakeMessage make) : spec_(spec), make_(std::move(make)) {}
 
-    bool open()
+    bool open() override
     {
         port_.setWriteOnly();
         if (spec_.kind == OutputKind::Ros1 && serialized()) {
@@ -1087,7 +1093,29 @@ public:
     }
 
     /// Its name in the name server (topic+@node for ROS).
-    const std::string& registered() const { return registered_; }
+    std::string registered() const override { return registered_; }
+
+    /// The wall clock.
+    std::int64_t nowNs() override
+    {
+        return std::chrono::duration_cast<std::chrono::nanoseconds>(
+                   std::chrono::system_clock::now().time_since_epoch()).count();
+    }
+
+    bool publish(const Inputs& in, const Context& ctx, std::string& failure) override
+    {
+        yarp::os::Bottle& msg = prepare();
+        if (!make_(in, ctx, msg, failure)) {
+            unprepare();
+            failure = tooShort(failure);
+            return false;
+        }
+        if (!write()) {
+            failure = "it does not have the layout of " + std::string(spec_.msgType) + ", to serialize for ROS 1";
+            return false;
+        }
+        return true;
+    }
 
     yarp::os::Bottle& prepare()
     {
@@ -1135,19 +1163,20 @@ public:
         return true;
     }
 
-    void close()
+    void close() override
     {
         port_.interrupt();
         port_.close();
     }
 
-    std::string describe() const
+    std::string describe() const override
     {
         return std::string(spec_.msgType[0] != '\0' ? spec_.msgType : "untyped Bottles") + " on " + spec_.port;
     }
 
 private:
     const OutputSpec& spec_;
+    MakeMessage make_;
     yarp::os::BufferedPort<yarp::os::Bottle> port_;
     std::string registered_;
     yarp::os::Bottle* prepared_ = nullptr;  // the message being built
@@ -1180,8 +1209,8 @@ std::string formatNumber(double x)
 class Bridge : public ArrivalListener
 {
 public:
-    Bridge(const BridgeSpec& spec, const Options& options, MakeMessage make) :
-            spec_(spec), options_(options), make_(std::move(make)), output_(spec.output),
+    Bridge(const BridgeSpec& spec, const Options& options, MessageSink& output) :
+            spec_(spec), options_(options), output_(output),
             eventDriven_(!(options.rate > 0))
     {
         shared_.dropNan = spec.dropNan;
@@ -1228,6 +1257,7 @@ public:
         if (status == 0) {
             outputOpen = output_.open();
             if (!outputOpen) {
+                output_.close();
                 say(std::string("cannot open the output ") + spec_.output.port);
                 status = 1;
             }
@@ -1330,7 +1360,7 @@ private:
         for (std::size_t k = 0; k < opened; ++k) {
             yarp::os::Network::unregisterName(inputs_[k]->registered);
         }
-        if (outputOpen) {
+        if (outputOpen && !output_.registered().empty()) {
             yarp::os::Network::unregisterName(output_.registered());
         }
         withdrawRos(opened, outputOpen);
@@ -1357,25 +1387,14 @@ private:
         matcher_->take();
         Context ctx;
         ctx.counter = published_;
-        ctx.wallNs = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                         std::chrono::system_clock::now().time_since_epoch()).count();
+        ctx.wallNs = output_.nowNs();
         ctx.seconds = static_cast<double>(ctx.wallNs) / 1e9;
         ctx.verbose = options_.verbose;
         ctx.inputs = &matcher_->latest();
-        yarp::os::Bottle& msg = output_.prepare();
         std::string failure;
-        if (!make_(matcher_->latest(), ctx, msg, failure)) {
-            output_.unprepare();
+        if (!output_.publish(matcher_->latest(), ctx, failure)) {
             if (++buildFailures_ == 1) {
-                say("cannot build the message: a mux has fewer elements than the message needs ("
-                    + failure + "); further failures are only counted");
-            }
-            return;
-        }
-        if (!output_.write()) {
-            if (++buildFailures_ == 1) {
-                say("cannot serialize the message as " + std::string(spec_.output.msgType)
-                    + "; further failures are only counted");
+                say("cannot build the message: " + failure + "; further failures are only counted");
             }
             return;
         }
@@ -1449,11 +1468,10 @@ private:
 
     const BridgeSpec& spec_;
     const Options options_;
-    MakeMessage make_;
     Shared shared_;
     std::vector<std::unique_ptr<Input>> inputs_;
     std::unique_ptr<Matcher> matcher_;  // which Bottles each message uses
-    Output output_;
+    MessageSink& output_;
     const bool eventDriven_;
     bool publishing_ = false;  // guarded by Shared::mutex
     std::atomic<std::uint64_t> published_{0};
@@ -1590,6 +1608,12 @@ bool ros1Available(std::string& why)
 /// Parses the command line and runs the bridge until SIGINT or SIGTERM.
 int run(const BridgeSpec& spec, int argc, char* argv[], MakeMessage make)
 {
+    Output output(spec.output, std::move(make));
+    return run(spec, argc, argv, output);
+}
+
+int run(const BridgeSpec& spec, int argc, char* argv[], MessageSink& output)
+{
     gModule = spec.module;
     Options options;
     const int status = parseOptions(spec, argc, argv, options);
@@ -1616,7 +1640,7 @@ int run(const BridgeSpec& spec, int argc, char* argv[], MakeMessage make)
         say("cannot use ROS 1 topics: " + why);
         return 1;
     }
-    Bridge bridge(spec, options, std::move(make));
+    Bridge bridge(spec, options, output);
     signals.start([&bridge] { bridge.requestStop(); });
     const int result = bridge.run();
     signals.finish();

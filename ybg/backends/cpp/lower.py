@@ -14,6 +14,7 @@ from __future__ import annotations
 import os
 import re
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from ybg.backends.cpp.escape import (cpp_comment, cpp_float, cpp_identifier, cpp_int,
                                      cpp_std_string, cpp_string, mangle)
@@ -22,6 +23,9 @@ from ybg.backends.wire import WIRE_ROS1 as _WIRE_ROS1
 from ybg.backends.wire import WIRE_YARP as _WIRE_YARP
 from ybg.backends.wire import has_message_array, ros1_shape
 from ybg.compiler import ir
+
+if TYPE_CHECKING:
+    from ybg.backends.cpp.ros2 import Ros2View
 
 #: The runtime's `Wire` enumerator of each element type (the shared tables of
 #: ybg.backends, in C++ spelling: "float64" -> "Float64").
@@ -100,6 +104,8 @@ class ModuleView:
     builder: tuple[Line, ...]
     sizes: str
     ros1: bool                       # uses YARP's ROS 1 support (output or an input)
+    ros2: "Ros2View | None" = None   # publishes to ROS 2 through rcl (.ros2)
+    message_cpp: str = "yarp::os::Bottle"  # the C++ type buildMessage fills
 
 
 # --------------------------------------------------------------------------
@@ -282,17 +288,7 @@ class _Builder:
                               f"{self.wire_of(src.element_type)});")
             return
         if isinstance(src, ir.Timestamp):
-            if src.clock == "envelope":
-                if src.mux is None:
-                    raise LoweringError("an envelope timestamp names its mux")
-                self.mux(src.mux)
-                ids = ", ".join(str(i) for i in self.input_ids[src.mux])
-                ns = f"ctx.envelopeNs({{{ids}}})"
-            elif src.clock == "wall":
-                ns = "ctx.wallNs"
-            else:
-                raise LoweringError(f"unknown clock {src.clock!r}")
-            self.time(parent, ns, src.style, indent)
+            self.time(parent, self.stamp_ns(src), src.style, indent)
             return
         if isinstance(src, ir.Seconds):
             self.emit(indent, f"{parent}.addFloat64(ctx.seconds);")
@@ -301,6 +297,18 @@ class _Builder:
             self.default(typ, parent, depth, indent)
             return
         raise LoweringError(f"unknown source {type(src).__name__}")
+
+    def stamp_ns(self, src: ir.Timestamp) -> str:
+        """The C++ expression of a timestamp, in nanoseconds since the epoch."""
+        if src.clock == "envelope":
+            if src.mux is None:
+                raise LoweringError("an envelope timestamp names its mux")
+            self.mux(src.mux)
+            ids = ", ".join(str(i) for i in self.input_ids[src.mux])
+            return f"ctx.envelopeNs({{{ids}}})"
+        if src.clock == "wall":
+            return "ctx.wallNs"
+        raise LoweringError(f"unknown clock {src.clock!r}")
 
     def time(self, parent: str, ns: str, style: str, indent: int) -> None:
         if style == "ros2":
@@ -443,10 +451,11 @@ def _executable(module: str) -> tuple[str, str]:
     return target, module
 
 
-def lower(program: ir.Program) -> ModuleView:
-    """The view-model of the module generated for ``program``."""
+def lower(program: ir.Program, builder=_Builder) -> ModuleView:
+    """The view-model of the module generated for ``program``; ``builder``
+    writes the message (a ROS 2 output's: :mod:`.ros2`)."""
     out = program.output
-    if out.kind not in ("yarp", "ros1"):
+    if out.kind not in ("yarp", "ros1") and builder is _Builder:
         raise LoweringError(f"the cpp backend cannot publish to a {out.kind!r} output")
     target, executable = _executable(program.module)
     members = _members(program)
@@ -484,7 +493,7 @@ def lower(program: ir.Program) -> ModuleView:
         srcs = ", ".join(comment(i.name) for i in m.inputs)
         mux_views.append(MuxView(members[m.name], cpp_string(m.name), srcs, tuple(gather), bool(m.verbose)))
 
-    b = _Builder(program, members, input_ids)
+    b = builder(program, members, input_ids)
     b.struct(program.message, "msg", 0, 1)
     checks: list[Line] = []
     for name in b.needed:
@@ -509,6 +518,11 @@ def lower(program: ir.Program) -> ModuleView:
         where = f"the ROS 1 topic {comment(out.name)} (port {comment(port)})"
         kind = "ybgc::OutputKind::Ros1"
         plain_where = f"the ROS 1 topic {out.name} (port {port})"
+    elif out.kind == "ros2":
+        port = out.name
+        where = f"the ROS 2 topic {comment(port)}"
+        kind = "ybgc::OutputKind::Ros2"
+        plain_where = f"the ROS 2 topic {port}"
     else:
         port = out.name
         where = f"the YARP port {comment(port)}"

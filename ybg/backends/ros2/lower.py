@@ -239,6 +239,22 @@ def _check_size(typ: ir.TypeRef, n: int, what: str) -> None:
         raise LoweringError(f"{what}: {n} values for the bounded field {typ}")
 
 
+def slice_stop(program: ir.Program, ref: ir.MuxRef, typ: ir.TypeRef, name: str) -> int | None:
+    """The end of the mux slice ``ref`` into the array field ``name`` of type
+    ``typ`` when the mux's width is known (else None: it is known at run
+    time); the slice is checked against the mux and the field's size."""
+    width = program.mux(ref.mux).width
+    if width is None:
+        if ref.stop is not None:
+            _check_size(typ, ref.stop - ref.start, f"field {name}")
+        return None
+    stop = width if ref.stop is None else ref.stop
+    if stop > width or ref.start > stop:
+        raise LoweringError(f"field {name}: elements [{ref.start}, {stop}) of a mux of {width}")
+    _check_size(typ, stop - ref.start, f"field {name}")
+    return stop
+
+
 class _MessageBuilder:
     """Writes the body of ``build_message`` for a typed ROS 2 message: one
     assignment per field that the config sets (the others keep the
@@ -384,13 +400,9 @@ class _MessageBuilder:
         conv = ARRAY_CONVERSION.get(typ.base)
         if conv is None:
             raise LoweringError(f"field {name}: no conversion to {typ.base}[]")
-        width = self.program.mux(ref.mux).width
-        if width is not None:
-            stop = width if ref.stop is None else ref.stop
-            if stop > width or ref.start > stop:
-                raise LoweringError(f"field {name}: elements [{ref.start}, {stop}) of a mux of {width}")
-            _check_size(typ, stop - ref.start, f"field {name}")
-            if ref.start == 0 and stop == width:
+        stop = slice_stop(self.program, ref, typ, name)
+        if stop is not None:
+            if ref.start == 0 and stop == self.program.mux(ref.mux).width:
                 part = values
             else:
                 part = f"{values}[{ref.start:d}:{stop:d}]"
@@ -398,7 +410,6 @@ class _MessageBuilder:
         # the width is known only at run time: the runtime's take() refuses a
         # slice beyond the mux's current width (never shortened), as in every backend
         if ref.stop is not None:
-            _check_size(typ, ref.stop - ref.start, f"field {name}")
             part = f"take({values}, {ref.start:d}, {ref.stop:d})"
         elif ref.start:
             part = f"take({values}, {ref.start:d}, None)"

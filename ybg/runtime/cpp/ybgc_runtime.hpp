@@ -223,12 +223,12 @@ struct MuxSpec
     const char* name;
 };
 
-enum class OutputKind { Yarp, Ros1 };
+enum class OutputKind { Yarp, Ros1, Ros2 };
 
 struct OutputSpec
 {
     OutputKind kind;
-    const char* port;        // the port opened (topic@node for ROS 1)
+    const char* port;        // the port opened (topic@node for ROS 1; the topic for ROS 2)
     const char* msgType;     // ROS type promised on the port ("" for none)
     const char* connectTo;   // a port to keep connected to ("" for none)
     /// ROS 1 only, for a message holding an array of messages (which YARP's
@@ -426,9 +426,37 @@ struct Context
 /// the mux sizes in `failure`) when a mux is too short for the message.
 using MakeMessage = std::function<bool(const Inputs&, const Context&, yarp::os::Bottle& msg, std::string& failure)>;
 
+/// Where the bridge publishes: a YARP port (a Bottle built by MakeMessage),
+/// or another middleware (ybgc_ros2.hpp: a ROS 2 topic through rcl).
+class MessageSink
+{
+public:
+    virtual ~MessageSink() = default;
+    /// Opens it (after the inputs); false, said, when it cannot.
+    virtual bool open() = 0;
+    /// What it publishes and where, for the start-up line.
+    virtual std::string describe() const = 0;
+    /// The time messages are stamped with, nanoseconds since the epoch.
+    virtual std::int64_t nowNs() = 0;
+    /// Builds one message from the newest input values and publishes it;
+    /// false, with the reason in `failure` (tooShort() of the mux sizes when a
+    /// mux is too short for it), when it cannot be built.
+    virtual bool publish(const Inputs& in, const Context& ctx, std::string& failure) = 0;
+    virtual void close() = 0;
+    /// Its name in the YARP name server ("" for none).
+    virtual std::string registered() const { return ""; }
+};
+
+/// Why a message cannot be built when a mux is shorter than it (`sizes`: each
+/// mux's size, as the module's makeMessage() gives them).
+std::string tooShort(const std::string& sizes);
+
 /// Parses the command line and runs the bridge until SIGINT or SIGTERM; the
 /// exit status.
 int run(const BridgeSpec& spec, int argc, char* argv[], MakeMessage make);
+
+/// The same with the messages published through `sink`.
+int run(const BridgeSpec& spec, int argc, char* argv[], MessageSink& sink);
 
 }  // namespace ybgc
 
