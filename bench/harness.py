@@ -47,12 +47,12 @@ def run_cmd(argv, cwd=None, env=None, timeout=900) -> subprocess.CompletedProces
                           text=True, timeout=timeout)
 
 
-def cmake_build(src: Path, build: Path, target: Optional[str] = None) -> None:
+def cmake_build(src: Path, build: Path, target: Optional[str] = None, options: tuple = ()) -> None:
     """Configure (once) and build a CMake project against the venv's YARP."""
     build.mkdir(parents=True, exist_ok=True)
     if not (build / "CMakeCache.txt").exists():
         r = run_cmd(["cmake", "-S", src, "-B", build, "-DCMAKE_BUILD_TYPE=Release",
-                     f"-DCMAKE_PREFIX_PATH={mw.cmake_prefix_path()}"])
+                     f"-DCMAKE_PREFIX_PATH={mw.cmake_prefix_path()}", *options])
         if r.returncode:
             raise BenchError(f"cmake configure of {src} failed:\n{(r.stdout + r.stderr)[-3000:]}")
     argv = ["cmake", "--build", build, "-j", "2"]
@@ -83,14 +83,21 @@ def generate(config: Path, backend: str, out: Path) -> Path:
     return out
 
 
-def build_generated_cpp(config: Path, out: Path) -> Path:
-    """Generate and build the C++ module of ``config``; returns the binary."""
+def build_generated_cpp(config: Path, out: Path, ros2: bool = False) -> Path:
+    """Generate and build the C++ module of ``config``; returns the binary
+    (``ros2``: it publishes to ROS 2, built against the venv's ROS 2 wheels)."""
     generate(config, "cpp", out / "src")
-    cmake_build(out / "src", out / "build")
+    cmake_build(out / "src", out / "build", options=(f"-DYBGC_ROS2_PYTHON_ENV={mw.VENV}",) if ros2 else ())
     exes = [p for p in (out / "build").iterdir() if p.is_file() and os.access(p, os.X_OK)]
     if len(exes) != 1:
         raise BenchError(f"expected one executable in {out / 'build'}, found {exes}")
     return exes[0]
+
+
+def build_rcl_source(build_root: Path) -> Path:
+    """bench/rcl/rcl_source, against the venv's ROS 2 wheels; returns the binary."""
+    cmake_build(BENCH / "rcl", build_root / "rcl", options=(f"-DYBGC_ROS2_PYTHON_ENV={mw.VENV}",))
+    return build_root / "rcl" / "rcl_source"
 
 
 def generated_python(config: Path, backend: str, out: Path) -> Path:

@@ -15,9 +15,10 @@ from typing import Optional
 
 BENCH = Path(__file__).resolve().parent
 ROOT = BENCH.parent
-ORDER = ("direct", "relay", "relay-strict", "cpp", "py", "ros2", "rclpy")
+ORDER = ("direct", "relay", "relay-strict", "cpp", "py", "ros2", "cpp-ros2", "rclpy", "rcl")
 COLORS = {"direct": "#555555", "relay": "#000000", "relay-strict": "#8c564b", "cpp": "#1f77b4",
-          "py": "#ff7f0e", "ros2": "#2ca02c", "rclpy": "#9467bd"}
+          "py": "#ff7f0e", "ros2": "#2ca02c", "cpp-ros2": "#17becf", "rclpy": "#9467bd",
+          "rcl": "#bcbd22"}
 WORKLOAD_TEXT = {
     "joints_100hz": "2 ports x 15 float64 at 100 Hz, event-driven",
     "joints_1khz": "2 ports x 15 float64 at 1 kHz, event-driven",
@@ -137,6 +138,17 @@ def targets(data: dict) -> list:
         else:
             row("ROS 2 median <= 1.5 x (YARP hop + rclpy hop)", wl, "–", "1.5", None, None,
                 missing("ros2", "direct", "rclpy"))
+        native, rcl = get["cpp-ros2"], get["rcl"]
+        if native and direct and rcl:
+            base = direct["median_us"] + rcl["median_us"]
+            r = native["median_us"] / base
+            note = f"ROS 2 node {ros2['median_us'] / native['median_us']:.2f} x native" if ros2 else ""
+            row("native ROS 2 median <= 1.2 x (YARP hop + C rcl hop)", wl,
+                f"{us(native['median_us'])} / ({us(direct['median_us'])} + {us(rcl['median_us'])}) us",
+                "1.2", r, r <= 1.2, note)
+        else:
+            row("native ROS 2 median <= 1.2 x (YARP hop + C rcl hop)", wl, "–", "1.2", None, None,
+                missing("cpp-ros2", "direct", "rcl"))
     for e in data.get("fixed_rate", []):
         if e["subject"] == "relay":
             continue

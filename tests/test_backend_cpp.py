@@ -18,10 +18,13 @@ lowering errors, the CMake build, its install rule.
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
+import random
 import re
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -34,12 +37,14 @@ from behaviour import (DEG, PROGRAMS, ROS1_PROGRAMS, TIMED, BridgeBehaviour, Lau
                        Module, ModuleCommandLine, Ros1Behaviour, config_program, escape_program,
                        needs_ros1, relay_program, supported_configs, values_program)
 from generated import without_runtime
-from ybg.backends import get_backend
+from middleware import VENV, Ros2Publisher, YarpProducer
+from ybg.backends import check_result, get_backend
 from ybg.backends.cpp import CppBackend
 from ybg.backends.cpp.escape import (CPP_KEYWORDS, cpp_comment, cpp_float, cpp_identifier, cpp_int,
                                      cpp_std_string, cpp_string, mangle)
 from ybg.backends.cpp.lower import WIRE_ROS1, WIRE_YARP, LoweringError
 from ybg.compiler import ir
+from ybg.compiler.pipeline import compile_text
 from ybg.compiler.ir import (Default, ElementGroup, Field, Input, Literal, Mux, MuxRef, Output, Program,
                              Struct, TypeRef)
 
@@ -64,6 +69,44 @@ def ros1_input_program() -> Program:
         output=Output("yarp", "/typed_ros_input/out:o"), ros="ros1", distro="noetic")
 
 
+DIFF_NATIVE = """\
+[module]
+name = diff_native
+
+[output]
+topic = /diff/battery
+type = sensor_msgs/BatteryState
+via = ros2
+depth = 100
+
+[mux b]
+ports = /diff/battery:o (float64 x4, uint8 x2, bool x1)
+convert = scale(1.5)[0:2], offset(-0.25)[2:3]
+
+[message]
+header.stamp = timestamp(b)
+header.frame_id = "bat \\"q\\" ; #"
+voltage = b[0]
+current = b[1]
+charge = b[2]
+capacity = b[3]
+power_supply_status = b[4]
+power_supply_health = b[5]
+present = b[6]
+cell_voltage = b[0:4]
+cell_temperature = 1.5, -2, 1e-40
+location = "left"
+"""
+
+
+def diff_native_program() -> Program:
+    """A ROS 2 output of float32, uint8, bool and string fields, for the
+    differential test of the native module and the rclpy node."""
+    result = check_result(compile_text(DIFF_NATIVE, "diff_native.ini"), "cpp")
+    assert result.ok, [str(d) for d in result.diagnostics]
+    return result.program
+
+
 HAND_PROGRAMS = {
     "values_bridge": values_program,
     "relay_bridge": relay_program,
@@ -79,6 +122,7 @@ def _build_programs() -> dict:
     the typed ROS 1 input above, every supported config (by its stem)."""
     programs = {key: make for key, make in {**PROGRAMS, **ROS1_PROGRAMS}.items()}
     programs["typed_ros_input"] = ros1_input_program
+    programs["diff_native"] = diff_native_program
     for path in SUPPORTED:
         programs[path.stem] = lambda path=path: config_program(path, "cpp")
     return programs
@@ -89,6 +133,12 @@ BUILD_PROGRAMS = _build_programs()
 
 # --------------------------------------------------------------------------
 # building: every module of the session in one CMake project
+
+
+def ros2_wheels_option() -> str:
+    """The CMake option that builds a module publishing to ROS 2 against the
+    ROS 2 wheels of the test environment (docs/ros2-native.md)."""
+    return f"-DYBGC_ROS2_PYTHON_ENV={VENV}"
 
 
 class Builds:
@@ -147,7 +197,7 @@ class Builds:
         env = dict(os.environ)
         # a build type of no flags at all (the modules default to Release only when none is given)
         cfg = subprocess.run(["cmake", "-S", str(src), "-B", str(build), f"-DCMAKE_PREFIX_PATH={self.install.cmake_prefix_path()}",
-                              "-DCMAKE_CXX_FLAGS=-Werror", "-DCMAKE_BUILD_TYPE=Tests"],
+                              "-DCMAKE_CXX_FLAGS=-Werror", "-DCMAKE_BUILD_TYPE=Tests", ros2_wheels_option()],
                              capture_output=True, text=True, env=env)
         self.log = cfg.stdout + cfg.stderr
         if cfg.returncode != 0:
@@ -182,13 +232,28 @@ def builds(tmp_path_factory, yarp) -> Builds:
 # the behaviour harness: how a C++ module is started
 
 
+def ros2_environment(env: dict, domain) -> dict:
+    """``env`` with the ROS 2 domain's variables (a module publishing to ROS 2)."""
+    return {**env, **domain.ros_env, "ROS_HOME": domain.env["ROS_HOME"], "ROS_LOG_DIR": domain.env["ROS_LOG_DIR"]}
+
+
 class CppModules(Launcher):
-    """The built executable of a program, run with its command line."""
+    """The built executable of a program, run with its command line (a
+    module that publishes to ROS 2: in the test's ROS 2 domain)."""
 
     backend = "cpp"
 
-    def __init__(self, builds: Builds):
+    def __init__(self, builds: Builds, request=None):
         self.builds = builds
+        self.request = request
+
+    def environment(self, env: dict) -> dict:
+        return ros2_environment(env, self.request.getfixturevalue("ros2_domain"))
+
+    def subscriber(self, env: dict, program: Program):
+        from test_backend_ros2 import subscriber_for  # the rclpy subscriber of the ros2 node's tests
+
+        return subscriber_for(env, program)
 
     @staticmethod
     def key(key) -> str:
@@ -218,8 +283,8 @@ class TestCppBehaviour(BridgeBehaviour, Ros1Behaviour, ModuleCommandLine):
                     "--help")
 
     @pytest.fixture
-    def modules(self, builds) -> CppModules:
-        return CppModules(builds)
+    def modules(self, builds, request) -> CppModules:
+        return CppModules(builds, request)
 
 
 # --------------------------------------------------------------------------
@@ -341,7 +406,7 @@ def test_wire_tables_cover_every_element_type():
 def test_backend_registered():
     b = get_backend("cpp")
     assert isinstance(b, CppBackend)
-    assert b.output_kinds == {"yarp", "ros1"} and b.input_kinds == {"yarp", "ros1"}
+    assert b.output_kinds == {"yarp", "ros1", "ros2"} and b.input_kinds == {"yarp", "ros1"}
 
 
 def render(program) -> dict[str, str]:
@@ -355,8 +420,9 @@ GOLDEN_CASES = [(k, f) for k, f in HAND_PROGRAMS.items()] + [(p.stem, p) for p i
 def test_golden_files(key, what, update_goldens):
     program = config_program(what, "cpp") if isinstance(what, Path) else what()
     files = render(program)
+    ros2 = {"ybgc_ros2.hpp", "ybgc_ros2.cpp"} if program.output.kind == "ros2" else set()
     assert set(files) == {f"{program.module}.cpp", "CMakeLists.txt", f"{program.module}.xml", "ybgc_runtime.hpp",
-                          "ybgc_runtime.cpp"}
+                          "ybgc_runtime.cpp"} | ros2
     files = without_runtime(files)  # the runtime's own golden files: tests/test_runtime.py
     folder = GOLDEN / key
     if update_goldens or os.environ.get("YBG_UPDATE_GOLDENS") == "1":
@@ -449,3 +515,129 @@ def test_install_rule(builds, tmp_path):
                        capture_output=True, text=True)
     assert r.returncode == 0, r.stdout + r.stderr
     assert os.access(tmp_path / "bin" / "relay_bridge", os.X_OK)
+
+
+# --------------------------------------------------------------------------
+# ROS 2 through rcl: the native module and the rclpy node are the same bridge
+
+
+def float_bits(value):
+    """A message as JSON gives it, each float replaced by its exact bits."""
+    if isinstance(value, float):
+        return value.hex()
+    if isinstance(value, list):
+        return [float_bits(v) for v in value]
+    if isinstance(value, dict):
+        return {k: float_bits(v) for k, v in value.items()}
+    return value
+
+
+def diff_values(rng: random.Random) -> list:
+    """One Bottle of /diff/battery:o: float64 x4 (float32 fields too, so within
+    float32's range, with NaN, -0.0, tiny and large values), uint8 x2, bool."""
+    reals = [rng.choice([rng.uniform(-1e6, 1e6), rng.uniform(-1, 1) * 1e-30, -0.0, math.nan,
+                         float(rng.randint(-5, 5)), 3.0e38, 1e-45]) for _ in range(4)]
+    return reals + [rng.randint(0, 255), rng.randint(0, 255), rng.random() < 0.5]
+
+
+def test_ros2_output_publishes_what_the_ros2_node_publishes(builds, yarp_server, ros2_domain, tmp_path):
+    """The same YARP stream (values and envelopes) through the native module
+    and the rclpy node of --backend ros2: the same messages, bit for bit
+    (float32 rounding, integer and bool fields, strings, constants, stamps
+    from the envelope); SIGINT ends the native module with 0 within 2 s."""
+    from test_backend_ros2 import subscriber_for, write_node
+
+    program = builds.programs["diff_native"]
+    node_program = dataclasses.replace(program, module="diff_node",
+                                       output=dataclasses.replace(program.output, name="/diff/battery_node"))
+    env = ros2_environment(yarp_server.env, ros2_domain)
+    native = Module([builds.exe("diff_native")], env=env, name="diff_native")
+    node = Module([VENV / "bin" / "python", write_node(node_program, tmp_path)], env=env, name="diff_node")
+    subs = [subscriber_for(env, p) for p in (program, node_program)]
+    producer = YarpProducer(env, "/diff/battery:o")
+    procs = [native, node, *subs, producer]
+    try:
+        for p in procs:
+            p.start()
+        native.wait_log("event-driven")
+        node.wait_log("event-driven")
+        producer.wait_outputs(2)
+        for s in subs:
+            s.wait_publishers(1)
+        rng = random.Random(14)
+        rounds = 25
+        for k in range(rounds):
+            producer.write(diff_values(rng), stamp=[k, 1.7e9 + rng.uniform(0, 1e6)])
+            for s in subs:
+                s.wait_for(k + 1)
+        native_msgs, node_msgs = ([float_bits(m.msg) for m in s.messages] for s in subs)
+        assert len(native_msgs) == len(node_msgs) == rounds
+        assert native_msgs == node_msgs
+        assert len({json.dumps(m["cell_voltage"]) for m in native_msgs}) > rounds // 2  # not a constant
+        assert native_msgs[0]["location"] == "left" and native_msgs[0]["header"]["frame_id"] == 'bat "q" ; #'
+        rc, elapsed = native.interrupt(signal.SIGINT)
+        assert rc == 0 and elapsed < 2.0, native.log_text()[-2000:]
+        log = native.log_text()
+        assert f"published {rounds} messages" in log and "Traceback" not in log, log[-2000:]
+    finally:
+        for p in reversed(procs):
+            p.stop()
+
+
+def test_ros2_output_use_sim_time_stamps_with_the_clock_topic(builds, yarp_server, ros2_domain):
+    """`--ros-args -p use_sim_time:=true`, as for every ROS 2 node: the stamps
+    are the simulated time of /clock; the module's own options still work
+    after `--`."""
+    from test_backend_ros2 import subscriber_for
+
+    program = builds.programs["vizzy_rviz_joint_states"]
+    env = ros2_environment(yarp_server.env, ros2_domain)
+    clock = Ros2Publisher(env, "/clock", "rosgraph_msgs/msg/Clock",
+                          messages=[{"clock": {"sec": 4242, "nanosec": 500}}], rate=50)
+    sub = subscriber_for(env, program)
+    module = Module([builds.exe("vizzy_rviz_joint_states"), "--ros-args", "-p", "use_sim_time:=true", "--",
+                     "--rate", "20"], env=env, name="vizzy_sim_time")
+    producers = [YarpProducer(env, "/vizzy/torso/state:o", bottles=[[10.0]], rate=20),
+                 YarpProducer(env, "/vizzy/left_shoulder_arm/state:o", bottles=[[float(k) for k in range(8)]],
+                              rate=20)]
+    procs = [clock, sub, module, *producers]
+    try:
+        for p in procs:
+            p.start()
+        module.wait_log("use_sim_time: stamps from /clock")
+        module.wait_log("20 Hz")
+        clock.wait_matched(1, timeout=60)
+        sim = {"sec": 4242, "nanosec": 500}
+        first = sub.wait_after(0.0, pred=lambda m: m.msg["header"]["stamp"] == sim)
+        got = sub.wait_for(sub.messages.index(first) + 4)
+        # simulated time from the start: 0 until the first /clock message, never the wall clock
+        stamps = [m.msg["header"]["stamp"] for m in got]
+        k = stamps.index(sim)
+        assert set(map(str, stamps[:k])) <= {str({"sec": 0, "nanosec": 0})} and stamps[k:] == [sim] * len(stamps[k:])
+        assert first.msg["position"][0] == 10.0 * DEG
+        rc, elapsed = module.interrupt(signal.SIGINT)
+        assert rc == 0 and elapsed < 2.0, module.log_text()[-2000:]
+    finally:
+        for p in reversed(procs):
+            p.stop()
+
+
+def test_ros2_output_refuses_what_the_c_struct_builder_cannot_fill():
+    """A field type without a C conversion (wstring) and an input that is a
+    ROS 2 topic are lowering errors at their place, never C++ that does not
+    compile."""
+    def program(field: Field, inputs=(Input("/value:o"),)) -> Program:
+        return Program(module="label", source="label.ini", muxes=(Mux("m", inputs),),
+                       message=Struct((field,), "my_msgs/Label"), output=Output("ros2", "/label", "my_msgs/Label"),
+                       ros="ros2", distro="jazzy")
+
+    with pytest.raises(LoweringError) as e:
+        CppBackend().lower(program(Field("text", MuxRef("m", index=0), TypeRef("wstring"))))
+    assert e.value.where == ("field", "text") and "wstring" in str(e.value)
+    topic = Input("/goal", kind="ros2", ros_type="geometry_msgs/PointStamped", fields=("point.x",))
+    with pytest.raises(LoweringError) as e:
+        CppBackend().lower(program(Field("value", MuxRef("m", index=0), TypeRef("float64")), (topic,)))
+    assert e.value.where == ("input", "m", "/goal")
+    files = CppBackend().render(program(Field("value", MuxRef("m", index=0), TypeRef("float64"))))
+    assert "ybgc::ros2::set(msg.value, mux.m[0]);" in files["label.cpp"]
+    assert "#include <my_msgs/msg/label.h>" in files["label.cpp"]

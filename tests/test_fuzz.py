@@ -24,7 +24,9 @@ GRAMMAR_TEXT = from_lark(
     explicit={
         "KEY": st.sampled_from(["topic", "port", "type", "via", "rate", "ports", "convert", "name",
                                 "position", "header.frame_id", "header.stamp", "num_fields", "1_type",
-                                "1_msg", "output_name", "to_ros", "num_mux", "verbose", "x"]),
+                                "1_msg", "output_name", "to_ros", "num_mux", "verbose", "x",
+                                "transforms[0].child_frame_id", "points[1].positions", "a[0]",
+                                "markers[12].pose.position", "x[0][1]", "[0].x"]),
         "WORD": st.one_of(
             st.sampled_from(["ros2", "ros1", "yarp", "sensor_msgs/JointState", "deg_to_rad", "scale",
                              "arm", "mux1", "60", "-1.5e3", "true", "/a/b:o", "float64", "x6",
@@ -66,9 +68,13 @@ def ini_like(draw):
             key = draw(st.sampled_from(["topic", "port", "type", "via", "rate", "ports", "convert",
                                         "position", "name", "header.frame_id", "num_fields", "1_type",
                                         "1_msg", "1_mux", "output_name", "to_ros", "num_mux", "num_ports",
-                                        "function", "velocity", "timeout", "header.stamp"]))
+                                        "function", "velocity", "timeout", "header.stamp",
+                                        "transforms[0].child_frame_id", "transforms[1].header.stamp",
+                                        "transforms[0]", "points[0].positions", "points[2].x",
+                                        "position[0]", "header[0].frame_id"]))
             val = draw(st.sampled_from([
                 "/joint_states", "ros2", "ros1", "sensor_msgs/JointState", "60", "/a:o (float64 x3)",
+                "tf2_msgs/TFMessage", "trajectory_msgs/JointTrajectory",
                 "deg_to_rad", "arm", "arm[0:2]", '"a", "b"', "[]", "", "true", "mux1", "mux", "msg",
                 "header", "counter", "timestamp", "timestamp(arm)", "scale(2)[0:1]", '"base"', "3",
                 "/a:o, /b:o,", "1, 2, 3"]))

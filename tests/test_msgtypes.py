@@ -74,8 +74,9 @@ def test_vendored_equals_rosbags(distro):
         if n.split("/")[0] in vendor.PACKAGES
         and not (ros == "ros1" and n.startswith("builtin_interfaces/"))
     }
+    extra = set(vendor.ROS1_EXTRA) if ros == "ros1" else set()
     store = load_store(ros, distro, environ=NO_ENV)
-    assert set(store.all_names()) == expected_names
+    assert set(store.all_names()) == expected_names | extra
     for name in sorted(expected_names):
         pkg, typ = name.split("/")
         constants, fields = fielddefs[f"{pkg}/msg/{typ}"]
@@ -95,6 +96,20 @@ def test_vendored_equals_rosbags(distro):
         for f in msgdef.fields:
             if f.type.is_message:
                 assert store.resolve(f.type.base) is not None, (name, f.type.base)
+    assert store.problems == []
+
+
+def test_ros1_extra_as_debian_defines_them():
+    """tf2_msgs/TFMessage and tf/tfMessage, which rosbags lacks, read as
+    Debian's ros-tf2-msgs defines the first (scripts/setup.sh installs it)."""
+    debian = Path("/usr/share/tf2_msgs/msg/TFMessage.msg")
+    if not debian.exists():
+        pytest.skip("Debian's ros-tf2-msgs is not installed")
+    store = load_store("ros1", "noetic", environ=NO_ENV)
+    want = [line.split() for line in debian.read_text().splitlines() if line.strip()]
+    for name in ("tf2_msgs/TFMessage", "tf/tfMessage"):
+        msgdef = store.resolve(name)
+        assert [[str(f.type), f.name] for f in msgdef.fields] == want, name
     assert store.problems == []
 
 

@@ -127,3 +127,28 @@ def test_every_broken_line_is_reported_in_one_run():
 def test_fmt_canonical_output():
     doc, _ = parse("[output]  ; out\nport=/o:o\n\n\n\n[message]\n# c\nx=1,2 ,3,\n")
     assert format_document(doc) == "[output]  ; out\nport = /o:o\n\n[message]\n# c\nx = 1, 2, 3\n"
+
+
+def test_indexed_keys_end_a_continued_list():
+    """A key may index an element of an array (`transforms[0].child_frame_id`);
+    after a comma that ends a line, such a key starts a new entry, as any
+    key does, rather than continuing the list."""
+    sink = Sink()
+    doc = parse_text('[message]\nname = "a",\ntransforms[0].child_frame_id = "x"\n'
+                     'transforms[12].transform.rotation.w = 1\n', sink)
+    assert sink.items == []
+    (sec,) = doc.sections
+    assert [e.key for e in sec.entries] == ["name", "transforms[0].child_frame_id",
+                                            "transforms[12].transform.rotation.w"]
+    assert [i.value for i in sec.entries[0].items] == ["a"]
+
+
+def test_field_paths_with_indices():
+    from ybg.compiler.passes.message import field_path, written
+
+    assert field_path("transforms[0].child_frame_id") == ("transforms", 0, "child_frame_id")
+    assert field_path("points[12]") == ("points", 12)
+    assert field_path("header.frame_id") == ("header", "frame_id")
+    for bad in ("a[0][1]", "a..b", "[0].x", "a[x]", "a.", "a[0]b"):
+        assert field_path(bad) is None, bad
+    assert written(("transforms", 0, "child_frame_id")) == "transforms[0].child_frame_id"

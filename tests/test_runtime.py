@@ -228,6 +228,31 @@ def test_dropped_bottles_are_counted_and_reported_once():
         "further drops are only counted"]
 
 
+def test_a_bottle_wider_than_the_message_reads_is_said_once():
+    """An undeclared port that a nested message cuts (W511, InputSpec.reads):
+    the first Bottle bringing more values than the message reads is said,
+    once; every Bottle is still used whole by the mux."""
+    b, out = bridge(muxes=("a",))
+    inp = b.mux_inputs["a"][0]
+    inp.spec = inp.spec._replace(reads=3)
+    b.publishing = True
+    arrive(b, "a", [1.0, 2.0, 3.0], now=0.0)
+    assert b.logged == []
+    arrive(b, "a", [float(k) for k in range(7)], now=1.0)
+    arrive(b, "a", [float(k) for k in range(9)], now=2.0)
+    assert b.logged == [
+        "input /src/a:o: a Bottle of 7 values, of which the message reads the first 3; the other 4 are "
+        "dropped (declare the port's elements in the config to check its width); said once"]
+    assert [len(m["a"]) for m in out.messages] == [3, 7, 9]
+
+
+def test_a_port_the_message_reads_whole_says_nothing_of_its_width():
+    b, out = bridge(muxes=("a",))
+    b.publishing = True
+    arrive(b, "a", [float(k) for k in range(9)], now=0.0)
+    assert b.logged == [] and len(out.messages) == 1
+
+
 def test_freshness_transitions_are_reported_once_each():
     b, _ = bridge(timeout=0.5)
     b._check_freshness(0.0)
@@ -410,6 +435,45 @@ def test_undeclared_values_go_on_as_they_came():
     assert out.get(1).isInt32() and out.get(2).isFloat64() and out.get(3).isInt64()
 
 
+def test_arrays_of_messages_and_rows_in_a_bottle():
+    """An Array of messages: a nested list of one nested list per message;
+    Rows (a mux read from an array of messages): a nested list per row,
+    appended one by one or, nested, inside one list of their own."""
+    import yarp
+
+    from ybg.runtime.core import Rows
+    from ybg.runtime.yarp_io import fill_bottle
+    from ybg.backends.wire import WIRE_YARP
+
+    point = lambda x: Msg("geometry_msgs/Point", (("x", Scalar("float64", x)), ("n", Scalar("int32", 2))))
+    tree = Msg(None, (("points", Array("geometry_msgs/Point", (point(1.5), point(-2.0)))),
+                      ("none", Array("geometry_msgs/Point", ())),
+                      ("rows", Rows("number", [[0.5, 1], [1.25, 2.0]])),
+                      ("nested", Rows("float64", [[1.0]], nested=True))))
+    out = fill_bottle(yarp.Bottle(), tree, WIRE_YARP)
+    assert out.toString() == "((1.5 2) (-2.0 2)) () (0.5 1) (1.25 2.0) ((1.0))"
+    assert out.get(2).asList().get(1).isInt32() and out.get(3).asList().get(1).isFloat64()
+
+
+def test_rows_are_converted_alike():
+    """A mux of rows: the converters apply to each row, on the row's range."""
+    b, out = bridge(muxes=("a",))
+    mux = b.spec.muxes[0]._replace(rows=True, converters=(ConverterSpec("x10", 10.0, 0.0, True, 1, None),))
+    b.spec = b.spec._replace(muxes=(mux,))
+    b.publishing = True
+    arrive(b, "a", [[0.5, 1.0, 2.0], [1.5, 3.0]], now=0.0)
+    assert out.messages == [{"a": [[0.5, 10.0, 20.0], [1.5, 30.0]]}]
+
+
+def test_a_ros2_duration_is_read_as_seconds():
+    from types import SimpleNamespace
+
+    ros2_io = pytest.importorskip("ybg.runtime.ros2_io")
+    element = SimpleNamespace(time_from_start=SimpleNamespace(sec=1, nanosec=250000000), positions=[0.5, 1])
+    getters = tuple((p, lambda m, p=p: getattr(m, p)) for p in ("time_from_start", "positions"))
+    assert ros2_io.message_values(element, getters, None, False) == ([1.25, 0.5, 1.0], None)
+
+
 def parse_bottle_of(text):
     from ybg.runtime.yarp_io import parse_bottle
     return parse_bottle(bottle(text), None, False, False)
@@ -426,7 +490,7 @@ def test_versions_agree():
 
 
 def runtime_files() -> dict[str, str]:
-    return {**python_files(), **cpp_files()}
+    return {**python_files(), **cpp_files(ros2=True)}
 
 
 @pytest.mark.parametrize("name", sorted(runtime_files()))
@@ -519,3 +583,47 @@ def test_thesis_demonstrations_give_thin_modules():
             name, count = lines.module_lines(demo, backend)
             assert 40 < count <= lines.LIMIT, (demo, backend, name, count)
     assert lines.table() in (ROOT / "docs" / "runtime.md").read_text(encoding="utf-8")
+
+
+WATCHER_SCRIPT = r"""
+import sys, yarp
+from ybg.runtime.yarp_io import Watcher
+yarp.Network.init()
+port = yarp.BufferedPortBottle()
+assert port.open("/rt/own:i")
+watcher = Watcher([], lambda text: print(text, flush=True), [port])
+watcher.start()
+print("ready", flush=True)
+sys.stdin.readline()
+watcher.stop()
+port.close()
+"""
+
+
+def test_watcher_registers_the_ports_again_with_a_restarted_name_server(yarp_server, tmp_path):
+    """A name server killed and started again knows no port: the watcher
+    registers the module's own ports again (at their address, said once),
+    so that sources started since can be connected to them."""
+    import middleware
+
+    env = dict(yarp_server.env)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(ROOT), env.get("PYTHONPATH")) if p)
+    log = tmp_path / "watcher.log"
+    with open(log, "w") as out:
+        proc = subprocess.Popen([sys.executable, "-c", WATCHER_SCRIPT], env=env, stdin=subprocess.PIPE,
+                                stdout=out, stderr=subprocess.STDOUT, text=True)
+    try:
+        middleware._wait_until(lambda: "ready" in log.read_text(), 30, "the watcher")
+        before = yarp_server.yarp("name", "query", "/rt/own:i").stdout
+        assert "registration name /rt/own:i" in before
+        yarp_server.proc.kill()
+        yarp_server.proc.start()
+        middleware._wait_until(lambda: yarp_server.exists("/root"), 30, "the name server again")
+        middleware._wait_until(lambda: yarp_server.exists("/rt/own:i"), 30, "/rt/own:i registered again")
+        assert yarp_server.yarp("name", "query", "/rt/own:i").stdout == before  # the same address
+        proc.communicate("\n", timeout=30)
+    finally:
+        proc.kill()
+    text = log.read_text()
+    assert proc.returncode == 0, text
+    assert text.count("registered them again") == 1, text

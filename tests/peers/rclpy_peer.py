@@ -15,7 +15,6 @@ pub: sent (n, t), done.
 """
 import importlib
 import queue
-import threading
 import time
 
 import peer_io
@@ -38,11 +37,23 @@ def to_py(m):
     return m
 
 
+def element_class(field_type):
+    """The message class of the elements of an array of messages, from its
+    rosidl type: "sequence<trajectory_msgs/JointTrajectoryPoint>",
+    "geometry_msgs/Point[5]"."""
+    name = field_type.split("<", 1)[-1].split(",")[0].rstrip(">").split("[")[0]
+    pkg, typ = name.split("/")
+    return getattr(importlib.import_module(pkg + ".msg"), typ)
+
+
 def fill(m, fields):
     for k, v in fields.items():
         cur = getattr(m, k)
         if isinstance(v, dict) and hasattr(cur, "get_fields_and_field_types"):
             fill(cur, v)
+        elif isinstance(v, list) and v and isinstance(v[0], dict):  # an array of messages
+            cls = element_class(m.get_fields_and_field_types()[k])
+            setattr(m, k, [fill(cls(), x) for x in v])
         else:
             setattr(m, k, v)
     return m

@@ -135,6 +135,43 @@ void testPut()
     CHECK(time->size() == 2 && time->get(0).asInt32() == 12 && time->get(1).asInt32() == 500'000'007);
 }
 
+// A message holding an array of messages, serialized as ROS 1 does (little
+// endian, a sequence with its length, a string with its length, a nested
+// message or a time without): what the C++ module sends to a ROS 1 topic.
+void testRos1Bytes()
+{
+    yarp::os::Bottle msg;
+    yarp::os::Bottle& array = msg.addList();    // 's': a sequence of one element
+    yarp::os::Bottle& element = array.addList();  // 'f': the element
+    yarp::os::Bottle& header = element.addList();  // 'f'
+    header.addInt32(7);
+    ybgc::putTime(header, 1'000'000'002, Wire::Int32, Wire::Int32);  // 'f'
+    header.addString("ab");
+    element.addString("c");
+    element.addInt8(-1);
+    element.addFloat64(0.5);
+    element.addFloat32(0.25f);
+    element.addInt16(-2);
+    element.addInt64(std::int64_t{1} << 40);
+    msg.addList();  // 's': an empty sequence
+    const unsigned char want[] = {
+        1, 0, 0, 0,                       // one element
+        7, 0, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0, 2, 0, 0, 0, 'a', 'b',  // header
+        1, 0, 0, 0, 'c', 0xff,
+        0, 0, 0, 0, 0, 0, 0xe0, 0x3f,     // 0.5
+        0, 0, 0x80, 0x3e,                 // 0.25f
+        0xfe, 0xff,                       // -2
+        0, 0, 0, 0, 0, 1, 0, 0,           // 2^40
+        0, 0, 0, 0,                       // no element
+    };
+    std::string bytes;
+    CHECK(ybgc::ros1Bytes(msg, "sfffs", bytes));
+    CHECK(bytes == std::string(reinterpret_cast<const char*>(want), sizeof want));
+    CHECK(!ybgc::ros1Bytes(msg, "sfff", bytes));    // a list with no letter left
+    CHECK(!ybgc::ros1Bytes(msg, "sfffss", bytes));  // a letter with no list left
+    CHECK(!ybgc::ros1Bytes(msg, "xfffs", bytes));
+}
+
 ybgc::InputSpec yarpInput(bool declared, std::vector<ybgc::Group> layout)
 {
     return ybgc::InputSpec{0, 0, "/src:o", ybgc::InputKind::Yarp, 0.5, declared, std::move(layout), {}};
@@ -396,12 +433,39 @@ void testHoldAndFixedRate()
 
 }  // namespace
 
+/// An undeclared port the message cuts (InputSpec::reads, W511): the first
+/// Bottle wider than what the message reads is said, once; all are kept whole.
+void testCutSaidOnce()
+{
+    ybgc::InputSpec spec = yarpInput(false, {});
+    spec.reads = 3;
+    ybgc::InputState in(spec, spec.timeout);
+    const auto now = ybgc::SteadyClock::now();
+    Mux three(3, Element::ofReal(1.0));
+    ybgc::accept(in, three, false, 0.0, now, 8);
+    CHECK(!in.reportedCut);  // exactly what the message reads
+    Mux seven(7, Element::ofReal(2.0));
+    ybgc::accept(in, seven, false, 0.0, now, 8);
+    CHECK(in.reportedCut);
+    CHECK(in.queue.size() == 2 && in.queue.back().data.values.size() == 7);
+    CHECK(ybgc::cutText("/src:o", 7, 3)
+          == "input /src:o: a Bottle of 7 values, of which the message reads the first 3; the other 4 are "
+             "dropped (declare the port's elements in the config to check its width); said once");
+
+    ybgc::InputSpec whole = yarpInput(false, {});  // no cut: reads -1
+    ybgc::InputState all(whole, whole.timeout);
+    Mux wide(9, Element::ofReal(3.0));
+    ybgc::accept(all, wide, false, 0.0, now, 8);
+    CHECK(whole.reads == -1 && !all.reportedCut);
+}
+
 int main()
 {
     testReprFloat();
     testElements();
     testConvert();
     testPut();
+    testRos1Bytes();
     testParseBottle();
     testAppendAndEnvelope();
     testMatchingTriggerAllByEnvelope();
@@ -411,6 +475,7 @@ int main()
     testFreshness();
     testHoldAndFixedRate();
     testPublishNewOnly();
+    testCutSaidOnce();
     std::printf("%d checks, %d failed (YARP %s)\n", gChecks, gFailures, YARP_VERSION);
     return gFailures;
 }

@@ -143,7 +143,8 @@ _YARP = frozenset({"yarp", "ros1"})
 #: name -> backend, imported on first use so ``ybgc check`` stays quick
 REGISTRY: dict[str, BackendInfo] = {
     "cpp": BackendInfo("ybg.backends.cpp:CppBackend",
-                       "a C++17 YARP module and its CMakeLists.txt, on ybgc's C++ runtime library", _YARP, _YARP),
+                       "a C++17 YARP module and its CMakeLists.txt, on ybgc's C++ runtime library "
+                       "(ROS 2 outputs through rcl)", _YARP | {"ros2"}, _YARP),
     "py": BackendInfo("ybg.backends.py:PyBackend",
                       "a Python module on YARP's Python bindings and ybgc's Python runtime library", _YARP, _YARP),
     "ros2": BackendInfo("ybg.backends.ros2:Ros2Backend",
@@ -279,7 +280,7 @@ def field_span(doc: "Document", path: str) -> "Span | None":
         e = entries.get(".".join(parts[:k]))
         if e is not None:
             return e.span
-    inside = [e for key, e in entries.items() if key.startswith(path + ".")]
+    inside = [e for key, e in entries.items() if key.startswith((path + ".", path + "["))]
     return inside[0].span if inside else sec.span
 
 

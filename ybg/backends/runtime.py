@@ -35,6 +35,9 @@ PY_MODULES = ("core", "yarp_io", "ros2_io")
 #: the C++ runtime's files
 CPP_HEADER = "ybgc_runtime.hpp"
 CPP_SOURCE = "ybgc_runtime.cpp"
+#: the C++ runtime's ROS 2 side (rcl), beside a module that publishes to ROS 2
+CPP_ROS2_HEADER = "ybgc_ros2.hpp"
+CPP_ROS2_SOURCE = "ybgc_ros2.cpp"
 
 #: marks the lines of a runtime file that import another runtime file (left
 #: out when the runtime is inlined into a module)
@@ -73,21 +76,22 @@ def python_inline(modules: tuple[str, ...] = PY_MODULES) -> str:
     return "".join(parts)
 
 
-def cpp_files() -> dict[str, str]:
-    """The C++ runtime's header and source, beside a module."""
-    return {
-        CPP_HEADER: _banner("//") + _read(CPP_DIR / CPP_HEADER),
-        CPP_SOURCE: _banner("//") + _read(CPP_DIR / CPP_SOURCE),
-    }
+def _cpp_names(ros2: bool) -> tuple[str, ...]:
+    return (CPP_HEADER, CPP_SOURCE) + ((CPP_ROS2_HEADER, CPP_ROS2_SOURCE) if ros2 else ())
 
 
-def cpp_inline() -> str:
+def cpp_files(ros2: bool = False) -> dict[str, str]:
+    """The C++ runtime's header and source, beside a module (``ros2``: and
+    its ROS 2 side, for a module that publishes to ROS 2)."""
+    return {name: _banner("//") + _read(CPP_DIR / name) for name in _cpp_names(ros2)}
+
+
+def cpp_inline(ros2: bool = False) -> str:
     """The C++ runtime as one block of a module (``--single-file``)."""
     return (f"// {'=' * 75}\n// ybgc runtime {VERSION}, inlined (--single-file): the same code as\n"
             f"// {CPP_HEADER} and {CPP_SOURCE}, which ybgc writes beside a module by default.\n"
             f"// {'=' * 75}\n"
-            + _without_internal_imports(_read(CPP_DIR / CPP_HEADER)) + "\n"
-            + _without_internal_imports(_read(CPP_DIR / CPP_SOURCE)))
+            + "\n".join(_without_internal_imports(_read(CPP_DIR / name)) for name in _cpp_names(ros2)))
 
 
 @dataclass(frozen=True)
@@ -102,12 +106,14 @@ class RuntimeView:
     inline: str = ""
 
 
-def runtime_view(language: str, single_file: bool, python_modules: tuple[str, ...] = PY_MODULES) -> RuntimeView:
-    """The runtime of a ``language`` ("py" or "cpp") module."""
+def runtime_view(language: str, single_file: bool, python_modules: tuple[str, ...] = PY_MODULES,
+                 ros2: bool = False) -> RuntimeView:
+    """The runtime of a ``language`` ("py" or "cpp") module (``ros2``: a C++
+    module that publishes to ROS 2)."""
     literal = repr(VERSION) if language == "py" else '"' + VERSION + '"'
     inline = ""
     if single_file:
-        inline = python_inline(python_modules) if language == "py" else cpp_inline()
+        inline = python_inline(python_modules) if language == "py" else cpp_inline(ros2)
     return RuntimeView(VERSION, literal, single_file, inline)
 
 
@@ -119,4 +125,5 @@ def runtime_text_filter(text) -> str:
 
 
 __all__ = ["RuntimeView", "runtime_view", "runtime_text_filter", "VERSION", "PY_PACKAGE", "PY_MODULES", "CPP_HEADER", "CPP_SOURCE",
+           "CPP_ROS2_HEADER", "CPP_ROS2_SOURCE",
            "python_files", "python_inline", "cpp_files", "cpp_inline"]

@@ -10,6 +10,8 @@ where each field of a ROS 1 input sits (:attr:`ybg.compiler.ir.Input.positions`)
 
 from __future__ import annotations
 
+from ybg.compiler import ir
+
 #: Bottle tag of each element type on a YARP port or an untyped Bottle
 #: (docs/runtime.md, "Value types on the wire"). Every backend writes these.
 WIRE_YARP: dict[str, str] = {
@@ -38,3 +40,51 @@ WIRE_ROS1: dict[str, str] = {
     "string": "string",
     "number": "float64",  # never in a typed ROS 1 message; an untyped one as YARP had it
 }
+
+
+#: types a ROS 1 Bottle holds as a nested list (sec nsec) of their own
+_TIME_TYPES = ("time", "duration")
+
+
+def has_message_array(struct: ir.Struct) -> bool:
+    """Does the message hold an array of messages (at any depth)?"""
+    for f in struct.fields:
+        src = f.source
+        if isinstance(src, ir.MessageArray):
+            return True
+        if isinstance(src, ir.Struct) and has_message_array(src):
+            return True
+    return False
+
+
+def ros1_shape(struct: ir.Struct) -> str:
+    """What each nested list of a ROS 1 message's Bottle is, in depth-first
+    order: ``s`` a sequence (serialized with its length), ``f`` a nested
+    message, a time or a fixed-size array (without). YARP 3's Bottle
+    translation to ROS 1 (its type server's map) has no arrays of messages,
+    so a module serializes such a message itself, from the Bottle it built
+    and this shape (docs/config.md, "Arrays of messages")."""
+    return "".join(_shape(f.source, f.type) for f in struct.fields)
+
+
+def _shape(src, typ: ir.TypeRef | None) -> str:
+    if typ is None:
+        raise ValueError("a ROS 1 message field needs its type")
+    seq = "f" if typ.array == "fixed" else "s"
+    if isinstance(src, ir.Struct):
+        return "f" + ros1_shape(src)
+    if isinstance(src, ir.MessageArray):
+        return seq + "".join("f" + (ros1_shape(e) if isinstance(e, ir.Struct) else "") for e in src.elements)
+    if isinstance(src, ir.MuxRef):
+        if src.index is not None:
+            return ""
+        return "f" if src.into_fields is not None else seq
+    if isinstance(src, ir.Literal):
+        return seq if src.is_list else ""
+    if isinstance(src, ir.Timestamp):
+        return "f"
+    if isinstance(src, ir.Default):
+        if typ.array is not None:
+            return seq
+        return "f" if typ.base in _TIME_TYPES else ""
+    return ""  # Counter, Seconds: one value

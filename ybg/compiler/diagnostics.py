@@ -105,6 +105,11 @@ CODES: dict[str, str] = {
     "E319": "ROS topic input needs a message type",
     "E320": "the target YARP version has no ROS 1 support",
     "E321": "ROS 2 output without its message definition",
+    # arrays of messages (E330-E339)
+    "E330": "index on a field that is not an array of messages",
+    "E331": "index beyond a fixed-size or bounded array",
+    "E332": "gap in the indices of an array",
+    "E333": "array of messages given a value",
     # names
     "E401": "invalid YARP port name",
     "E402": "invalid ROS topic name",
@@ -122,6 +127,7 @@ CODES: dict[str, str] = {
     "N601": "legacy form",
     "N602": "a fixed rate that publishes new data only",
     "W510": "`publish` without a rate",
+    "W511": "a nested message takes part of an undeclared port: the rest is dropped",
 }
 
 

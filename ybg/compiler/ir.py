@@ -72,6 +72,10 @@ class Input:
     ``geometry_msgs/PointStamped`` is ``(1, 0)``; a one-field array input is
     the path of the array). A backend reading the topic through YARP finds
     each field there in the Bottle, which YARP lays out like the definition.
+    ``each`` (ROS 2 inputs): an array of messages of the message (``points``
+    of ``trajectory_msgs/JointTrajectory``); ``fields`` are then fields of
+    its elements, and each element gives one row of the mux (a time or
+    duration as one float64, seconds).
     """
 
     name: str
@@ -81,6 +85,8 @@ class Input:
     fields: tuple[str, ...] | None = None
     timeout: float = 1.0
     positions: tuple[tuple[int, ...], ...] | None = None
+    reads: int | None = None
+    each: str | None = None
 
     @property
     def width(self) -> int | None:
@@ -131,7 +137,14 @@ class Mux:
     verbose: bool = False
 
     @property
+    def rows(self) -> bool:
+        """Does the mux hold one row per element of an array of messages
+        (an input with ``each``), each row converted alike?"""
+        return any(i.each is not None for i in self.inputs)
+
+    @property
     def width(self) -> int | None:
+        """The number of elements (of each row, for a mux of rows)."""
         widths = [i.width for i in self.inputs]
         if any(w is None for w in widths):
             return None
@@ -256,7 +269,18 @@ class Default:
     value: Union[str, int, float, bool, tuple, None] = None
 
 
-Source = Union[Literal, MuxRef, Counter, Timestamp, Seconds, Default, "Struct"]
+@dataclass(frozen=True)
+class MessageArray:
+    """An array of messages of ``msg_type`` with as many elements as the
+    config gives (``transforms[0].child_frame_id = ...``; a fixed-size array
+    has its size). Each element is a :class:`Struct`, or a :class:`MuxRef`
+    filling the element's numeric fields (``points[0] = goal``)."""
+
+    elements: tuple[Union["Struct", MuxRef], ...]
+    msg_type: str
+
+
+Source = Union[Literal, MuxRef, Counter, Timestamp, Seconds, Default, "Struct", MessageArray]
 
 
 @dataclass(frozen=True)
@@ -378,6 +402,7 @@ _SOURCE_KINDS = {
     "seconds": Seconds,
     "default": Default,
     "struct": Struct,
+    "message_array": MessageArray,
 }
 _KIND_OF = {cls: kind for kind, cls in _SOURCE_KINDS.items()}
 
@@ -415,6 +440,8 @@ def _source(d: dict[str, Any]) -> Any:
     kind = d["kind"]
     if kind == "struct":
         return _struct(d)
+    if kind == "message_array":
+        return MessageArray(_tuple(d["elements"], _source), d["msg_type"])
     if kind == "literal":
         return Literal(tuple(d["values"]), d["element_type"], d["is_list"])
     if kind == "mux":
@@ -451,7 +478,8 @@ def from_dict(d: dict[str, Any]) -> Program:
         layout = None if x["layout"] is None else _tuple(x["layout"], lambda g: ElementGroup(**g))
         fields_ = None if x["fields"] is None else tuple(x["fields"])
         positions = None if x.get("positions") is None else tuple(tuple(p) for p in x["positions"])
-        return Input(x["name"], x["kind"], layout, x["ros_type"], fields_, x["timeout"], positions)
+        return Input(x["name"], x["kind"], layout, x["ros_type"], fields_, x["timeout"], positions,
+                     x.get("reads"), x.get("each"))
 
     muxes = _tuple(
         d["muxes"],
@@ -480,7 +508,7 @@ def from_json(text: str) -> Program:
 
 __all__ = [
     "ElementGroup", "Input", "Converter", "Mux", "TypeRef", "Literal", "MuxRef",
-    "Counter", "Timestamp", "Seconds", "Default", "Field", "Struct", "QoS",
+    "Counter", "Timestamp", "Seconds", "Default", "Field", "Struct", "MessageArray", "QoS",
     "DEFAULT_QUEUE", "Output", "Timing", "Policy", "Program", "to_dict", "to_json", "from_dict",
     "from_json", "IR_VERSION", "NUMERIC_TYPES", "INTEGER_TYPES", "FLOAT_TYPES",
     "ELEMENT_TYPES",

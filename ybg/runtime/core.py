@@ -19,10 +19,12 @@ _INT_TYPES = frozenset(("int8", "uint8", "int16", "uint16", "int32", "uint32",
 _INT_BITS = {"int8": 8, "uint8": 8, "byte": 8, "char": 8, "int16": 16, "uint16": 16,
              "int32": 32, "uint32": 32, "int64": 64, "uint64": 64}
 
-InputSpec = collections.namedtuple("InputSpec", "mux index source kind types timeout positions",
-                                   defaults=(None,))
+InputSpec = collections.namedtuple("InputSpec", "mux index source kind types timeout positions reads",
+                                   defaults=(None, None))
 ConverterSpec = collections.namedtuple("ConverterSpec", "name scale offset to_float start stop")
-MuxSpec = collections.namedtuple("MuxSpec", "name inputs converters verbose types")
+#: rows: the mux holds one row (a list of values) per element of an array of
+#: messages read from ROS 2, each row converted alike
+MuxSpec = collections.namedtuple("MuxSpec", "name inputs converters verbose types rows", defaults=(False,))
 BridgeSpec = collections.namedtuple(
     "BridgeSpec", "module config description muxes needed rate trigger queue on_stale on_nan publish",
     defaults=("always",))
@@ -61,7 +63,8 @@ class Scalar:
 
 class Array:
     """A list of values: ``type`` is one element type, or a tuple of one
-    element type per value."""
+    element type per value; or an array of messages: ``type`` is the
+    message type ("pkg/Name") and each value a Msg."""
 
     __slots__ = ("type", "values")
 
@@ -77,6 +80,18 @@ class Splice(Array):
     """Values appended one by one into the enclosing list (untyped Bottles)."""
 
     __slots__ = ()
+
+
+class Rows(Array):
+    """The rows of a mux read from an array of messages (``values`` a list
+    of rows), each a nested list: appended one by one into the enclosing
+    list, or with ``nested`` inside one list of their own (untyped Bottles)."""
+
+    __slots__ = ("nested",)
+
+    def __init__(self, type_, values, nested=False):
+        Array.__init__(self, type_, values)
+        self.nested = nested
 
 
 def time_msg(ns, style):
@@ -122,6 +137,7 @@ class InputState:
         self.state = "waiting"
         self.reported_waiting = False
         self.reported_drop = False
+        self.reported_cut = False
         self.calls = 0  # deliveries begun (closing waits until they settle)
 
     def settled(self):
@@ -228,6 +244,10 @@ class Bridge:
                     self.log("input %s: dropped a Bottle (%s); further drops are only counted"
                              % (inp.source, reason))
                 return
+            reads = inp.spec.reads
+            if reads is not None and len(values) > reads and not inp.reported_cut:
+                inp.reported_cut = True
+                self.log(cut_text(inp.source, len(values), reads))
             queue = inp.queue
             queue.append((values, now, envelope))
             if len(queue) > self.spec.queue:
@@ -359,7 +379,10 @@ class Bridge:
     def _publish(self, raw, envelopes):
         values = {}
         for mux in self.spec.muxes:
-            v = convert(raw[mux.name], mux.converters)
+            if mux.rows:
+                v = [convert(row, mux.converters) for row in raw[mux.name]]
+            else:
+                v = convert(raw[mux.name], mux.converters)
             values[mux.name] = v
         self.compute(values)
         for mux in self.spec.muxes:
@@ -444,6 +467,14 @@ class Bridge:
         lines.append("  published %d messages, skipped %d cycles, build failures %d"
                      % (self.published, self.skipped_cycles, self.build_errors))
         print("\n".join(lines), flush=True)
+
+
+def cut_text(source, width, reads):
+    """What the module says, once, when a Bottle of an undeclared port brings
+    more values than the message reads (W511)."""
+    return ("input %s: a Bottle of %d values, of which the message reads the first %d; the other %d are "
+            "dropped (declare the port's elements in the config to check its width); said once"
+            % (source, width, reads, width - reads))
 
 
 def take(values, start, stop):

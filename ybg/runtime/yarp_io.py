@@ -12,7 +12,7 @@ import xmlrpc.client
 import yarp
 
 from .core import _FLOAT_TYPES, _INT_TYPES, BACKLOG, Bridge, InputState  # ybgc:runtime-import
-from .core import DEFAULT_CONFIG_FILE, Array, Msg, RateMeter, Scalar, Splice, parse_options  # ybgc:runtime-import
+from .core import DEFAULT_CONFIG_FILE, Array, Msg, RateMeter, Rows, Scalar, Splice, parse_options  # ybgc:runtime-import
 from .core import truthy  # ybgc:runtime-import
 
 # --- reading and checking input Bottles --------------------------------------
@@ -259,7 +259,8 @@ class Watcher(threading.Thread):
     source exists and is not connected, so that a source that starts late or
     is restarted is picked up. ``linked``, when given, tells from the
     module's own port, without asking the network, that the link is up: only
-    a missing one costs name-server queries. A destination restarted under
+    a missing one costs name-server queries, besides one a period about the
+    module's first port (``_register_again``). A destination restarted under
     the same name is reconnected too: the old connection stays listed until
     a write fails on it, which for a module that writes only on new data (a
     command) would lose the next command; the destination, asked for its
@@ -267,16 +268,18 @@ class Watcher(threading.Thread):
 
     PERIOD = 0.5
 
-    def __init__(self, pairs, log):
+    def __init__(self, pairs, log, own=()):
         threading.Thread.__init__(self, name="connection watcher", daemon=True)
         self.pairs = list(pairs)
         self.log = log
+        self.own = list(own)  # the module's own ports, kept registered
         self.done = threading.Event()
         self.connected = {}
         self.made = set()  # the (source, destination) links this watcher connected
 
     def run(self):
         while not self.done.is_set():
+            self._register_again()
             for src, dst, linked in self.pairs:
                 if self.done.is_set():
                     break
@@ -284,12 +287,14 @@ class Watcher(threading.Thread):
                 # any other input connection (a query) does not count for it
                 if linked is not None and self.connected.get((src, dst)) and linked():
                     continue
-                self._check(src, dst)
+                self._check(src, dst, linked)
             self.done.wait(self.PERIOD)
 
-    def _check(self, src, dst):
+    def _check(self, src, dst, linked=None):
         up = yarp.Network.exists(src, True) and yarp.Network.exists(dst, True)
-        if up and yarp.Network.isConnected(src, dst, True):
+        # a source that lists a connection to this module's input when the input
+        # shows none lists one to a predecessor (killed): connected again
+        if up and (linked is None or linked()) and yarp.Network.isConnected(src, dst, True):
             if (src, dst) not in self.made or _lists_input(dst, src) is not False:
                 return
             # the destination was restarted: the connection listed is to its predecessor
@@ -301,6 +306,16 @@ class Watcher(threading.Thread):
         elif self.connected.get((src, dst)):
             self.log("lost %s -> %s; reconnecting when it is back" % (src, dst))
             self.connected[(src, dst)] = False
+
+    def _register_again(self):
+        """A name server restarted has forgotten every port: the module's
+        own ports are registered again (asked about the first one only), so
+        that a source started since is connected to them and a consumer
+        finds the output. Connections made before never needed it."""
+        if not self.own or yarp.Network.queryName(self.own[0].getName()).isValid():
+            return
+        if all(yarp.Network.registerContact(port.where()).isValid() for port in self.own):
+            self.log("the name server had forgotten this module's ports: registered them again")
 
     def stop(self, timeout=1.0):
         self.done.set()
@@ -392,7 +407,10 @@ class YarpBridge(Bridge):
             pairs = [(i.source, i.local, i.port.getInputCount) for i in self.inputs
                      if i.spec.kind == "yarp"]
             pairs.extend((src, dst, None) for src, dst in self.output.connections())
-            self.watcher = Watcher(pairs, self.log)
+            own = [i.port for i in self.inputs if i.spec.kind == "yarp"]
+            if getattr(self.output, "kind", None) == "yarp":
+                own.append(self.output.port)
+            self.watcher = Watcher(pairs, self.log, own)
             self.watcher.start()
             self.log("publishing %s on %s" % (self.output.describe(),
                                               "event-driven" if self.rate is None
@@ -507,13 +525,27 @@ def _add_values(bottle, types, values, wire):
             add(bottle, x)
 
 
+def is_message_type(type_):
+    """Is an Array's ``type`` a message type ("pkg/Name"), its values messages?"""
+    return isinstance(type_, str) and "/" in type_
+
+
 def add_node(bottle, node, wire):
     """Append ``node`` to ``bottle`` with YARP's ROS 1 wire mapping: a
-    message is a nested list of its fields, a time is (sec nsec)."""
+    message is a nested list of its fields, a time is (sec nsec), an array
+    of messages a list of such lists."""
     if isinstance(node, Scalar):
         _ADD[wire[node.type]](bottle, node.value)
+    elif isinstance(node, Rows):
+        target = bottle.addList() if node.nested else bottle
+        for row in node.values:
+            _add_values(target.addList(), node.type, row, wire)
     elif isinstance(node, Splice):
         _add_values(bottle, node.type, node.values, wire)
+    elif isinstance(node, Array) and is_message_type(node.type):
+        inner = bottle.addList()
+        for child in node.values:
+            add_node(inner, child, wire)
     elif isinstance(node, Array):
         _add_values(bottle.addList(), node.type, node.values, wire)
     elif isinstance(node, Msg):

@@ -17,6 +17,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <deque>
 #include <functional>
 #include <initializer_list>
@@ -443,9 +444,20 @@ bool parseBottle(const yarp::os::Bottle& b, const InputSpec& spec, bool dropNan,
 
 // --- what is kept of each input, and which Bottles a message uses ----------------------
 
+std::string cutText(const std::string& source, std::size_t width, std::size_t reads)
+{
+    return "input " + source + ": a Bottle of " + std::to_string(width) + " values, of which the message reads "
+           + "the first " + std::to_string(reads) + "; the other " + std::to_string(width - reads)
+           + " are dropped (declare the port's elements in the config to check its width); said once";
+}
+
 bool accept(InputState& in, Mux& values, bool hasEnvelope, double envelope, SteadyClock::time_point arrival,
             std::size_t queue)
 {
+    if (in.spec.reads >= 0 && values.size() > static_cast<std::size_t>(in.spec.reads) && !in.reportedCut) {
+        in.reportedCut = true;
+        say(cutText(in.spec.source, values.size(), static_cast<std::size_t>(in.spec.reads)));
+    }
     in.queue.emplace_back();
     Pending& entry = in.queue.back();
     entry.data.values.swap(values);
@@ -705,6 +717,9 @@ public:
         }
     }
 
+    /// Its port's name and address, once open.
+    yarp::os::Contact where() const { return port_.where(); }
+
     const std::string local;  // this module's own port
     std::string registered;   // its name in the name server (topic-@node for ROS)
 
@@ -729,17 +744,21 @@ struct Link
 /// Every 0.5 s, connects each link whose source exists and that is not
 /// connected, so that a source that starts late or is restarted is picked
 /// up. An input port that has a connection is left alone (no network
-/// traffic); the network is asked only about a missing one. Its own thread:
+/// traffic); the network is asked only about a missing one, and once a
+/// period whether the name server still knows the module's first port
+/// (registerAgain). Its own thread:
 /// the loop never waits for it. Its state is shared with the thread, so that
 /// a thread held up by a peer that does not answer can be left behind at exit.
 class Watcher
 {
 public:
-    explicit Watcher(std::vector<Link> links) : state_(std::make_shared<State>())
+    /// `own`: the module's own ports, kept registered with the name server.
+    Watcher(std::vector<Link> links, std::vector<yarp::os::Contact> own) : state_(std::make_shared<State>())
     {
         state_->connected.assign(links.size(), false);
         state_->made.assign(links.size(), false);
         state_->links = std::move(links);
+        state_->own = std::move(own);
     }
 
     void start()
@@ -771,6 +790,7 @@ private:
     struct State
     {
         std::vector<Link> links;
+        std::vector<yarp::os::Contact> own;
         std::vector<bool> connected;
         std::vector<bool> made;  // connected by this watcher
         std::mutex mutex;
@@ -784,6 +804,7 @@ private:
         std::unique_lock<std::mutex> lock(s.mutex);
         while (!s.done) {
             lock.unlock();
+            registerAgain(s);
             for (std::size_t k = 0; k < s.links.size(); ++k) {
                 check(s, k);
                 std::lock_guard<std::mutex> again(s.mutex);
@@ -796,6 +817,24 @@ private:
         }
         s.finished = true;
         s.wake.notify_all();
+    }
+
+    /// A name server restarted has forgotten every port: the module's own
+    /// ports are registered again (asked about the first one only), so that
+    /// a source started since is connected to them and a consumer finds the
+    /// output. Connections made before never needed it.
+    static void registerAgain(const State& s)
+    {
+        if (s.own.empty() || yarp::os::Network::queryName(s.own.front().getName()).isValid()) {
+            return;
+        }
+        bool all = true;
+        for (const yarp::os::Contact& where : s.own) {
+            all = yarp::os::Network::registerContact(where).isValid() && all;
+        }
+        if (all) {
+            say("the name server had forgotten this module's ports: registered them again");
+        }
     }
 
     static void check(State& s, std::size_t k)
@@ -955,19 +994,101 @@ void withdrawFromRosMaster(const std::string& port, bool publisher)
     yarp::os::Network::write(master, cmd, reply, style);
 }
 
+// --- ROS 1 serialization ------------------------------------------------------------------
+
+namespace {
+
+void putLittleEndian(std::string& out, std::uint64_t x, int bytes)
+{
+    for (int k = 0; k < bytes; ++k) {
+        out.push_back(static_cast<char>((x >> (8 * k)) & 0xff));
+    }
+}
+
+bool ros1Items(const yarp::os::Bottle& b, const char*& shape, std::string& out);
+
+bool ros1Value(const yarp::os::Value& v, const char*& shape, std::string& out)
+{
+    if (v.isList()) {
+        const char kind = *shape;
+        if (kind != 's' && kind != 'f') {
+            return false;
+        }
+        ++shape;
+        if (kind == 's') {
+            putLittleEndian(out, v.asList()->size(), 4);
+        }
+        return ros1Items(*v.asList(), shape, out);
+    }
+    if (v.isString()) {
+        const std::string text = v.asString();
+        putLittleEndian(out, text.size(), 4);
+        out += text;
+    } else if (v.isFloat64()) {
+        const double x = v.asFloat64();
+        std::uint64_t bits = 0;
+        std::memcpy(&bits, &x, sizeof bits);
+        putLittleEndian(out, bits, 8);
+    } else if (v.isFloat32()) {
+        const float x = v.asFloat32();
+        std::uint32_t bits = 0;
+        std::memcpy(&bits, &x, sizeof bits);
+        putLittleEndian(out, bits, 4);
+    } else if (v.isInt8()) {
+        putLittleEndian(out, static_cast<std::uint8_t>(v.asInt8()), 1);
+    } else if (v.isInt16()) {
+        putLittleEndian(out, static_cast<std::uint16_t>(v.asInt16()), 2);
+    } else if (v.isInt32()) {
+        putLittleEndian(out, static_cast<std::uint32_t>(v.asInt32()), 4);
+    } else if (v.isInt64()) {
+        putLittleEndian(out, static_cast<std::uint64_t>(v.asInt64()), 8);
+    } else {
+        return false;
+    }
+    return true;
+}
+
+bool ros1Items(const yarp::os::Bottle& b, const char*& shape, std::string& out)
+{
+    for (std::size_t k = 0; k < b.size(); ++k) {
+        if (!ros1Value(b.get(k), shape, out)) {
+            return false;
+        }
+    }
+    return true;
+}
+
+}  // namespace
+
+bool ros1Bytes(const yarp::os::Bottle& msg, const char* shape, std::string& out)
+{
+    out.clear();
+    return ros1Items(msg, shape, out) && *shape == '\0';
+}
+
 // --- the output ---------------------------------------------------------------------------
 
-/// Writes each message on a BufferedPort, never waiting for a slow reader
-/// (a reader that lags misses messages, the module does not stall).
-class Output
+std::string tooShort(const std::string& sizes)
+{
+    return "a mux has fewer elements than the message needs (" + sizes + ")";
+}
+
+/// Writes each message, a Bottle built by MakeMessage, on a BufferedPort,
+/// never waiting for a slow reader (a reader that lags misses messages, the
+/// module does not stall).
+class Output : public MessageSink
 {
 public:
-    explicit Output(const OutputSpec& spec) : spec_(spec) {}
+    Output(const OutputSpec& spec, MakeMessage make) : spec_(spec), make_(std::move(make)) {}
 
-    bool open()
+    bool open() override
     {
         port_.setWriteOnly();
-        if (spec_.kind == OutputKind::Ros1 && spec_.msgType[0] != '\0') {
+        if (spec_.kind == OutputKind::Ros1 && serialized()) {
+            // the type itself, not a Bottle for YARP to translate: the blob goes as it
+            // is (named on the wire too, or opening the port makes it a Bottle again)
+            port_.promiseType(yarp::os::Type::byName(spec_.msgType, spec_.msgType));
+        } else if (spec_.kind == OutputKind::Ros1 && spec_.msgType[0] != '\0') {
             port_.promiseType(yarp::os::Type::byNameOnWire(spec_.msgType));
         }
         if (!port_.open(spec_.port)) {
@@ -978,22 +1099,61 @@ public:
     }
 
     /// Its name in the name server (topic+@node for ROS).
-    const std::string& registered() const { return registered_; }
+    std::string registered() const override { return registered_; }
+
+    /// The wall clock.
+    std::int64_t nowNs() override
+    {
+        return std::chrono::duration_cast<std::chrono::nanoseconds>(
+                   std::chrono::system_clock::now().time_since_epoch()).count();
+    }
+
+    bool publish(const Inputs& in, const Context& ctx, std::string& failure) override
+    {
+        yarp::os::Bottle& msg = prepare();
+        if (!make_(in, ctx, msg, failure)) {
+            unprepare();
+            failure = tooShort(failure);
+            return false;
+        }
+        if (!write()) {
+            failure = "it does not have the layout of " + std::string(spec_.msgType) + ", to serialize for ROS 1";
+            return false;
+        }
+        return true;
+    }
 
     yarp::os::Bottle& prepare()
     {
         yarp::os::Bottle& b = port_.prepare();
         b.clear();
+        prepared_ = &b;
         return b;
     }
+
+    /// Is the message sent serialized by ros1Bytes (OutputSpec::ros1Shape)?
+    bool serialized() const { return spec_.ros1Shape != nullptr && spec_.ros1Shape[0] != '\0'; }
     void unprepare() { port_.unprepare(); }
+
+    /// Its port's name and address, once open.
+    yarp::os::Contact where() const { return port_.where(); }
 
     /// Writes the prepared message. A message written while the previous one
     /// is still being sent is dropped for the connections that are still
     /// busy; so it waits for them a little (50 ms at most), unless a reader
-    /// has already shown that it stalls.
-    void write()
+    /// has already shown that it stalls. False (nothing written) when a
+    /// serialized message does not have the layout of its type.
+    bool write()
     {
+        if (serialized() && prepared_ != nullptr) {
+            std::string bytes;
+            if (!ros1Bytes(*prepared_, spec_.ros1Shape, bytes)) {
+                port_.unprepare();
+                return false;
+            }
+            prepared_->clear();
+            prepared_->add(yarp::os::Value(bytes.data(), static_cast<int>(bytes.size())));
+        }
         if (port_.isWriting()) {
             if (patient_) {
                 const SteadyClock::time_point deadline = SteadyClock::now() + std::chrono::milliseconds(50);
@@ -1006,23 +1166,26 @@ public:
             patient_ = true;
         }
         port_.write();
+        return true;
     }
 
-    void close()
+    void close() override
     {
         port_.interrupt();
         port_.close();
     }
 
-    std::string describe() const
+    std::string describe() const override
     {
         return std::string(spec_.msgType[0] != '\0' ? spec_.msgType : "untyped Bottles") + " on " + spec_.port;
     }
 
 private:
     const OutputSpec& spec_;
+    MakeMessage make_;
     yarp::os::BufferedPort<yarp::os::Bottle> port_;
     std::string registered_;
+    yarp::os::Bottle* prepared_ = nullptr;  // the message being built
     bool patient_ = true;
 };
 
@@ -1206,8 +1369,8 @@ std::string formatNumber(double x)
 class Bridge : public ArrivalListener
 {
 public:
-    Bridge(const BridgeSpec& spec, const Options& options, MakeMessage make) :
-            spec_(spec), options_(options), make_(std::move(make)), output_(spec.output),
+    Bridge(const BridgeSpec& spec, const Options& options, MessageSink& output) :
+            spec_(spec), options_(options), output_(output),
             eventDriven_(!(options.rate > 0))
     {
         shared_.dropNan = spec.dropNan;
@@ -1268,6 +1431,7 @@ public:
         if (status == 0) {
             outputOpen = output_.open();
             if (!outputOpen) {
+                output_.close();
                 say(std::string("cannot open the output ") + spec_.output.port);
                 status = 1;
             }
@@ -1290,7 +1454,16 @@ public:
         if (spec_.output.connectTo[0] != '\0') {
             links.push_back({spec_.output.port, spec_.output.connectTo, nullptr});
         }
-        Watcher watcher(std::move(links));
+        std::vector<yarp::os::Contact> own;
+        for (const auto& in : inputs_) {
+            if (in->spec.kind == InputKind::Yarp) {
+                own.push_back(in->where());
+            }
+        }
+        if (spec_.output.kind == OutputKind::Yarp) {
+            own.push_back(output_.where());
+        }
+        Watcher watcher(std::move(links), std::move(own));
         if (status == 0) {
             say("publishing " + output_.describe() + ", "
                 + (eventDriven_ ? std::string("event-driven") : formatNumber(options_.rate) + " Hz"));
@@ -1372,7 +1545,7 @@ private:
         for (std::size_t k = 0; k < opened; ++k) {
             yarp::os::Network::unregisterName(inputs_[k]->registered);
         }
-        if (outputOpen) {
+        if (outputOpen && !output_.registered().empty()) {
             yarp::os::Network::unregisterName(output_.registered());
         }
         withdrawRos(opened, outputOpen);
@@ -1399,22 +1572,17 @@ private:
         matcher_->take();
         Context ctx;
         ctx.counter = published_;
-        ctx.wallNs = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                         std::chrono::system_clock::now().time_since_epoch()).count();
+        ctx.wallNs = output_.nowNs();
         ctx.seconds = static_cast<double>(ctx.wallNs) / 1e9;
         ctx.verbose = options_.verbose;
         ctx.inputs = &matcher_->latest();
-        yarp::os::Bottle& msg = output_.prepare();
         std::string failure;
-        if (!make_(matcher_->latest(), ctx, msg, failure)) {
-            output_.unprepare();
+        if (!output_.publish(matcher_->latest(), ctx, failure)) {
             if (++buildFailures_ == 1) {
-                say("cannot build the message: a mux has fewer elements than the message needs ("
-                    + failure + "); further failures are only counted");
+                say("cannot build the message: " + failure + "; further failures are only counted");
             }
             return;
         }
-        output_.write();
         ++published_;
     }
 
@@ -1485,11 +1653,10 @@ private:
 
     const BridgeSpec& spec_;
     const Options options_;
-    MakeMessage make_;
     Shared shared_;
     std::vector<std::unique_ptr<Input>> inputs_;
     std::unique_ptr<Matcher> matcher_;  // which Bottles each message uses
-    Output output_;
+    MessageSink& output_;
     const bool eventDriven_;
     bool publishing_ = false;  // guarded by Shared::mutex
     std::atomic<std::uint64_t> published_{0};
@@ -1719,6 +1886,12 @@ bool ros1Available(std::string& why)
 /// Parses the command line and runs the bridge until SIGINT or SIGTERM.
 int run(const BridgeSpec& spec, int argc, char* argv[], MakeMessage make)
 {
+    Output output(spec.output, std::move(make));
+    return run(spec, argc, argv, output);
+}
+
+int run(const BridgeSpec& spec, int argc, char* argv[], MessageSink& output)
+{
     gModule = spec.module;
     Options options;
     const int status = parseOptions(spec, argc, argv, options);
@@ -1745,7 +1918,7 @@ int run(const BridgeSpec& spec, int argc, char* argv[], MakeMessage make)
         say("cannot use ROS 1 topics: " + why);
         return 1;
     }
-    Bridge bridge(spec, options, std::move(make));
+    Bridge bridge(spec, options, output);
     signals.start([&bridge] { bridge.requestStop(); });
     const int result = bridge.run();
     signals.finish();

@@ -216,6 +216,8 @@ struct InputSpec
     bool declared;                  // false: any number of numbers, each a float64
     std::vector<Group> layout;      // the declared elements
     std::vector<FieldPath> fields;  // ROS 1 topic: the fields read (empty: every leaf)
+    int reads = -1;                 // undeclared port cut by the message (W511): the values
+                                    // it reads; a wider Bottle is said once (-1: no cut)
 };
 
 struct MuxSpec
@@ -223,15 +225,28 @@ struct MuxSpec
     const char* name;
 };
 
-enum class OutputKind { Yarp, Ros1 };
+enum class OutputKind { Yarp, Ros1, Ros2 };
 
 struct OutputSpec
 {
     OutputKind kind;
-    const char* port;        // the port opened (topic@node for ROS 1)
+    const char* port;        // the port opened (topic@node for ROS 1; the topic for ROS 2)
     const char* msgType;     // ROS type promised on the port ("" for none)
     const char* connectTo;   // a port to keep connected to ("" for none)
+    /// ROS 1 only, for a message holding an array of messages (which YARP's
+    /// Bottle translation cannot express): the message is sent serialized,
+    /// ros1Bytes(message, ros1Shape), as the one blob of a Bottle ("": the
+    /// Bottle itself, translated by YARP).
+    const char* ros1Shape = "";
 };
+
+/// The ROS 1 serialization of a message built as a Bottle laid out like its
+/// definition: each item by its tag (int8..int64, float32, float64 little
+/// endian; a string with its length), each nested list by the next letter of
+/// ``shape`` (depth first): 's' a sequence, written with its length, 'f' a
+/// nested message, a time or a fixed-size array, written without. False when
+/// the Bottle and the shape disagree.
+bool ros1Bytes(const yarp::os::Bottle& msg, const char* shape, std::string& out);
 
 struct BridgeSpec
 {
@@ -326,16 +341,22 @@ struct InputState
     Freshness state = Freshness::Waiting;
     bool reportedWaiting = false;
     bool reportedDrop = false;
+    bool reportedCut = false;
 };
 
 /// A Bottle the input accepted, its values moved out of `values`: queued
 /// (at most `queue` kept: the oldest is then unused), the input fresh (said
-/// when it was stale). True when the input was fresh before it.
+/// when it was stale; a Bottle wider than InputSpec::reads is said once).
+/// True when the input was fresh before it.
 bool accept(InputState& in, Mux& values, bool hasEnvelope, double envelope, SteadyClock::time_point arrival,
             std::size_t queue);
 
 /// A Bottle the input refused (`why`): counted, said the first time only.
 void refuse(InputState& in, const std::string& why);
+
+/// What is said, once, when a Bottle of an undeclared port brings more values
+/// (`width`) than the message reads (`reads`, InputSpec::reads).
+std::string cutText(const std::string& source, std::size_t width, std::size_t reads);
 
 /// Which Bottles each message uses and when an input goes stale
 /// (docs/runtime.md, "Which Bottles a message uses", "Freshness"): plain
@@ -407,9 +428,37 @@ struct Context
 /// the mux sizes in `failure`) when a mux is too short for the message.
 using MakeMessage = std::function<bool(const Inputs&, const Context&, yarp::os::Bottle& msg, std::string& failure)>;
 
+/// Where the bridge publishes: a YARP port (a Bottle built by MakeMessage),
+/// or another middleware (ybgc_ros2.hpp: a ROS 2 topic through rcl).
+class MessageSink
+{
+public:
+    virtual ~MessageSink() = default;
+    /// Opens it (after the inputs); false, said, when it cannot.
+    virtual bool open() = 0;
+    /// What it publishes and where, for the start-up line.
+    virtual std::string describe() const = 0;
+    /// The time messages are stamped with, nanoseconds since the epoch.
+    virtual std::int64_t nowNs() = 0;
+    /// Builds one message from the newest input values and publishes it;
+    /// false, with the reason in `failure` (tooShort() of the mux sizes when a
+    /// mux is too short for it), when it cannot be built.
+    virtual bool publish(const Inputs& in, const Context& ctx, std::string& failure) = 0;
+    virtual void close() = 0;
+    /// Its name in the YARP name server ("" for none).
+    virtual std::string registered() const { return ""; }
+};
+
+/// Why a message cannot be built when a mux is shorter than it (`sizes`: each
+/// mux's size, as the module's makeMessage() gives them).
+std::string tooShort(const std::string& sizes);
+
 /// Parses the command line and runs the bridge until SIGINT or SIGTERM; the
 /// exit status.
 int run(const BridgeSpec& spec, int argc, char* argv[], MakeMessage make);
+
+/// The same with the messages published through `sink`.
+int run(const BridgeSpec& spec, int argc, char* argv[], MessageSink& sink);
 
 }  // namespace ybgc
 

@@ -1,6 +1,8 @@
 """The ``cpp`` backend: a C++17 YARP module and its CMakeLists.txt, which
 reads YARP ports or ROS 1 topics and writes a Bottle on a YARP port or a
-ROS 1 topic (YARP's topic@node ports, with the type promised).
+ROS 1 topic (YARP's topic@node ports, with the type promised), or publishes
+a ROS 2 message through rcl (:mod:`.ros2`: its C struct filled field by
+field; the runtime's ``ybgc_ros2.hpp``/``.cpp`` beside it).
 
 The module (``module.cpp.j2``) holds this bridge's description, its muxes,
 the message builder and the places for custom code; it runs on the runtime
@@ -22,7 +24,7 @@ import jinja2
 
 from ybg.backends import Backend, RenderOptions, code_filter, indent_line_filter, template_environment, yarpmanager
 from ybg.backends.cpp.lower import LoweringError, lower
-from ybg.backends.runtime import CPP_SOURCE, cpp_files, runtime_text_filter, runtime_view
+from ybg.backends.runtime import CPP_ROS2_SOURCE, CPP_SOURCE, cpp_files, runtime_text_filter, runtime_view
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
 
@@ -40,16 +42,18 @@ class CppBackend(Backend):
     name = "cpp"
 
     def render(self, program, options: RenderOptions = RenderOptions()) -> dict[str, str]:
-        view = lower(program)
+        view = self._lower(program)
+        ros2 = view.ros2 is not None
         env = environment()
-        rt = runtime_view("cpp", options.single_file)
+        rt = runtime_view("cpp", options.single_file, ros2=ros2)
+        sources = f"{CPP_SOURCE} {CPP_ROS2_SOURCE}" if ros2 else CPP_SOURCE
         files = {
             view.filename: env.get_template("module.cpp.j2").render(m=view, rt=rt),
             "CMakeLists.txt": env.get_template("CMakeLists.txt.j2").render(
-                m=view, runtime_source=None if options.single_file else CPP_SOURCE),
+                m=view, runtime_source=None if options.single_file else sources),
         }
         if not options.single_file:
-            files.update(cpp_files())
+            files.update(cpp_files(ros2))
         # run from the folder it was generated into, built as its header says
         workdir = options.extra.get("workdir")
         files[yarpmanager.filename(program)] = yarpmanager.application(
@@ -57,7 +61,15 @@ class CppBackend(Backend):
         return files
 
     def lower(self, program) -> None:
-        lower(program)  # the module's lowering (ybg.backends.cpp.lower), without the templates
+        self._lower(program)  # the module's lowering, without the templates
+
+    @staticmethod
+    def _lower(program):
+        """ybg.backends.cpp.lower; for a ROS 2 output, with its message builder (.ros2)."""
+        if program.output.kind == "ros2":
+            from ybg.backends.cpp import ros2
+            return ros2.lower(program)
+        return lower(program)
 
 
 __all__ = ["CppBackend", "LoweringError", "TEMPLATE_DIR", "environment"]

@@ -14,13 +14,18 @@ from __future__ import annotations
 import os
 import re
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from ybg.backends.cpp.escape import (cpp_comment, cpp_float, cpp_identifier, cpp_int,
                                      cpp_std_string, cpp_string, mangle)
 from ybg.backends import Line, LoweringError
 from ybg.backends.wire import WIRE_ROS1 as _WIRE_ROS1
 from ybg.backends.wire import WIRE_YARP as _WIRE_YARP
+from ybg.backends.wire import has_message_array, ros1_shape
 from ybg.compiler import ir
+
+if TYPE_CHECKING:
+    from ybg.backends.cpp.ros2 import Ros2View
 
 #: The runtime's `Wire` enumerator of each element type (the shared tables of
 #: ybg.backends, in C++ spelling: "float64" -> "Float64").
@@ -99,6 +104,8 @@ class ModuleView:
     builder: tuple[Line, ...]
     sizes: str
     ros1: bool                       # uses YARP's ROS 1 support (output or an input)
+    ros2: "Ros2View | None" = None   # publishes to ROS 2 through rcl (.ros2)
+    message_cpp: str = "yarp::os::Bottle"  # the C++ type buildMessage fills
 
 
 # --------------------------------------------------------------------------
@@ -209,7 +216,7 @@ class _Builder:
         try:
             self._field(f, parent, depth, indent)
         except LoweringError as e:
-            raise e.at("field", ".".join(self.path))
+            raise e.at("field", ".".join(self.path).replace(".[", "["))
         finally:
             self.path.pop()
 
@@ -224,7 +231,22 @@ class _Builder:
             self.struct(src, var, depth + 1, indent + 1)
             self.emit(indent, "}")
             return
+        if isinstance(src, ir.MessageArray):
+            self.message_array(src, parent, depth, indent)
+            return
         self.source(src, f.type, parent, depth, indent)
+
+    def message_array(self, src: ir.MessageArray, parent: str, depth: int, indent: int) -> None:
+        """A list holding one nested list per element."""
+        if not src.elements:
+            self.emit(indent, f"{parent}.addList();")
+            return
+        var = f"b{depth + 1}"
+        self.emit(indent, "{")
+        self.emit(indent + 1, f"yarp::os::Bottle& {var} = {parent}.addList();")
+        for k, element in enumerate(src.elements):
+            self.field(ir.Field(f"[{k}]", element, ir.TypeRef(src.msg_type)), var, depth + 1, indent + 1)
+        self.emit(indent, "}")
 
     def describe(self, src) -> str:
         if isinstance(src, ir.Counter):
@@ -266,17 +288,7 @@ class _Builder:
                               f"{self.wire_of(src.element_type)});")
             return
         if isinstance(src, ir.Timestamp):
-            if src.clock == "envelope":
-                if src.mux is None:
-                    raise LoweringError("an envelope timestamp names its mux")
-                self.mux(src.mux)
-                ids = ", ".join(str(i) for i in self.input_ids[src.mux])
-                ns = f"ctx.envelopeNs({{{ids}}})"
-            elif src.clock == "wall":
-                ns = "ctx.wallNs"
-            else:
-                raise LoweringError(f"unknown clock {src.clock!r}")
-            self.time(parent, ns, src.style, indent)
+            self.time(parent, self.stamp_ns(src), src.style, indent)
             return
         if isinstance(src, ir.Seconds):
             self.emit(indent, f"{parent}.addFloat64(ctx.seconds);")
@@ -285,6 +297,18 @@ class _Builder:
             self.default(typ, parent, depth, indent)
             return
         raise LoweringError(f"unknown source {type(src).__name__}")
+
+    def stamp_ns(self, src: ir.Timestamp) -> str:
+        """The C++ expression of a timestamp, in nanoseconds since the epoch."""
+        if src.clock == "envelope":
+            if src.mux is None:
+                raise LoweringError("an envelope timestamp names its mux")
+            self.mux(src.mux)
+            ids = ", ".join(str(i) for i in self.input_ids[src.mux])
+            return f"ctx.envelopeNs({{{ids}}})"
+        if src.clock == "wall":
+            return "ctx.wallNs"
+        raise LoweringError(f"unknown clock {src.clock!r}")
 
     def time(self, parent: str, ns: str, style: str, indent: int) -> None:
         if style == "ros2":
@@ -415,7 +439,8 @@ def _input_comment(mux: str, k: int, inp: ir.Input) -> str:
         what = ", ".join(f"{g.type} x{g.count}" for g in inp.layout)
     kind = "ROS 1 topic" if inp.kind == "ros1" else "port"
     extra = f" ({comment(inp.ros_type)})" if inp.ros_type else ""
-    return f"mux {comment(mux)}, input {k}: {kind} {comment(inp.name)}{extra}, {what}"
+    reads = "" if inp.reads is None else f"; the message reads the first {inp.reads} (W511)"
+    return f"mux {comment(mux)}, input {k}: {kind} {comment(inp.name)}{extra}, {what}{reads}"
 
 
 def _executable(module: str) -> tuple[str, str]:
@@ -426,10 +451,11 @@ def _executable(module: str) -> tuple[str, str]:
     return target, module
 
 
-def lower(program: ir.Program) -> ModuleView:
-    """The view-model of the module generated for ``program``."""
+def lower(program: ir.Program, builder=_Builder) -> ModuleView:
+    """The view-model of the module generated for ``program``; ``builder``
+    writes the message (a ROS 2 output's: :mod:`.ros2`)."""
     out = program.output
-    if out.kind not in ("yarp", "ros1"):
+    if out.kind not in ("yarp", "ros1") and builder is _Builder:
         raise LoweringError(f"the cpp backend cannot publish to a {out.kind!r} output")
     target, executable = _executable(program.module)
     members = _members(program)
@@ -450,8 +476,9 @@ def lower(program: ir.Program) -> ModuleView:
             n = len(inputs)
             ids.append(n)
             kind = "ybgc::InputKind::Ros1" if i.kind == "ros1" else "ybgc::InputKind::Yarp"
+            reads = "" if i.reads is None else f", {int(i.reads)}"
             init = (f"{{{mi}, {k}, {cpp_string(i.name)}, {kind}, {cpp_float(float(i.timeout))}, "
-                    f"{_layout(i)}, {_fields(i, program.distro)}}}")
+                    f"{_layout(i)}, {_fields(i, program.distro)}{reads}}}")
             inputs.append(InputView(n, init, _input_comment(m.name, k, i)))
             gather.append(Line(1, f"ybgc::append(mux.{members[m.name]}, in[{n}]);  // {comment(i.name)}"))
         for c in m.converters:
@@ -466,7 +493,7 @@ def lower(program: ir.Program) -> ModuleView:
         srcs = ", ".join(comment(i.name) for i in m.inputs)
         mux_views.append(MuxView(members[m.name], cpp_string(m.name), srcs, tuple(gather), bool(m.verbose)))
 
-    b = _Builder(program, members, input_ids)
+    b = builder(program, members, input_ids)
     b.struct(program.message, "msg", 0, 1)
     checks: list[Line] = []
     for name in b.needed:
@@ -491,6 +518,11 @@ def lower(program: ir.Program) -> ModuleView:
         where = f"the ROS 1 topic {comment(out.name)} (port {comment(port)})"
         kind = "ybgc::OutputKind::Ros1"
         plain_where = f"the ROS 1 topic {out.name} (port {port})"
+    elif out.kind == "ros2":
+        port = out.name
+        where = f"the ROS 2 topic {comment(port)}"
+        kind = "ybgc::OutputKind::Ros2"
+        plain_where = f"the ROS 2 topic {port}"
     else:
         port = out.name
         where = f"the YARP port {comment(port)}"
@@ -501,8 +533,12 @@ def lower(program: ir.Program) -> ModuleView:
         plain_where += f", connected to {out.connect_to}"
     what = out.msg_type or "untyped Bottles"
     what_comment = comment(out.msg_type) if out.msg_type else "untyped Bottles"
+    shape = ""
+    if out.kind == "ros1" and has_message_array(program.message):
+        shape = f", {cpp_string(ros1_shape(program.message))}"
+        what_comment += ", serialized by the runtime (YARP's Bottle translation has no arrays of messages)"
     output = (f"{{{kind}, {cpp_string(port)}, {cpp_string(out.msg_type or '')}, "
-              f"{cpp_string(out.connect_to or '')}}}")
+              f"{cpp_string(out.connect_to or '')}{shape}}}")
 
     n_in = len(inputs)
     timing = ("event-driven (publishes when " +

@@ -87,6 +87,7 @@ class InputView:
     timeout: str
     description: str
     positions: str = "None"
+    reads: str = "None"
 
 
 @dataclass(frozen=True)
@@ -106,6 +107,7 @@ class MuxView:
     converters: tuple[ConverterView, ...]
     verbose: str
     types: str
+    rows: bool = False  # one row per element of an array of messages (ros2 inputs)
 
 
 @dataclass(frozen=True)
@@ -179,6 +181,7 @@ class _Builder:
         self.lines: list[Line] = []
         self.muxes: list[str] = []
         self.path: list[str] = []  # the field being built, as a path
+        self.uses_rows = False  # a mux of rows in the message: the runtime's Rows
 
     def emit(self, indent: int, text: str) -> None:
         self.lines.append(Line(indent, text))
@@ -200,7 +203,7 @@ class _Builder:
         try:
             self._field(f, indent)
         except LoweringError as e:
-            raise e.at("field", ".".join(self.path))
+            raise e.at("field", ".".join(self.path).replace(".[", "["))
         finally:
             self.path.pop()
 
@@ -211,7 +214,33 @@ class _Builder:
             msg_type = src.msg_type or (f.type.base if f.type is not None and f.type.is_message else None)
             self.struct(src, msg_type, indent, head, "),")
             return
+        if isinstance(src, ir.MessageArray):
+            self.message_array(src, indent, head)
+            return
         self.emit(indent, head + self.expr(src, f.type) + "),")
+
+    def message_array(self, src: ir.MessageArray, indent: int, head: str) -> None:
+        """An Array of messages: each element a Msg."""
+        if self.program.output.kind == "ros1":
+            raise LoweringError(
+                "an array of messages cannot reach ROS 1 from Python: YARP translates a Bottle to "
+                "ROS 1 by a map that has no arrays of messages, and YARP's Python bindings cannot "
+                "promise the type that would let the module send the message serialized itself "
+                "(the cpp backend does)")
+        if not src.elements:
+            self.emit(indent, f"{head}Array({py_literal(src.msg_type)}, ())),")
+            return
+        self.emit(indent, f"{head}Array({py_literal(src.msg_type)}, (")
+        for k, element in enumerate(src.elements):
+            self.path.append(f"[{k}]")
+            try:
+                if isinstance(element, ir.Struct):
+                    self.struct(element, src.msg_type, indent + 1, "", ",")
+                else:
+                    self.emit(indent + 1, self.expr(element, ir.TypeRef(src.msg_type)) + ",")
+            finally:
+                self.path.pop()
+        self.emit(indent, "))),")
 
     def expr(self, src, typ: ir.TypeRef | None) -> str:
         if isinstance(src, ir.Literal):
@@ -242,6 +271,11 @@ class _Builder:
     def mux_ref(self, ref: ir.MuxRef, typ: ir.TypeRef | None) -> str:
         values = self.mux_values(ref.mux)
         etype = py_literal(ref.element_type)
+        if self.program.mux(ref.mux).rows:  # one nested list per row, whole
+            if ref.index is not None or ref.start != 0 or ref.stop is not None or ref.into_fields:
+                raise LoweringError(f"a part of mux {ref.mux}, which holds rows")
+            self.uses_rows = True
+            return f"Rows({etype}, {values}{'' if ref.splice else ', nested=True'})"
         if ref.index is not None:
             return f"Scalar({etype}, {values}[{ref.index:d}])"
         if ref.start == 0 and ref.stop is None:
@@ -329,6 +363,8 @@ def lower(program: ir.Program) -> ModuleView:
                                     ("input", m.name, i.name))
             types = i.element_types
             width = "any number of numbers" if types is None else f"{len(types)} elements"
+            if i.reads is not None:
+                width += f"; the message reads the first {i.reads} (W511)"
             inputs.append(InputView(
                 mux=py_literal(m.name),
                 index=k,
@@ -338,6 +374,7 @@ def lower(program: ir.Program) -> ModuleView:
                 timeout=py_literal(float(i.timeout)),
                 description=py_literal(f"{i.kind} {i.name}: {width}"),
                 positions=py_literal(i.positions),
+                reads=py_literal(i.reads),
             ))
         convs = tuple(
             ConverterView(

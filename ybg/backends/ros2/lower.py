@@ -76,6 +76,7 @@ class TopicInputView:
     index: int
     msg_class: str
     leaves: str
+    each: str = "None"  # the array of messages whose elements give one row each
 
 
 @dataclass(frozen=True)
@@ -119,6 +120,7 @@ class NodeView:
     yarp_output: OutputView | None
     wire: tuple[tuple[str, str], ...]
     builder: tuple[Line, ...]
+    uses_rows: bool = False  # the message holds a mux of rows: import the runtime's Rows
 
 
 @dataclass(frozen=True)
@@ -237,6 +239,22 @@ def _check_size(typ: ir.TypeRef, n: int, what: str) -> None:
         raise LoweringError(f"{what}: {n} values for the bounded field {typ}")
 
 
+def slice_stop(program: ir.Program, ref: ir.MuxRef, typ: ir.TypeRef, name: str) -> int | None:
+    """The end of the mux slice ``ref`` into the array field ``name`` of type
+    ``typ`` when the mux's width is known (else None: it is known at run
+    time); the slice is checked against the mux and the field's size."""
+    width = program.mux(ref.mux).width
+    if width is None:
+        if ref.stop is not None:
+            _check_size(typ, ref.stop - ref.start, f"field {name}")
+        return None
+    stop = width if ref.stop is None else ref.stop
+    if stop > width or ref.start > stop:
+        raise LoweringError(f"field {name}: elements [{ref.start}, {stop}) of a mux of {width}")
+    _check_size(typ, stop - ref.start, f"field {name}")
+    return stop
+
+
 class _MessageBuilder:
     """Writes the body of ``build_message`` for a typed ROS 2 message: one
     assignment per field that the config sets (the others keep the
@@ -246,6 +264,7 @@ class _MessageBuilder:
         self.program = program
         self.lines: list[Line] = []
         self.muxes: list[str] = []
+        self.element_types: list[str] = []  # of the arrays of messages, to import
 
     def emit(self, text: str) -> None:
         self.lines.append(Line(1, text))
@@ -286,7 +305,30 @@ class _MessageBuilder:
         if isinstance(src, ir.MuxRef) and src.into_fields is not None:
             self.into_fields(src, typ, _attr(target, f.name), name)
             return
+        if isinstance(src, ir.MessageArray):
+            self.message_array(src, typ, target, f.name, name)
+            return
         self.emit(_assign(target, f.name, self.value(src, typ, name)))
+
+    def message_array(self, src: ir.MessageArray, typ: ir.TypeRef, target: str, field: str, name: str) -> None:
+        """One new message per element, then each element's fields."""
+        if typ.array is None or not typ.is_message or typ.base != src.msg_type:
+            raise LoweringError(f"field {name}: an array of {src.msg_type} for a {typ} field")
+        _check_size(typ, len(src.elements), f"field {name}")
+        if src.msg_type not in self.element_types:
+            self.element_types.append(src.msg_type)
+        cls = msg_alias(src.msg_type)
+        n = len(src.elements)
+        self.emit(_assign(target, field, f"[{cls}() for _ in range({n:d})]" if n else "[]"))
+        element_type = ir.TypeRef(src.msg_type)
+        for k, element in enumerate(src.elements):
+            item, where = f"{_attr(target, field)}[{k:d}]", f"{name}[{k:d}]"
+            if isinstance(element, ir.Struct):
+                self.fields(element, item, where + ".")
+            elif isinstance(element, ir.MuxRef) and element.into_fields is not None:
+                self.into_fields(element, element_type, item, where)
+            else:
+                raise LoweringError(f"field {where}: an element is a message or a mux filling one")
 
     def into_fields(self, ref: ir.MuxRef, typ: ir.TypeRef, target: str, name: str) -> None:
         if typ.array is not None or not typ.is_message:
@@ -358,13 +400,9 @@ class _MessageBuilder:
         conv = ARRAY_CONVERSION.get(typ.base)
         if conv is None:
             raise LoweringError(f"field {name}: no conversion to {typ.base}[]")
-        width = self.program.mux(ref.mux).width
-        if width is not None:
-            stop = width if ref.stop is None else ref.stop
-            if stop > width or ref.start > stop:
-                raise LoweringError(f"field {name}: elements [{ref.start}, {stop}) of a mux of {width}")
-            _check_size(typ, stop - ref.start, f"field {name}")
-            if ref.start == 0 and stop == width:
+        stop = slice_stop(self.program, ref, typ, name)
+        if stop is not None:
+            if ref.start == 0 and stop == self.program.mux(ref.mux).width:
                 part = values
             else:
                 part = f"{values}[{ref.start:d}:{stop:d}]"
@@ -372,7 +410,6 @@ class _MessageBuilder:
         # the width is known only at run time: the runtime's take() refuses a
         # slice beyond the mux's current width (never shortened), as in every backend
         if ref.stop is not None:
-            _check_size(typ, ref.stop - ref.start, f"field {name}")
             part = f"take({values}, {ref.start:d}, {ref.stop:d})"
         elif ref.start:
             part = f"take({values}, {ref.start:d}, None)"
@@ -444,17 +481,25 @@ def _lower_inputs(program: ir.Program):
                 alias = msg_alias(i.ros_type)
                 pkg, name = split_type(i.ros_type)
                 imports[alias] = MsgImport(f"{pkg}.msg", name, alias)
-                topics.append(TopicInputView(py_literal(m.name), k, alias, py_literal(tuple(i.fields))))
+                if i.each is not None:
+                    _identifier(i.each, f"field of {i.ros_type}")
+                topics.append(TopicInputView(py_literal(m.name), k, alias, py_literal(tuple(i.fields)),
+                                             py_literal(i.each)))
                 desc = f"ROS 2 topic {i.name} ({ros2_type_name(i.ros_type)} {', '.join(i.fields)}): {width}"
+                if i.each is not None:
+                    desc = (f"ROS 2 topic {i.name} ({ros2_type_name(i.ros_type)}): a row of {width} for each "
+                            f"element of {i.each} ({', '.join(i.fields)})")
             elif i.kind == "yarp":
                 desc = f"yarp {i.name}: {width}"
+                if i.reads is not None:
+                    desc += f"; the message reads the first {i.reads} (W511)"
             else:
                 raise LoweringError(f"the ros2 backend cannot read a {i.kind!r} input ({i.name})",
                                     ("input", m.name, i.name))
             inputs.append(InputView(
                 mux=py_literal(m.name), index=k, source=py_literal(i.name), kind=py_literal(i.kind),
                 types=py_literal(types), timeout=py_literal(float(i.timeout)),
-                description=py_literal(desc)))
+                description=py_literal(desc), reads=py_literal(i.reads)))
         convs = tuple(
             ConverterView(
                 name=py_literal(c.name), scale=py_literal(float(c.scale)),
@@ -462,7 +507,7 @@ def _lower_inputs(program: ir.Program):
                 start=py_literal(int(c.start)), stop=py_literal(None if c.stop is None else int(c.stop)))
             for c in m.converters)
         muxes.append(MuxView(py_literal(m.name), tuple(inputs), convs, py_literal(bool(m.verbose)),
-                             py_literal(m.element_types)))
+                             py_literal(m.element_types), m.rows))
     return tuple(muxes), tuple(topics), imports
 
 
@@ -487,6 +532,7 @@ def lower(program: ir.Program) -> NodeView:
                             "port (every input and the output are ROS 2 topics)")
     ros_output = None
     yarp_output = None
+    uses_rows = False
     wire: tuple[tuple[str, str], ...] = ()
     if out.kind == "ros2":
         msg_type = out.msg_type or program.message.msg_type
@@ -507,6 +553,9 @@ def lower(program: ir.Program) -> NodeView:
             qos=QosView(RELIABILITY[qos.reliability], DURABILITY[qos.durability], int(qos.depth)))
         mb = _MessageBuilder(program)
         mb.message(program.message, alias)
+        for element_type in mb.element_types:
+            pkg, name = split_type(element_type)
+            imports[msg_alias(element_type)] = MsgImport(f"{pkg}.msg", name, msg_alias(element_type))
         builder, needed = tuple(mb.lines), tuple(mb.muxes)
         desc = f"{ros2_type_name(msg_type)} on the ROS 2 topic {out.name}"
     elif out.kind == "yarp":
@@ -514,6 +563,7 @@ def lower(program: ir.Program) -> NodeView:
         bb = BottleBuilder(program)
         bb.struct(program.message, program.message.msg_type or out.msg_type, 1, "return ", "")
         builder, needed = tuple(bb.lines), tuple(bb.muxes)
+        uses_rows = bb.uses_rows
         wire = tuple((py_literal(k), py_literal(v)) for k, v in sorted(WIRE_YARP.items()))
         desc = f"untyped Bottles on the YARP port {out.name}" if not out.msg_type else \
             f"{out.msg_type} Bottles on the YARP port {out.name}"
@@ -559,6 +609,7 @@ def lower(program: ir.Program) -> NodeView:
         yarp_output=yarp_output,
         wire=wire,
         builder=builder,
+        uses_rows=uses_rows,
     )
 
 
@@ -579,7 +630,8 @@ def lower_package(program: ir.Program, view: NodeView) -> PackageView:
         executable=view.filename[: -len(".py")],
         node_name=node_name(program),
         description=f"Bridge between YARP and ROS 2 ({what}), generated by ybgc from {config_name}.",
-        depends=("rclpy",) + tuple(p for p in used_packages(program) if p != "rclpy"),
+        depends=("rclpy", "diagnostic_msgs") + tuple(p for p in used_packages(program)
+                                                     if p not in ("rclpy", "diagnostic_msgs")),
         launch_file=f"{program.module}.launch.py",
         parameters=(
             ("rate", 0.0 if rate is None else float(rate)),

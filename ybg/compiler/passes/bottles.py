@@ -2,10 +2,12 @@
 fields (a YARP port, or a ROS type whose definition was not found).
 
 The tree follows [message]: each field path is a nested list in the order
-the lines first name it; a value is a literal, a list, a mux or a part of
+the lines first name it, indexed elements (`points[0].x`, `points[1].x`) in
+the order of their indices; a value is a literal, a list, a mux or a part of
 one, `counter`, `time` or `timestamp`.
 Checks: lists of mixed types (E304), words that are neither numbers nor
-muxes (E304, E212), unexpected values (E105).
+muxes (E304, E212), unexpected values (E105), indexed and named parts of
+one label (E330), a gap in the indices (E332).
 Reads ``msgdef`` (None), ``message_entries``, ``below``, ``output``,
 ``type_known`` and (through :mod:`~ybg.compiler.passes.muxrefs`) the
 muxes. Sets ``message`` and adds to ``used_muxes``.
@@ -17,6 +19,7 @@ from ybg.compiler import ast, ir
 from ybg.compiler.diagnostics import did_you_mean
 from ybg.compiler.names import identifier_problem
 from ybg.compiler.passes.context import Context, FieldPath
+from ybg.compiler.passes.message import written
 from ybg.compiler.passes.muxrefs import is_mux_ref, is_timestamp, mux_slice, slice_types, timestamp, unknown_mux
 
 
@@ -34,16 +37,32 @@ def _splice(ctx: Context) -> bool:
 
 def _struct(ctx: Context, prefix: FieldPath, msg_type: str | None) -> ir.Struct:
     entries = ctx.message_entries
-    order: dict[str, None] = {}
-    for p in ctx.below.get(prefix, {}):
-        order.setdefault(p[len(prefix)], None)
+    order: dict[str | int, ast.Entry] = {}
+    for p, e in ctx.below.get(prefix, {}).items():
+        order.setdefault(p[len(prefix)], e)
+    indices = sorted(k for k in order if isinstance(k, int))
+    if indices:
+        if len(indices) != len(order):
+            name = next(k for k in order if not isinstance(k, int))
+            ctx.sink.error("E330", f"`{written(prefix)}` has both indexed elements and a part `{name}`",
+                           order[name].key_span, f"name its parts `{written(prefix)}.<label>` or index "
+                           f"its elements `{written(prefix)}[0]`, not both")
+            return ir.Struct((), msg_type)
+        missing = [k for k in range(indices[-1] + 1) if k not in order]
+        if missing:
+            after = min(j for j in indices if j > missing[0])
+            ctx.sink.error("E332", f"`{written(prefix + (after,))}` is given but `{written(prefix + (missing[0],))}`"
+                           f" is not: the elements of `{written(prefix)}` are numbered from 0 without gaps",
+                           order[after].key_span, "number the elements from 0")
+            return ir.Struct((), msg_type)
+        order = {k: order[k] for k in indices}
     fields = []
     for name in order:
         path = prefix + (name,)
         if path in entries:
-            fields.append(ir.Field(name, _value(ctx, entries[path]), None))
+            fields.append(ir.Field(str(name), _value(ctx, entries[path]), None))
         else:
-            fields.append(ir.Field(name, _struct(ctx, path, None), None))
+            fields.append(ir.Field(str(name), _struct(ctx, path, None), None))
     return ir.Struct(tuple(fields), msg_type)
 
 
@@ -92,6 +111,8 @@ def _item(ctx: Context, item: ast.Item, e: ast.Entry):
             if got is None:
                 return ir.Default()
             mux, start, stop, index = got
+            if _part_of_rows(ctx, mux, start, stop, index, item.items[0].span):
+                return ir.Default()
             return ir.MuxRef(mux.name, start, stop, index, False, _common_type(slice_types(mux, start, stop, index)))
         return _list(ctx, item.items, e)
     if isinstance(item, ast.Word) and item.text == "counter":
@@ -105,6 +126,8 @@ def _item(ctx: Context, item: ast.Item, e: ast.Entry):
         if got is None:
             return ir.Default()
         mux, start, stop, index = got
+        if _part_of_rows(ctx, mux, start, stop, index, item.span):
+            return ir.Default()
         return ir.MuxRef(mux.name, start, stop, index, index is None and _splice(ctx),
                          _common_type(slice_types(mux, start, stop, index)))
     if isinstance(item, (ast.Str, ast.Word)):
@@ -115,6 +138,17 @@ def _item(ctx: Context, item: ast.Item, e: ast.Entry):
     ctx.sink.error("E105", "unexpected value in [message]", item.span,
                    "values are text, numbers, lists `[a, b]`, mux names, counter, time or timestamp")
     return ir.Default()
+
+
+def _part_of_rows(ctx: Context, mux: ir.Mux, start: int, stop: int | None, index: int | None, span) -> bool:
+    """A part of a mux of rows (one per element of an array of messages),
+    which goes into a Bottle whole: reported, True."""
+    if mux.rows and (index is not None or start != 0 or stop is not None):
+        ctx.sink.error("E305", f"mux `{mux.name}` holds one row per element of an array of messages: "
+                       "it goes whole into the Bottle, one list per row", span,
+                       f"write `{mux.name}` (the rows one by one) or `[{mux.name}]` (in one list)")
+        return True
+    return False
 
 
 def _literal(ctx: Context, item):

@@ -17,8 +17,9 @@ from ybg.compiler.diagnostics import Sink
 from ybg.compiler.msgtypes import MsgDef, TypeStore, load_store
 from ybg.compiler.options import Options
 
-#: a field of [message] as a path: ``header.frame_id`` is ``("header", "frame_id")``
-FieldPath = tuple[str, ...]
+#: a field of [message] as a path: ``header.frame_id`` is ``("header", "frame_id")``,
+#: ``transforms[0].child_frame_id`` is ``("transforms", 0, "child_frame_id")``
+FieldPath = tuple["str | int", ...]
 
 
 @dataclass
@@ -81,6 +82,9 @@ class Context:
     # typed or bottles: the message tree, and the muxes it uses
     message: ir.Struct | None = None
     used_muxes: set[str] = field(default_factory=set)
+    # typed: the muxes of unknown width a nested message takes a part of
+    # without a range (W511); cuts tells their inputs what is read
+    silent_cuts: set[str] = field(default_factory=set)
 
     # program: the checked program, None when there are errors
     program: ir.Program | None = None

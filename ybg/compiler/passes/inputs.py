@@ -60,6 +60,10 @@ def _mux(ctx: Context, name: str, sec: ast.Section, keys: dict[str, ast.Entry]) 
             ok = False
         else:
             inputs.append(inp)
+    if len(inputs) > 1 and any(i.each for i in inputs):
+        s.error("E208", f"mux `{name}` reads the elements of an array of messages, one row each: "
+                "it reads no other input", entry.span, "read the other inputs in a mux of their own")
+        return None
     seen: dict[str, int] = {}
     for inp, item in zip(inputs, entry.items):
         if inp.name in seen:
@@ -93,8 +97,9 @@ def _input(ctx: Context, item: ast.Item, is_topic: bool, via: str, timeout: floa
         fields = None
         layout = None
         positions = None
+        each = None
         if decl:
-            ros_type, fields, layout = _topic_decl(ctx, name, decl, item.span, via)
+            ros_type, fields, layout, each = _topic_decl(ctx, name, decl, item.span, via)
             if ros_type is None:
                 return None
             if via == "ros1" and fields:  # YARP gives a ROS 1 message as a Bottle laid out like its definition
@@ -104,7 +109,7 @@ def _input(ctx: Context, item: ast.Item, is_topic: bool, via: str, timeout: floa
                     f"write `{name} (geometry_msgs/Point)`, or `{name} (sensor_msgs/JointState position)` "
                     "to take one numeric field")
             return None
-        return ir.Input(name, via, layout, ros_type, fields, timeout, positions)
+        return ir.Input(name, via, layout, ros_type, fields, timeout, positions, each=each)
     problem = port_problem(name)
     if problem:
         s.error("E401", f"invalid YARP port name `{name}`: {problem}", head.span,
@@ -151,22 +156,114 @@ def _layout(ctx: Context, decl, span: Span) -> tuple[ir.ElementGroup, ...] | Non
 
 
 def _topic_decl(ctx: Context, name: str, decl, span: Span, via: str):
-    """(message type, fields read, their element groups) of a topic declared
-    `(pkg/Name)` or `(pkg/Name field)`; (None, None, None) when it does not check."""
+    """(message type, fields read, their element groups, the array of
+    messages whose elements give one row each) of a topic declared
+    `(pkg/Name)`, `(pkg/Name field)` or `(pkg/Name array.field array.field...)`;
+    (None, None, None, None) when it does not check."""
     s = ctx.sink
-    if len(decl) != 1 or not all(isinstance(a, ast.Word) for a in decl[0]) or len(decl[0]) > 2:
+    if len(decl) != 1 or not all(isinstance(a, ast.Word) for a in decl[0]):
         s.error("E213", "a topic is declared with its type and optionally one numeric field: "
                 "`(pkg/Name)` or `(pkg/Name field)`", span)
-        return None, None, None
+        return None, None, None, None
+    if len(decl[0]) > 2 or (len(decl[0]) == 2 and _through_message_array(ctx, decl, via)):
+        return _rows_decl(ctx, decl, span, via)
+    return (*_one_field_decl(ctx, name, decl, span, via), None)
+
+
+def _through_message_array(ctx: Context, decl, via: str) -> bool:
+    """Does the one field of `(pkg/Name field)` name a part of the elements
+    of an array of messages (`points.positions`)?"""
+    msgdef, _ = _topic_type(ctx, decl, via, report=False)
+    head, _, rest = decl[0][1].text.partition(".")
+    f = msgdef.field(head) if msgdef is not None else None
+    return f is not None and f.type.is_message and f.type.array is not None and bool(rest)
+
+
+def _rows_decl(ctx: Context, decl, span: Span, via: str):
+    """`(trajectory_msgs/JointTrajectory points.time_from_start points.positions)`:
+    fields of each element of one array of messages, a row per element."""
+    s = ctx.sink
+    msgdef, store = _topic_type(ctx, decl, via)
+    if msgdef is None:
+        return None, None, None, None
+    words = decl[0][1:]
+    each = None
+    fields: list[str] = []
+    groups: list[ir.ElementGroup] | None = []
+    for w in words:
+        head, _, rest = w.text.partition(".")
+        f = msgdef.field(head)
+        if f is None or not f.type.is_message or f.type.array is None or not rest:
+            s.error("E213", f"`{w.text}`: a topic declared with several fields reads fields of the "
+                    f"elements of one array of messages of `{msgdef.name}`, each element a row",
+                    w.span, f"e.g. `({msgdef.name} <array>.<field> <array>.<field>)`")
+            return None, None, None, None
+        if each is not None and head != each:
+            s.error("E213", f"`{w.text}`: every field is of the elements of `{each}`", w.span)
+            return None, None, None, None
+        if via != "ros2":
+            s.error("E213", "the elements of an array of messages are read from ROS 2 topics only",
+                    w.span, "read the topic with `via = ros2` (the ros2 backend)")
+            return None, None, None, None
+        each = head
+        got = _element_field(ctx, store, f.type.base, rest, w)
+        if got is None:
+            return None, None, None, None
+        fields.append(rest)
+        if got == "dynamic" or groups is None:
+            groups = None
+        else:
+            groups.extend(got)
+    return msgdef.name, tuple(fields), (tuple(groups) if groups is not None else None), each
+
+
+def _element_field(ctx: Context, store, base: str, path: str, word: ast.Word):
+    """The element groups of field ``path`` of message ``base`` (one row's
+    part), "dynamic" for a variable-length array, None when reported."""
+    s = ctx.sink
+    cur = store.resolve(base)
+    ftype = None
+    for part in path.split("."):
+        f = cur.field(part) if cur else None
+        if f is None:
+            s.error("E302", f"`{base}` has no field `{path}`", word.span,
+                    did_you_mean(part, [x.name for x in (cur.fields if cur else ())]))
+            return None
+        ftype = f.type
+        cur = store.resolve(f.type.base) if f.type.is_message else None
+    assert ftype is not None
+    if ftype.array is None and ftype.base in ("builtin_interfaces/Time", "builtin_interfaces/Duration"):
+        return [ir.ElementGroup("float64", 1)]  # seconds
+    if ftype.base in ir.NUMERIC_TYPES:
+        if ftype.array == "sequence":
+            return "dynamic"
+        return [ir.ElementGroup(ftype.base, 1 if ftype.array is None else (ftype.size or 0))]
+    s.error("E309", f"field `{path}` of `{base}` is not numeric (nor a time)", word.span)
+    return None
+
+
+def _topic_type(ctx: Context, decl, via: str, report: bool = True):
+    """The message definition a topic declaration names, and its store (None: reported)."""
+    s = ctx.sink
     words = [a.text for a in decl[0]]
     distro = ctx.options.distro
     store = ctx.stores.get(via, distro if DISTROS.get(distro or "") == via else None)
     norm = normalize_name(words[0])
     msgdef = store.resolve(norm) if norm else None
-    if msgdef is None:
+    if msgdef is None and report:
         s.error("E301", f"unknown message type `{words[0]}` ({via})", decl[0][0].span,
                 did_you_mean(words[0], store.all_names()) or "write `pkg/Name`")
+    return msgdef, store
+
+
+def _one_field_decl(ctx: Context, name: str, decl, span: Span, via: str):
+    """`(pkg/Name)` or `(pkg/Name field)`: (type, fields, groups) or Nones."""
+    s = ctx.sink
+    words = [a.text for a in decl[0]]
+    msgdef, store = _topic_type(ctx, decl, via)
+    if msgdef is None:
         return None, None, None
+    norm = msgdef.name
     if len(words) == 2:
         path = words[1]
         cur: MsgDef | None = msgdef

@@ -3,9 +3,14 @@
 Every field of the definition gets a value: what [message] sets (a literal,
 a mux or a part of one, `counter`, `time`, `timestamp`), or its default; a
 nested message is a struct of its own fields.
+An array of messages has the elements the config indexes
+(`transforms[0].child_frame_id = ...`): each a struct of its own fields, or a
+mux filling its numbers (`points[0] = goal`).
 Checks: unknown fields (E302), fields of the other ROS version (E311), each
 value against its field's type (E304 to E310, E317), sequences that must be
-of one length (E312).
+of one length (E312), indices (E330 on a field that is not an array of
+messages, E331 beyond its size, E332 a gap), a value given to a whole
+array of messages (E333).
 Reads ``msgdef``, ``message_entries``, ``below``, ``store``, ``ros``,
 ``stores`` and (through :mod:`~ybg.compiler.passes.muxrefs`) the muxes.
 Sets ``message`` and adds to ``used_muxes``.
@@ -20,6 +25,7 @@ from ybg.compiler.diagnostics import did_you_mean
 from ybg.compiler.msgtypes import MsgDef, numeric_leaves
 from ybg.compiler.names import identifier_problem
 from ybg.compiler.passes.context import Context, FieldPath
+from ybg.compiler.passes.message import written
 from ybg.compiler.passes.muxrefs import is_mux_ref, is_timestamp, mux_slice, slice_types, timestamp, unknown_mux
 
 #: sequences of a message that must be empty or of one length
@@ -56,7 +62,7 @@ def _struct(ctx: Context, msgdef: MsgDef, prefix: FieldPath, entries: Entries,
         if msgdef.field(head) is None:
             other = _other_dialect_field(ctx, msgdef.name, head)
             if other:
-                s.error("E311", f"`{'.'.join(p)}`: {other}", e.key_span, _other_dialect_hint(ctx, msgdef.name, head))
+                s.error("E311", f"`{written(p)}`: {other}", e.key_span, _other_dialect_hint(ctx, msgdef.name, head))
             else:
                 s.error("E302", f"`{msgdef.name}` has no field `{head}`", e.key_span,
                         did_you_mean(head, names) or f"fields: {', '.join(names)}")
@@ -66,20 +72,82 @@ def _struct(ctx: Context, msgdef: MsgDef, prefix: FieldPath, entries: Entries,
         if path in entries:
             fields.append(ir.Field(f.name, _value(ctx, entries[path], f.type), f.type))
         elif path in below:
-            if not f.type.is_message or f.type.array is not None:
-                p, e = next(iter(below[path].items()))
-                s.error("E302", f"`{'.'.join(path)}` is a {f.type}, it has no field `{p[len(path)]}`",
-                        e.key_span)
-                fields.append(ir.Field(f.name, ir.Default(), f.type))
-                continue
-            sub = ctx.store.resolve(f.type.base)
-            if sub is None:
-                fields.append(ir.Field(f.name, ir.Default(), f.type))
-                continue
-            fields.append(ir.Field(f.name, _struct(ctx, sub, path, entries, below), f.type))
+            fields.append(ir.Field(f.name, _below(ctx, f.type, path, entries, below), f.type))
         else:
             fields.append(ir.Field(f.name, _default(ctx, f, path), f.type))
     return ir.Struct(tuple(fields), msgdef.name)
+
+
+def _below(ctx: Context, t: ir.TypeRef, path: FieldPath, entries: Entries,
+           below: dict[FieldPath, Entries]):
+    """The value of the field of type ``t`` at ``path`` set in parts: a
+    nested message by its fields, an array of messages by its elements."""
+    s = ctx.sink
+    p, e = next(iter(below[path].items()))
+    part = p[len(path)]
+    is_message_array = t.is_message and t.array is not None
+    if isinstance(part, int) and not is_message_array:
+        s.error("E330", f"`{written(path)}` is {t}, not an array of messages: it has no "
+                f"element `{written(p[:len(path) + 1])}` to set", e.key_span,
+                f"give the whole field: `{written(path)} = ...`" if t.array else None)
+        return ir.Default()
+    if is_message_array and not isinstance(part, int):
+        s.error("E302", f"`{written(path)}` is {t}, an array: it has no field `{part}`",
+                e.key_span, f"set a field of one element: `{written(path)}[0].{written(p[len(path):])}`")
+        return ir.Default()
+    if is_message_array:
+        return _message_array(ctx, t, path, entries, below)
+    if not t.is_message or t.array is not None:
+        s.error("E302", f"`{written(path)}` is a {t}, it has no field `{part}`", e.key_span)
+        return ir.Default()
+    sub = ctx.store.resolve(t.base)
+    if sub is None:
+        return ir.Default()
+    return _struct(ctx, sub, path, entries, below)
+
+
+def _message_array(ctx: Context, t: ir.TypeRef, path: FieldPath, entries: Entries,
+                   below: dict[FieldPath, Entries]) -> ir.MessageArray | ir.Default:
+    """The elements of the array of messages at ``path`` that the config
+    indexes. A sequence has elements 0 to the highest index, each given; a
+    fixed-size array has its size, an element not given its defaults."""
+    s = ctx.sink
+    sub = ctx.store.resolve(t.base)
+    if sub is None:
+        return ir.Default()
+    first: dict[int, ast.Entry] = {}
+    for p, e in sorted(below[path].items(), key=lambda pe: (pe[1].span.line, pe[1].span.column)):
+        first.setdefault(p[len(path)], e)
+    ok = True
+    if t.size is not None:
+        for k, e in sorted(first.items()):
+            if k >= t.size:
+                s.error("E331", f"`{written(path + (k,))}` is beyond `{written(path)}`, which is {t}: "
+                        f"its elements are {written(path)}[0] to {written(path)}[{t.size - 1}]", e.key_span)
+                ok = False
+    if not ok:
+        return ir.Default()
+    count = t.size if t.array == "fixed" else max(first) + 1
+    if t.array != "fixed":
+        missing = [k for k in range(count) if k not in first]
+        if missing:
+            k = missing[0]
+            after = min(j for j in first if j > k)
+            s.error("E332", f"`{written(path + (after,))}` is given but `{written(path + (k,))}` is not: "
+                    f"the elements of `{written(path)}` are numbered from 0 without gaps",
+                    first[after].key_span, f"set `{written(path + (k,))}`, or number the elements from 0")
+            return ir.Default()
+    elements = []
+    for k in range(count):
+        elem = path + (k,)
+        if elem in entries:
+            value = _value(ctx, entries[elem], t.element())
+            if isinstance(value, ir.Default):  # reported
+                value = _struct(ctx, sub, elem, {}, {})
+            elements.append(value)
+        else:
+            elements.append(_struct(ctx, sub, elem, entries, below))
+    return ir.MessageArray(tuple(elements), t.base)
 
 
 def _default(ctx: Context, f, path: FieldPath):
@@ -91,10 +159,10 @@ def _default(ctx: Context, f, path: FieldPath):
         if sub is not None:
             return _struct(ctx, sub, path, {}, {})
     if t.is_message and t.array == "fixed":
-        where = ctx.output_keys.get("type")
-        ctx.sink.error("E304", f"`{'.'.join(path)}` is {t}, a fixed-size array of messages, "
-                       "which cannot be filled yet", where.span if where else None,
-                       "ybgc fills arrays of numbers, bool or text; use a message type without it")
+        sub = ctx.store.resolve(t.base)
+        if sub is not None:
+            return ir.MessageArray(tuple(_struct(ctx, sub, path + (k,), {}, {}) for k in range(t.size or 0)),
+                                   t.base)
     return ir.Default(f.default)
 
 
@@ -126,6 +194,8 @@ def _value(ctx: Context, e: ast.Entry, t: ir.TypeRef):
     s = ctx.sink
     items = e.items
     span = e.span
+    if t.is_message and t.array is not None and not any(is_mux_ref(ctx, i) for i in items):
+        return _whole_message_array(ctx, e, t)
     if t.is_message and t.array is None and t.base not in ("builtin_interfaces/Time",):
         # a whole nested message: only a mux of the same width
         if len(items) == 1 and is_mux_ref(ctx, items[0]):
@@ -188,6 +258,22 @@ def _value(ctx: Context, e: ast.Entry, t: ir.TypeRef):
     return ir.Literal(tuple(values), t.base, True)
 
 
+def _whole_message_array(ctx: Context, e: ast.Entry, t: ir.TypeRef):
+    """An array of messages given as a whole: only empty (`[]`, or nothing)."""
+    items = e.items
+    if len(items) == 1 and isinstance(items[0], ast.Bracket):
+        items = items[0].items
+    if items:
+        ctx.sink.error("E333", f"`{e.key}` is {t}, an array of messages: it takes no value but its "
+                       "elements' fields", items[0].span,
+                       f"set the fields of each element: `{e.key}[0].<field> = ...`, `{e.key}[1].<field> = ...`")
+        return ir.Default()
+    if t.array == "fixed" and t.size:
+        ctx.sink.error("E310", f"`{e.key}` is {t}: it needs exactly {t.size} elements, not 0", e.span)
+        return ir.Default()
+    return ir.MessageArray((), t.base)
+
+
 def _literal(ctx: Context, item: ast.Item, base: str, key: str):
     """One literal element of type ``base``, or None (reported)."""
     s = ctx.sink
@@ -236,12 +322,26 @@ def _literal(ctx: Context, item: ast.Item, base: str, key: str):
     return n
 
 
+def _rows_into_typed(ctx: Context, mux: ir.Mux, item: ast.Item, e: ast.Entry) -> bool:
+    """A mux of rows (one per element of an array of messages) fills an
+    untyped Bottle only: reported, True."""
+    if not mux.rows:
+        return False
+    each = next(i.each for i in mux.inputs if i.each)
+    ctx.sink.error("E305", f"`{e.key}` is a field of a typed message, but mux `{mux.name}` holds one row per "
+                   f"element of `{each}`", item.span,
+                   "a mux of rows fills an untyped Bottle: a YARP port without `type`, one list per row")
+    return True
+
+
 def _mux_into_field(ctx: Context, item: ast.Item, t: ir.TypeRef, e: ast.Entry):
     s = ctx.sink
     got = mux_slice(ctx, item)
     if got is None:
         return ir.Default()
     mux, start, stop, index = got
+    if _rows_into_typed(ctx, mux, item, e):
+        return ir.Default()
     types = slice_types(mux, start, stop, index)
     if index is None and t.array is None:
         s.error("E305", f"`{e.key}` is one {t.base}, but `{mux.name}` is a list of elements", item.span,
@@ -253,7 +353,9 @@ def _mux_into_field(ctx: Context, item: ast.Item, t: ir.TypeRef, e: ast.Entry):
         return ir.Default()
     if t.is_message or t.base in ("time", "duration"):
         s.error("E305", f"`{e.key}` is {t}, a list of {t.base}: a mux fills a list of numbers, bool or text",
-                item.span, "a mux of its width fills one nested message (`pose = m`), not a list of them")
+                item.span, "a mux of its width fills one nested message (`pose = m`), not a list of them; "
+                f"index the element it fills (`{e.key}[0] = {written((mux.name,))}`)" if t.is_message else
+                "a mux of its width fills one nested message (`pose = m`), not a list of them")
         return ir.Default()
     if types is not None:
         bad = sorted({x for x in types if not _fits(x, t.base)})
@@ -286,6 +388,8 @@ def _mux_into_message(ctx: Context, item: ast.Item, t: ir.TypeRef, e: ast.Entry)
     if got is None:
         return ir.Default()
     mux, start, stop, index = got
+    if _rows_into_typed(ctx, mux, item, e):
+        return ir.Default()
     leaves = numeric_leaves(ctx.store, t.base)
     if leaves is None:
         s.error("E309", f"`{e.key}` is a {t.base}, which is not all numbers: a mux cannot fill it",
@@ -307,8 +411,27 @@ def _mux_into_message(ctx: Context, item: ast.Item, t: ir.TypeRef, e: ast.Entry)
             s.error("E305", f"`{e.key}` holds {', '.join(sorted({ft for _, ft in leaves}))}, "
                     f"mux `{mux.name}` gives {', '.join(bad)}", item.span)
             return ir.Default()
+    if n is None:
+        _silent_cut(ctx, item, e, t, mux, start, leaves)
     return ir.MuxRef(mux.name, start, stop, None, False, "float64",
                      tuple(p for p, _ in leaves), tuple(ft for _, ft in leaves))
+
+
+def _silent_cut(ctx: Context, item: ast.Item, e: ast.Entry, t: ir.TypeRef, mux: ir.Mux, start: int,
+                leaves: list) -> None:
+    """W511: a nested message takes its numbers from a mux of unknown width,
+    without a range, so whatever a Bottle brings beyond them is dropped."""
+    ctx.silent_cuts.add(mux.name)
+    undeclared = [i.name for i in mux.inputs if i.layout is None]
+    stop = start + len(leaves)
+    port = undeclared[0] if undeclared else "<port>"
+    ctx.sink.warning(
+        "W511", f"`{e.key}` is a {t.base} of {len(leaves)} numbers ({', '.join(p for p, _ in leaves)}): it takes "
+        f"values {start} to {stop - 1} of mux `{mux.name}`, whose port{'s' if len(undeclared) > 1 else ''} "
+        f"{', '.join(f'`{p}`' for p in undeclared)} declare{'' if len(undeclared) > 1 else 's'} no elements; "
+        f"a Bottle's values beyond those are dropped (the module says so once)", item.span,
+        f"declare what the port sends (`{port} (float64 x<N>)`) and take the range "
+        f"(`{e.key} = {mux.name}[{start}:{stop}]`); the range alone says the cut is meant")
 
 
 def _check_lengths(ctx: Context, msgdef: MsgDef, struct: ir.Struct, entries: Entries) -> None:
@@ -335,6 +458,8 @@ def _check_lengths(ctx: Context, msgdef: MsgDef, struct: ir.Struct, entries: Ent
 
 def _static_length(ctx: Context, src) -> int | None:
     """The number of elements of a field's value when known before run time."""
+    if isinstance(src, ir.MessageArray):
+        return len(src.elements)
     if isinstance(src, ir.Literal):
         return len(src.values) if src.is_list else None
     if isinstance(src, ir.MuxRef):

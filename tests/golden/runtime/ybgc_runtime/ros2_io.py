@@ -4,9 +4,11 @@
 rclpy node. ROS 2 topics as mux inputs, a typed message filled field by
 field and published with the config's QoS, stamps from the node's clock
 (use_sim_time is respected), the node's parameters in place of the
-command-line options (docs/runtime.md)."""
+command-line options, QoS overridden by ``qos_overrides`` parameters, and the
+bridge's totals on /diagnostics (docs/runtime.md)."""
 
 import argparse
+import collections
 import operator
 import os
 import signal
@@ -17,11 +19,14 @@ import time
 import rclpy
 import rclpy.time
 import rclpy.utilities
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import (PublisherEventCallbacks, SubscriptionEventCallbacks,
                                  UnsupportedEventTypeError)
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos_overriding_options import QoSOverridingOptions, QoSPolicyKind
 from rclpy.signals import SignalHandlerOptions
 
 from .core import _FLOAT_TYPES, _INT_TYPES, InputState  # ybgc:runtime-import
@@ -33,6 +38,14 @@ from .yarp_io import YarpBridge  # ybgc:runtime-import
 INPUT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
                        reliability=ReliabilityPolicy.BEST_EFFORT,
                        durability=DurabilityPolicy.VOLATILE)
+
+#: The QoS policies a user overrides on top of the config's, as rclcpp and
+#: rclpy nodes offer: read-only parameters
+#: ``qos_overrides./<topic>.publisher.<policy>`` (``.subscription.`` for
+#: the inputs), given at start (``--ros-args -p ...`` or a parameter file).
+QOS_OVERRIDES = QoSOverridingOptions(policy_kinds=(
+    QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH, QoSPolicyKind.RELIABILITY,
+    QoSPolicyKind.DURABILITY))
 
 
 class FillError(ValueError):
@@ -103,6 +116,8 @@ class Stamps:
 def _leaf_numbers(value):
     if isinstance(value, (bool, int, float)):
         return [value]
+    if hasattr(value, "sec") and hasattr(value, "nanosec"):  # a time or duration: seconds
+        return [value.sec + value.nanosec / 1e9]
     if hasattr(value, "tolist"):  # array.array, numpy arrays
         value = value.tolist()
     if isinstance(value, (list, tuple)):
@@ -156,12 +171,14 @@ class Ros2Input(InputState):
     the message's header.stamp if it has one); the subscription's callback
     runs on the node's executor thread."""
 
-    def __init__(self, bridge, spec, node, msg_class, leaves, timeout):
+    def __init__(self, bridge, spec, node, msg_class, leaves, timeout, each=None):
         self.init_state(bridge, spec, timeout)
         self.local = spec.source
         self.node = node
         self.msg_class = msg_class
         self.getters = tuple((path, operator.attrgetter(path)) for path in leaves)
+        # an array of messages whose elements give one row each
+        self.elements = operator.attrgetter(each) if each else None
         self.subscription = None
 
     def open(self):
@@ -170,10 +187,11 @@ class Ros2Input(InputState):
                 events = SubscriptionEventCallbacks(matched=self._on_matched)
                 self.subscription = self.node.create_subscription(
                     self.msg_class, self.source, self._on_message, INPUT_QOS,
-                    event_callbacks=events)
+                    event_callbacks=events, qos_overriding_options=QOS_OVERRIDES)
             except UnsupportedEventTypeError:  # an rmw without matched events
                 self.subscription = self.node.create_subscription(
-                    self.msg_class, self.source, self._on_message, INPUT_QOS)
+                    self.msg_class, self.source, self._on_message, INPUT_QOS,
+                    qos_overriding_options=QOS_OVERRIDES)
         except Exception as e:  # an rclpy error: report it, never a traceback
             self.bridge.log("cannot subscribe to %s: %s" % (self.source, e))
             return False
@@ -186,8 +204,11 @@ class Ros2Input(InputState):
     def _on_message(self, msg):
         now = time.monotonic()
         try:
-            values, reason = message_values(msg, self.getters, self.spec.types,
-                                            self.bridge.spec.on_nan == "drop")
+            if self.elements is None:
+                values, reason = message_values(msg, self.getters, self.spec.types,
+                                                self.bridge.spec.on_nan == "drop")
+            else:
+                values, reason = self._rows(msg)
         except Exception as e:
             values, reason = None, "cannot read its fields (%s)" % e
         envelope = None
@@ -195,6 +216,18 @@ class Ros2Input(InputState):
         if stamp is not None and (stamp.sec or stamp.nanosec):
             envelope = stamp.sec + stamp.nanosec * 1e-9
         self.bridge.on_bottle(self, values, reason, now, envelope)
+
+    def _rows(self, msg):
+        """(one row per element, None), or (None, reason): a message with an
+        element that does not check is dropped whole."""
+        rows = []
+        for k, element in enumerate(self.elements(msg)):
+            row, reason = message_values(element, self.getters, self.spec.types,
+                                         self.bridge.spec.on_nan == "drop")
+            if reason is not None:
+                return None, "element %d: %s" % (k, reason)
+            rows.append(row)
+        return rows, None
 
     def interrupt(self):
         pass
@@ -222,9 +255,11 @@ class Ros2Output:
             try:
                 events = PublisherEventCallbacks(matched=self._on_matched)
                 self.publisher = self.node.create_publisher(self.msg_class, self.port_name, self.qos,
-                                                            event_callbacks=events)
+                                                            event_callbacks=events,
+                                                            qos_overriding_options=QOS_OVERRIDES)
             except UnsupportedEventTypeError:  # an rmw without matched events
-                self.publisher = self.node.create_publisher(self.msg_class, self.port_name, self.qos)
+                self.publisher = self.node.create_publisher(self.msg_class, self.port_name, self.qos,
+                                                            qos_overriding_options=QOS_OVERRIDES)
         except Exception as e:
             self.log("cannot advertise %s: %s" % (self.port_name, e))
             return False
@@ -296,8 +331,8 @@ class NodeBridge(YarpBridge):
 
     def make_input(self, mux, spec, local, timeout):
         if spec.kind == "ros2":
-            msg_class, leaves = self.topic_inputs[(mux.name, spec.index)]
-            return Ros2Input(self, spec, self.node, msg_class, leaves, timeout)
+            msg_class, leaves, *each = self.topic_inputs[(mux.name, spec.index)]
+            return Ros2Input(self, spec, self.node, msg_class, leaves, timeout, *each)
         return YarpBridge.make_input(self, mux, spec, local, timeout)
 
     def _build(self, ctx):
@@ -317,6 +352,92 @@ class NodeBridge(YarpBridge):
                     text = text[:200] + "..."
                 self.log("cannot fill the message (%s: %s); further failures are only counted"
                          % (type(e).__name__, text))
+
+
+# --- /diagnostics ------------------------------------------------------------------
+
+#: diagnostic_updater's FrequencyStatus tolerance: a fixed-rate output below
+#: (1 - tolerance) x its configured rate is a warning
+RATE_TOLERANCE = 0.1
+#: the number of periods the achieved rate is measured over
+RATE_WINDOW = 5
+
+
+def _key_values(pairs):
+    return [KeyValue(key=k, value=v) for k, v in pairs]
+
+
+def input_status(inp, now):
+    """The (level, message, key-values) of one input from its totals: OK
+    while fresh, WARN while stale, ERROR before its first Bottle or message."""
+    if inp.state == "waiting":
+        level, text = DiagnosticStatus.ERROR, "no data received yet"
+    elif inp.state == "stale":
+        level, text = DiagnosticStatus.WARN, "stale: no data for %.1f s" % (now - inp.arrival)
+    else:
+        level, text = DiagnosticStatus.OK, "fresh"
+    age = "" if inp.arrival is None else "%.3f" % (now - inp.arrival)
+    return level, text, (
+        ("received", str(inp.received)), ("dropped", str(inp.dropped)),
+        ("stale periods", str(inp.stale_periods)), ("unused", str(inp.unused)),
+        ("age (s)", age), ("timeout (s)", "%g" % inp.timeout))
+
+
+def output_status(bridge, achieved):
+    """The (level, message, key-values) of the output: the rate achieved over
+    the last periods against the rate configured (none when event-driven)."""
+    rate = bridge.rate
+    if rate is None:
+        level, text = DiagnosticStatus.OK, "event-driven: %.2f Hz" % achieved
+    elif achieved < rate * (1.0 - RATE_TOLERANCE):
+        level, text = DiagnosticStatus.WARN, "rate too low: %.2f Hz of %g Hz" % (achieved, rate)
+    else:
+        level, text = DiagnosticStatus.OK, "%.2f Hz of %g Hz" % (achieved, rate)
+    return level, text, (
+        ("published", str(bridge.published)), ("rate achieved (Hz)", "%.3f" % achieved),
+        ("rate configured (Hz)", "event-driven" if rate is None else "%g" % rate),
+        ("skipped cycles", str(bridge.skipped_cycles)), ("build failures", str(bridge.build_errors)))
+
+
+class Diagnostics:
+    """Publishes the bridge's totals on /diagnostics as a DiagnosticArray
+    every ``period`` seconds of the steady clock, as diagnostic_updater does:
+    one status per input (``<node>: input <source>``) and one for the output
+    (``<node>: output <topic or port>``), hardware_id the module's name."""
+
+    def __init__(self, bridge, node, period):
+        self.bridge = bridge
+        self.node = node
+        self.name = node.get_name()
+        self.hardware_id = bridge.spec.module
+        self.samples = collections.deque(maxlen=RATE_WINDOW + 1)  # (time, published)
+        with bridge.cond:
+            self.samples.append((time.monotonic(), bridge.published))
+        self.publisher = node.create_publisher(DiagnosticArray, "/diagnostics", 1)
+        self.timer = node.create_timer(period, self.publish, clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+    def _status(self, name, level, text, values):
+        return DiagnosticStatus(level=level, name="%s: %s" % (self.name, name), message=text,
+                                hardware_id=self.hardware_id, values=_key_values(values))
+
+    def array(self):
+        """The DiagnosticArray of the bridge's state now."""
+        bridge = self.bridge
+        now = time.monotonic()
+        with bridge.cond:
+            self.samples.append((now, bridge.published))
+            statuses = [self._status("input %s" % inp.source, *input_status(inp, now))
+                        for inp in bridge.inputs]
+            (t0, n0), (t1, n1) = self.samples[0], self.samples[-1]
+            achieved = (n1 - n0) / (t1 - t0) if t1 > t0 else 0.0
+            statuses.append(self._status("output %s" % bridge.output.port_name,
+                                         *output_status(bridge, achieved)))
+        msg = DiagnosticArray(status=statuses)
+        msg.header.stamp = self.node.get_clock().now().to_msg()
+        return msg
+
+    def publish(self):
+        self.publisher.publish(self.array())
 
 
 # --- parameters, start and shutdown ----------------------------------------------
@@ -351,7 +472,16 @@ def node_options(node, default_prefix, default_rate):
     verbose = declare("verbose", False, "print every value after conversion, for every mux")
     if not isinstance(verbose, bool):
         raise ParameterError("parameter verbose must be true or false")
-    return argparse.Namespace(prefix=prefix, rate=rate, timeout=timeout or None, verbose=verbose)
+    diagnostics = declare("diagnostics", True, "publish the bridge's state on /diagnostics")
+    if not isinstance(diagnostics, bool):
+        raise ParameterError("parameter diagnostics must be true or false")
+    period = _parameter_number(declare("diagnostic_updater.period", 1.0,
+                                       "seconds between two /diagnostics messages"),
+                               "diagnostic_updater.period")
+    if period <= 0:
+        raise ParameterError("parameter diagnostic_updater.period must be positive")
+    return argparse.Namespace(prefix=prefix, rate=rate, timeout=timeout or None, verbose=verbose,
+                              diagnostics_period=period if diagnostics else None)
 
 
 def _parse_command_line(spec, args, default_prefix, default_rate):
@@ -364,6 +494,11 @@ def _parse_command_line(spec, args, default_prefix, default_rate):
                "                config's (default: 0)\n"
                "  prefix        prefix of the node's own YARP port names (default: %s)\n"
                "  verbose       print every value after conversion (default: false)\n"
+               "  diagnostics   publish the bridge's state on /diagnostics (default: true)\n"
+               "  diagnostic_updater.period\n"
+               "                seconds between two /diagnostics messages (default: 1)\n"
+               "  qos_overrides./TOPIC.publisher.POLICY (.subscription. for inputs)\n"
+               "                history, depth, reliability, durability over the config's\n"
                "  use_sim_time  stamp messages with the simulated time of /clock\n"
                "Generated by ybgc from %s." % (default_rate, default_prefix, spec.config),
         formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -404,6 +539,8 @@ def run_node(spec, argv, node_name, default_prefix, default_rate, topic_inputs,
             print("%s: %s" % (spec.module, e), flush=True)
             return 2
         bridge = NodeBridge(spec, options, node, make_output(node), build, compute, topic_inputs)
+        if options.diagnostics_period:
+            Diagnostics(bridge, node, options.diagnostics_period)
         started.append(bridge)
         if pending:
             bridge.request_stop()

@@ -1,0 +1,140 @@
+"""colcon and a user's own messages, end to end: the original tool's tutorial
+config (shared/legacy/tutorial_example_yarp_ros.ini) converted for ROS 2
+with ``ybgc fmt --to named --ros2``, generated as an ament_python package
+into a colcon workspace, built by ``colcon build``, its installed entry point
+run from the workspace's setup.bash between real YARP producers and a real
+rclpy subscriber of ``ybg_demo_msgs/MotorsInertial`` (the tutorial's message,
+built from its definition with rosidl from the ROS 2 wheels by the setup)."""
+from __future__ import annotations
+
+import math
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from generated import ybgc
+from middleware import VENV_PYTHON, Proc, YarpProducer
+from test_backend_ros2 import Node, QosSubscriber, stop_clean, totals
+from test_diagnostics import yarp_and_ros2
+
+ROOT = Path(__file__).resolve().parents[1]
+TUTORIAL = ROOT.parent / "shared" / "legacy" / "tutorial_example_yarp_ros.ini"
+PACKAGE = "tutorial_example_yarp_ros"
+COLCON = Path(VENV_PYTHON).parent / "colcon"
+
+
+@pytest.fixture
+def mw(ros2_domain):
+    with yarp_and_ros2(ros2_domain) as both:
+        yield both
+
+
+class EntryPoint(Node):
+    """The package's installed executable, run as ``ros2 run`` would, in the
+    environment of the workspace's install/setup.bash."""
+
+    def __init__(self, env, workspace: Path, executable: str):
+        self.path = workspace / "install" / PACKAGE / "lib" / PACKAGE / executable
+        Proc.__init__(self, ["bash", "-c", 'source "$1/install/setup.bash" && exec "$2"',
+                             "bash", workspace, self.path], env=env, name=executable)
+
+
+def tutorial_config(tmp_path, msg_package="ybg_demo_msgs") -> Path:
+    """The tutorial config converted for ROS 2 by ``ybgc fmt --to named --ros2``
+    (its message in ``msg_package``)."""
+    named = tmp_path / "tutorial.ini"
+    r = ybgc("fmt", "--to", "named", "--ros2", "--msg-path", ROOT / "msgpkgs", TUTORIAL, "-o", named)
+    assert r.returncode == 0, r.stderr
+    text = named.read_text()
+    assert "type = ybg_demo_msgs/MotorsInertial" in text and "via = ros2" in text
+    assert "inertial = mux2" in text and "motors = mux1" in text
+    named.write_text(text.replace("ybg_demo_msgs/", msg_package + "/"))
+    return named
+
+
+def colcon_build(env, ws: Path, *args) -> str:
+    r = subprocess.run([str(COLCON), "build", *args], cwd=ws, env=env, capture_output=True, text=True,
+                       timeout=600)
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+    assert f"Finished <<< {PACKAGE}" in r.stdout
+    assert (ws / "install" / PACKAGE / "share" / PACKAGE / "package.xml").is_file()
+    return r.stdout
+
+
+def workspace_env(env, ws: Path) -> dict:
+    """``env`` after ``source install/setup.bash`` of the workspace."""
+    r = subprocess.run(["bash", "-c", 'source "$1/install/setup.bash" && env -0', "bash", ws],
+                       env=env, capture_output=True, timeout=60)
+    assert r.returncode == 0, r.stderr
+    return dict(item.split("=", 1) for item in r.stdout.decode().split("\0") if "=" in item)
+
+
+def run_tutorial(mw, ws: Path, msg_type: str, sub_env=None) -> None:
+    """Producers -> the installed entry point -> an rclpy subscriber of
+    ``msg_type``: the tutorial's message, exact."""
+    sub = QosSubscriber(sub_env or mw.env, "/motors_inertial_port", msg_type).start()
+    head = YarpProducer(mw.env, "/dummy_head/state:o").start()
+    inertial = YarpProducer(mw.env, "/inertial").start()
+    node = EntryPoint(mw.env, ws, f"{PACKAGE}_node").start()
+    try:
+        node.wait_log("publishing")
+        head.wait_outputs(1)
+        inertial.wait_outputs(1)
+        # matched before the Bottles: the inputs go stale (and the node
+        # silent) one second after them
+        sub.wait_publishers(1)
+        node.wait_log("/motors_inertial_port: 1 subscriber\n")
+        degrees = [10.0, -20.5, 90.0]
+        imu = [0.5, -1.25, 9.81, 1, 2, 3, 0.125, 0.0, -0.5, 30.0, 45.0, 60.0]
+        head.write(degrees)
+        inertial.write(imu)
+        want = {"inertial": [float(x) for x in imu], "motors": [d * math.pi / 180.0 for d in degrees]}
+
+        def exact(m):
+            got = m.msg
+            return (sorted(got) == ["inertial", "motors"]
+                    and len(got["inertial"]) == 12 and got["inertial"] == want["inertial"]
+                    and len(got["motors"]) == 3
+                    and all(abs(a - b) <= 1e-12 for a, b in zip(got["motors"], want["motors"])))
+        sub.wait(lambda: any(exact(m) for m in sub.messages), 60, "the tutorial's message")
+        log = stop_clean(node)
+        assert totals(log)["/dummy_head/state:o"] == (1, 0, 0)
+        assert totals(log)["published"] >= 1
+    finally:
+        for p in (node, head, inertial, sub):
+            p.stop()
+        shutil.rmtree(ws / "build", ignore_errors=True)
+
+
+def test_tutorial_package_built_by_colcon(mw, tmp_path):
+    """The node's package alone in the workspace; ybg_demo_msgs from the setup."""
+    named = tutorial_config(tmp_path)
+    ws = tmp_path / "ws"
+    r = ybgc(named, "--backend", "ros2", "--package", "--msg-path", ROOT / "msgpkgs", "-o", ws / "src" / PACKAGE)
+    assert r.returncode == 0, r.stderr
+    assert "<exec_depend>ybg_demo_msgs</exec_depend>" in (ws / "src" / PACKAGE / "package.xml").read_text()
+    colcon_build(mw.env, ws)
+    run_tutorial(mw, ws, "ybg_demo_msgs/msg/MotorsInertial")
+
+
+def test_message_package_and_node_in_one_workspace(mw, tmp_path):
+    """A user's own message package beside the node's in one workspace, both
+    built by one ``colcon build`` with the wheels' rosidl (the message package
+    first, as the node's package depends on it); the subscriber uses the
+    workspace's environment too."""
+    ws = tmp_path / "ws"
+    msgs = ws / "src" / "my_robot_msgs"
+    shutil.copytree(ROOT / "msgpkgs" / "ybg_demo_msgs", msgs)
+    for name in ("package.xml", "CMakeLists.txt"):
+        (msgs / name).write_text((msgs / name).read_text().replace("ybg_demo_msgs", "my_robot_msgs"))
+    named = tutorial_config(tmp_path, "my_robot_msgs")
+    r = ybgc(named, "--backend", "ros2", "--package", "--msg-path", ws / "src", "-o", ws / "src" / PACKAGE)
+    assert r.returncode == 0, r.stderr
+    # with the wheels, ament finds rosidl's type supports through AMENT_PREFIX_PATH
+    env = dict(mw.env, AMENT_PREFIX_PATH=str(Path(VENV_PYTHON).parent.parent))
+    out = colcon_build(env, ws, "--cmake-args", f"-DCMAKE_PROJECT_INCLUDE={ROOT / 'scripts' / 'msgpkg_wheels.cmake'}",
+                       "-DBUILD_TESTING=OFF", f"-DPython3_EXECUTABLE={VENV_PYTHON}")
+    assert out.index("Finished <<< my_robot_msgs") < out.index(f"Starting >>> {PACKAGE}")
+    run_tutorial(mw, ws, "my_robot_msgs/msg/MotorsInertial", workspace_env(mw.env, ws))

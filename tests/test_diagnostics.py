@@ -1,0 +1,198 @@
+"""The ros2 node's /diagnostics (diagnostic_msgs/DiagnosticArray, the
+diagnostic_updater convention), read by a real rclpy subscriber while real
+YARP producers feed the node: an input that never delivered is an ERROR, a
+fresh one OK, a stalled one (its producer stopped with SIGSTOP) a WARN with
+its counts frozen; the output's rate achieved against the rate configured;
+the ``diagnostics`` parameter turns it off."""
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+from types import SimpleNamespace
+
+import pytest
+
+import middleware
+from generated import generate
+from middleware import YarpProducer
+from test_backend_ros2 import Node, QosSubscriber, stop_clean, totals
+
+
+@contextlib.contextmanager
+def yarp_and_ros2(ros2_domain):
+    """A YARP name server (PyPI's YARP 3.5: the node's ROS 2 side does not
+    depend on the YARP version, which test_backend_ros2 runs on every one)
+    and a ROS 2 domain, in one environment (``.env``)."""
+    with middleware.YarpServer(install=middleware.yarp_install("3.5")) as server:
+        env = dict(server.env)
+        env.update(ros2_domain.ros_env)
+        for key in ("ROS_HOME", "ROS_LOG_DIR"):
+            env[key] = ros2_domain.env[key]
+        yield SimpleNamespace(env=env, yarp=server, ros2=ros2_domain)
+
+
+@pytest.fixture
+def mw(ros2_domain):
+    with yarp_and_ros2(ros2_domain) as both:
+        yield both
+
+
+CONFIG = """\
+[module]
+name = diag_bridge
+
+[output]
+topic = /diag/point
+type = geometry_msgs/Point
+rate = 20
+on_stale = hold
+timeout = 1.5
+
+[mux arm]
+ports = /diag/arm:o (float64 x2)
+
+[mux hand]
+ports = /diag/hand:o (float64 x1)
+
+[message]
+x = arm[0]
+y = arm[1]
+z = hand[0]
+"""
+
+NODE = "diag_bridge"
+INPUT_ARM = f"{NODE}: input /diag/arm:o"
+INPUT_HAND = f"{NODE}: input /diag/hand:o"
+OUTPUT = f"{NODE}: output /diag/point"
+OK, WARN, ERROR = 0, 1, 2
+
+
+def statuses(msg) -> dict:
+    """{name: (level, message, {key: value}, hardware_id)} of one DiagnosticArray."""
+    out = {}
+    for s in msg["status"]:
+        level = s["level"][0] if isinstance(s["level"], list) else s["level"]
+        out[s["name"]] = (level, s["message"], {kv["key"]: kv["value"] for kv in s["values"]},
+                          s["hardware_id"])
+    return out
+
+
+def wait_status(sub: QosSubscriber, pred, what: str, timeout: float = 60.0) -> dict:
+    """The statuses of the first array received from now on that satisfies ``pred``."""
+    start = len(sub.messages)
+
+    def find():
+        for m in sub.messages[start:]:
+            st = statuses(m.msg)
+            if pred(st):
+                return st
+        return None
+    return sub.wait(find, timeout, what)
+
+
+def start_node(mw, tmp_path, *args):
+    folder = generate(tmp_path, CONFIG, NODE, "ros2")
+    return Node(mw.env, folder / f"{NODE}_node.py", *args).start()
+
+
+def test_inputs_and_output_on_diagnostics(mw, tmp_path):
+    diag = QosSubscriber(mw.env, "/diagnostics", "diagnostic_msgs/msg/DiagnosticArray").start()
+    arm = YarpProducer(mw.env, "/diag/arm:o", bottles=[[0.5, -1.25]], rate=20).start()
+    hand = YarpProducer(mw.env, "/diag/hand:o").start()
+    node = start_node(mw, tmp_path)
+    try:
+        node.wait_log("publishing")
+        diag.wait_publishers(1)
+        # the hand never delivered: ERROR; nothing published (on_stale = hold
+        # waits for every input's first Bottle): the output is below its rate
+        st = wait_status(diag, lambda s: int(s[INPUT_ARM][2]["received"]) > 0, "the arm received")
+        assert set(st) == {INPUT_ARM, INPUT_HAND, OUTPUT}
+        assert {s[3] for s in st.values()} == {NODE}  # hardware_id
+        level, text, values, _ = st[INPUT_HAND]
+        assert (level, text) == (ERROR, "no data received yet")
+        assert values["received"] == "0" and values["age (s)"] == "" and values["timeout (s)"] == "1.5"
+        assert st[INPUT_ARM][:2] == (OK, "fresh")
+        level, text, values, _ = st[OUTPUT]
+        assert level == WARN and text.startswith("rate too low")
+        assert values["published"] == "0" and values["rate configured (Hz)"] == "20"
+
+        # the hand delivers: every status has its counts, the output its rate
+        hand.write([3.0])
+        st = wait_status(diag, lambda s: s[INPUT_HAND][0] != ERROR and int(s[OUTPUT][2]["published"]) > 0,
+                         "the hand received and messages published")
+        assert st[INPUT_HAND][2]["received"] == "1" and st[INPUT_HAND][2]["dropped"] == "0"
+        level, text, values, _ = st[OUTPUT]
+        achieved = float(values["rate achieved (Hz)"])
+        assert level == (OK if achieved >= 20 * 0.9 else WARN), (level, text, values)
+
+        # the arm's producer stalls: its input goes stale (WARN), counts frozen
+        os.kill(arm.pid, signal.SIGSTOP)
+        try:
+            st = wait_status(diag, lambda s: s[INPUT_ARM][0] == WARN, "the arm stale")
+            level, text, values, _ = st[INPUT_ARM]
+            assert text.startswith("stale: no data for ")
+            assert values["stale periods"] == "1"
+            frozen = values["received"]
+            st = wait_status(diag, lambda s: True, "one more array")
+            assert st[INPUT_ARM][0] == WARN and st[INPUT_ARM][2]["received"] == frozen
+        finally:
+            os.kill(arm.pid, signal.SIGCONT)
+        st = wait_status(diag, lambda s: s[INPUT_ARM][0] == OK, "the arm fresh again")
+        assert st[INPUT_ARM][1] == "fresh"
+        assert int(st[INPUT_ARM][2]["received"]) > int(frozen)
+        assert st[INPUT_ARM][2]["stale periods"] == "1"
+        last = st
+        log = stop_clean(node)
+        # the exit totals count at least what /diagnostics said last
+        assert totals(log)["/diag/hand:o"] == (1, 0, int(last[INPUT_HAND][2]["stale periods"]))
+        assert totals(log)["published"] >= int(last[OUTPUT][2]["published"])
+    finally:
+        for p in (node, arm, hand, diag):
+            p.stop()
+
+
+def test_the_parameter_turns_diagnostics_off(mw, tmp_path):
+    diag = QosSubscriber(mw.env, "/diagnostics", "diagnostic_msgs/msg/DiagnosticArray").start()
+    out = QosSubscriber(mw.env, "/diag/point", "geometry_msgs/msg/Point").start()
+    arm = YarpProducer(mw.env, "/diag/arm:o", bottles=[[0.5, -1.25]], rate=20).start()
+    hand = YarpProducer(mw.env, "/diag/hand:o", bottles=[[3.0]], rate=20).start()
+    node = start_node(mw, tmp_path, "--ros-args", "-p", "diagnostics:=false")
+    try:
+        node.wait_log("publishing")
+        out.wait_for(3)  # the node's participant is discovered, its messages flow
+        assert diag.publishers == 0 and diag.messages == []
+        stop_clean(node)
+    finally:
+        for p in (node, arm, hand, out, diag):
+            p.stop()
+
+
+def test_status_levels():
+    """The levels and texts of the statuses, from the runtime's state alone."""
+    from ybg.runtime import ros2_io
+
+    def head(status):  # the level (a byte in the message) as a number, and the text
+        return status[0][0], status[1]
+
+    bridge = SimpleNamespace(rate=None, published=7, skipped_cycles=0, build_errors=2)
+    status = ros2_io.output_status(bridge, 2.5)
+    assert head(status) == (OK, "event-driven: 2.50 Hz")
+    values = status[2]
+    assert dict(values)["rate configured (Hz)"] == "event-driven"
+    assert dict(values)["build failures"] == "2"
+    bridge.rate = 20.0
+    assert head(ros2_io.output_status(bridge, 18.0)) == (OK, "18.00 Hz of 20 Hz")
+    assert head(ros2_io.output_status(bridge, 17.99)) == (WARN, "rate too low: 17.99 Hz of 20 Hz")
+
+    inp = SimpleNamespace(state="waiting", arrival=None, received=0, dropped=0, stale_periods=0,
+                          unused=0, timeout=0.5)
+    assert head(ros2_io.input_status(inp, 100.0)) == (ERROR, "no data received yet")
+    inp.state, inp.arrival, inp.received, inp.dropped = "stale", 97.75, 12, 3
+    status = ros2_io.input_status(inp, 100.0)
+    assert head(status) == (WARN, "stale: no data for 2.2 s")
+    values = status[2]
+    assert dict(values) == {"received": "12", "dropped": "3", "stale periods": "0", "unused": "0",
+                            "age (s)": "2.250", "timeout (s)": "0.5"}
+    inp.state = "fresh"
+    assert head(ros2_io.input_status(inp, 97.875)) == (OK, "fresh")

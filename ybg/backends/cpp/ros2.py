@@ -1,0 +1,238 @@
+"""Lowering of a program whose output is a ROS 2 topic (``via = ros2``) for
+the ``cpp`` backend: the module publishes through the rcl C API with the
+runtime's ``ybgc_ros2.hpp`` (docs/ros2-native.md).
+
+The module is the one of :mod:`ybg.backends.cpp.lower` (spec, muxes, gather, compute) with
+another message builder: :class:`CStructBuilder` fills the message's C struct
+(``<pkg>/msg/<name>.h``) field by field, one call of a ``ybgc::ros2`` helper
+a field, converting each value as the Python ROS 2 node does (so that both
+publish the same message, bit for bit). Fields the config leaves unset keep
+the defaults of the message's definition (the C struct's ``__init``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+from dataclasses import dataclass
+
+from ybg.backends import LoweringError
+from ybg.backends.cpp.lower import ModuleView, comment
+from ybg.backends.cpp.lower import _Builder as BottleBuilder
+from ybg.backends.cpp.lower import _size as index_text
+from ybg.backends.cpp.lower import lower as lower_module
+from ybg.backends.cpp.escape import cpp_float, cpp_identifier, cpp_int, cpp_std_string, cpp_string
+from ybg.backends.ros2.lower import _check_size, node_name, slice_stop, split_type, used_packages
+from ybg.compiler import ir
+
+_TIME_TYPES = ("builtin_interfaces/Time", "time")
+#: the message packages the runtime's ROS 2 side uses itself
+RUNTIME_PACKAGES = ("builtin_interfaces", "rosgraph_msgs")
+
+
+@dataclass(frozen=True)
+class Ros2View:
+    """What the module and its CMakeLists print of the ROS 2 side."""
+
+    include: str            # <pkg>/msg/<name>.h of the output's message
+    c_type: str             # its C struct, pkg__msg__Name
+    type_name: str          # string literal "pkg/msg/Name"
+    type_support: str       # ROSIDL_GET_MSG_TYPE_SUPPORT(pkg, msg, Name)
+    spec: str               # the ybgc::ros2::Ros2Spec aggregate
+    spec_comment: str
+    packages: tuple[str, ...]  # the message packages to link
+
+
+def snake_case(name: str) -> str:
+    """A message name as rosidl names its header (``JointState`` -> ``joint_state``)."""
+    name = re.sub(r"(.)([A-Z][a-z]+)", r"\1_\2", name)
+    return re.sub(r"([a-z0-9])([A-Z])", r"\1_\2", name).lower()
+
+
+def _member(name: str) -> str:
+    try:
+        return cpp_identifier(name)
+    except ValueError as e:
+        raise LoweringError(f"field {name!r} cannot be a member of a C struct ({e})") from None
+
+
+def _literal(value, base: str) -> str:
+    """A constant of the config as a C++ literal of a ``base`` field's kind."""
+    if base in ir.FLOAT_TYPES:
+        return cpp_float(float(value))
+    if base == "bool":
+        return "true" if value else "false"
+    if base in ir.NUMERIC_TYPES or base in ("byte", "char"):
+        if isinstance(value, float) and not value.is_integer():
+            raise LoweringError(f"{value!r} is not an integer, for a {base} field")
+        return cpp_int(int(value), 64)
+    raise LoweringError(f"no literal of type {base!r}")
+
+
+#: the C++ type of a list of constants of each kind, for ybgc::ros2::setValues
+def _value_type(base: str) -> str:
+    if base in ir.FLOAT_TYPES:
+        return "double"
+    if base == "bool":
+        return "bool"
+    return "std::int64_t"
+
+
+class CStructBuilder(BottleBuilder):
+    """Writes the body of ``buildMessage`` for the message's C struct: the
+    Bottle builder's bookkeeping of the muxes the message reads (``mux``,
+    ``needed``, ``need_size``) and lines (``lines``), with statements of its own."""
+
+    def line(self, text: str, indent: int = 1) -> None:
+        self.emit(indent, text)
+
+    def struct(self, struct: ir.Struct, target: str, depth: int = 0, indent: int = 1) -> None:
+        for f in struct.fields:
+            self.field(f, target)
+
+    def field(self, f: ir.Field, target: str) -> None:
+        self.path.append(f.name)
+        try:
+            self._field(f, f"{target}.{_member(f.name)}", ".".join(self.path))
+        except LoweringError as e:
+            raise e.at("field", ".".join(self.path))
+        finally:
+            self.path.pop()
+
+    def _field(self, f: ir.Field, target: str, name: str) -> None:
+        src, typ = f.source, f.type
+        if typ is None:
+            raise LoweringError(f"field {name}: a ROS 2 message field needs its type")
+        what = f"// {comment(name)} ({comment(str(typ))})"
+        if isinstance(src, ir.Default):
+            self.line(f"{what}: the definition's default")
+            return
+        if isinstance(src, ir.Struct):
+            if typ.array is not None or not typ.is_message:
+                raise LoweringError(f"field {name}: a nested message for a {typ} field")
+            self.struct(src, target)
+            return
+        if not typ.is_message and typ.base not in ir.ELEMENT_TYPES and typ.base not in _TIME_TYPES:
+            raise LoweringError(f"field {name}: the C++ module cannot fill a {typ.base} field")
+        self.line(what)
+        if isinstance(src, ir.MuxRef) and src.into_fields is not None:
+            self.into_fields(src, typ, target, name)
+        elif isinstance(src, ir.Timestamp):
+            self.timestamp(src, typ, target, name)
+        elif typ.is_message or typ.base in ("time", "duration"):
+            raise LoweringError(f"field {name}: cannot fill a {typ} field from {type(src).__name__}")
+        elif isinstance(src, ir.Literal):
+            self.literal(src, typ, target, name)
+        elif isinstance(src, ir.MuxRef):
+            self.mux_ref(src, typ, target, name)
+        elif isinstance(src, (ir.Counter, ir.Seconds)):
+            if typ.array is not None:
+                raise LoweringError(f"field {name}: one value for the array field {typ}")
+            if isinstance(src, ir.Counter):
+                value, text = "ctx.counter", "std::to_string(ctx.counter)"
+            else:
+                value, text = "ctx.seconds", "ybgc::reprFloat(ctx.seconds)"
+            if typ.base == "string":
+                self.line(f"ybgc::ros2::setString({target}, {text});")
+            else:
+                self.line(f"ybgc::ros2::assign({target}, {value});")
+        else:
+            raise LoweringError(f"field {name}: unknown source {type(src).__name__}")
+
+    def into_fields(self, ref: ir.MuxRef, typ: ir.TypeRef, target: str, name: str) -> None:
+        if typ.array is not None or not typ.is_message:
+            raise LoweringError(f"field {name}: mux fields into a {typ} field")
+        leaves = ref.into_fields or ()
+        if ref.stop is not None and ref.stop - ref.start != len(leaves):
+            raise LoweringError(f"field {name}: {ref.stop - ref.start} values for {len(leaves)} fields")
+        values = self.mux(ref.mux, ref.start + len(leaves))
+        for k, leaf in enumerate(leaves):
+            self.line(f"ybgc::ros2::set({target}.{_member(leaf)}, {values}[{ref.start + k:d}]);")
+
+    def timestamp(self, src: ir.Timestamp, typ: ir.TypeRef, target: str, name: str) -> None:
+        if typ.base not in _TIME_TYPES or typ.array is not None:
+            raise LoweringError(f"field {name}: a timestamp into a {typ} field")
+        self.line(f"ybgc::ros2::setTime({target}, {self.stamp_ns(src)});")
+
+    def literal(self, lit: ir.Literal, typ: ir.TypeRef, target: str, name: str) -> None:
+        if not lit.is_list:
+            if len(lit.values) != 1:
+                raise LoweringError(f"field {name}: a scalar literal holds exactly one value")
+            if typ.array is not None:
+                raise LoweringError(f"field {name}: one value for the array field {typ}")
+            if typ.base == "string":
+                self.line(f"ybgc::ros2::setString({target}, {cpp_std_string(str(lit.values[0]))});")
+            else:
+                self.line(f"ybgc::ros2::assign({target}, {_literal(lit.values[0], typ.base)});")
+            return
+        if typ.array is None:
+            raise LoweringError(f"field {name}: a list for the scalar field {typ}")
+        _check_size(typ, len(lit.values), f"field {name}")
+        if not lit.values:
+            self.line(f"ybgc::ros2::resize({target}, 0);")
+        elif typ.base == "string":
+            items = ", ".join(cpp_std_string(str(v)) for v in lit.values)
+            self.line(f"ybgc::ros2::setStrings({target}, {{{items}}});")
+        else:
+            items = ", ".join(_literal(v, typ.base) for v in lit.values)
+            self.line(f"ybgc::ros2::setValues<{_value_type(typ.base)}>({target}, {{{items}}});")
+
+    def mux_ref(self, ref: ir.MuxRef, typ: ir.TypeRef, target: str, name: str) -> None:
+        if ref.index is not None:
+            if typ.array is not None:
+                raise LoweringError(f"field {name}: one value for the array field {typ}")
+            values = self.mux(ref.mux, ref.index + 1)
+            self.line(f"ybgc::ros2::set({target}, {values}[{ref.index:d}]);")
+            return
+        if typ.array is None:
+            raise LoweringError(f"field {name}: a list of mux values for the scalar field {typ}")
+        slice_stop(self.program, ref, typ, name)
+        # a slice needs its end (or, open-ended, its start) within the mux: never shortened
+        values = self.mux(ref.mux, ref.start if ref.stop is None else ref.stop)
+        bound = typ.size if typ.array == "sequence" and typ.size is not None else 0
+        self.line(f"if (!ybgc::ros2::setRange({target}, {values}, {index_text(ref.start)}, "
+                  f"{index_text(ref.stop)}, {bound:d})) {{")
+        self.line("return false;", 2)
+        self.line("}")
+
+
+def ros2_view(program: ir.Program) -> Ros2View:
+    out = program.output
+    msg_type = out.msg_type or program.message.msg_type
+    if not msg_type:
+        raise LoweringError("a ROS 2 output needs its message type", ("type",))
+    try:
+        pkg, name = split_type(msg_type)
+        # and those of the runtime: builtin_interfaces (stamps), rosgraph_msgs (/clock, use_sim_time)
+        packages = tuple(sorted(set(used_packages(program)) | set(RUNTIME_PACKAGES)))
+    except LoweringError as e:
+        raise e.at("type")
+    qos = out.qos or ir.QoS()
+    if qos.reliability not in ("reliable", "best_effort") or qos.durability not in ("volatile", "transient_local"):
+        raise LoweringError(f"unknown QoS {qos}")
+    node = node_name(program)
+    spec = (f"{{{cpp_string(out.name)}, {cpp_string(node)}, {'true' if qos.reliability == 'reliable' else 'false'}, "
+            f"{'true' if qos.durability == 'transient_local' else 'false'}, {int(qos.depth):d}}}")
+    return Ros2View(
+        include=f"{pkg}/msg/{snake_case(name)}.h",
+        c_type=f"{pkg}__msg__{name}",
+        type_name=cpp_string(f"{pkg}/msg/{name}"),
+        type_support=f"ROSIDL_GET_MSG_TYPE_SUPPORT({pkg}, msg, {name})",
+        spec=spec,
+        spec_comment=(f"{{topic, node, reliable, transient_local, depth}}: {qos.reliability}, "
+                      f"{qos.durability}, depth {int(qos.depth):d}"),
+        packages=packages,
+    )
+
+
+def lower(program: ir.Program) -> ModuleView:
+    """The view-model of the module generated for ``program``, whose output is a ROS 2 topic."""
+    if program.output.kind != "ros2":
+        raise LoweringError(f"not a ROS 2 output: {program.output.kind!r}")
+    view = lower_module(program, builder=CStructBuilder)
+    ros_args = cpp_string("ROS arguments after --ros-args (-p use_sim_time:=true: stamps from /clock)")
+    return dataclasses.replace(view, ros2=ros2_view(program), message_cpp="Message",
+                               description=view.description + (ros_args,))
+
+
+__all__ = ["CStructBuilder", "Ros2View", "lower", "ros2_view", "snake_case"]

@@ -1,0 +1,247 @@
+// The ROS 2 side of ybgc's C++ runtime (docs/ros2-native.md): a module whose
+// output is a ROS 2 topic publishes through the rcl C API, with no rclcpp and
+// no Python in the process. Publisher is the bridge's MessageSink: it opens
+// an rcl node and a publisher with the config's QoS, stamps messages with
+// the node's ROS clock, and publishes the message the module's builder fills
+// through the message package's C structs (<pkg>/msg/<name>.h). The helpers
+// below are what a builder's lines call: they convert a mux element to the
+// field's C type as the Python ROS 2 node does, and size strings and
+// sequences with rosidl_runtime_c's functions. ybgc writes this file and
+// ybgc_ros2.cpp beside a module that publishes to ROS 2.
+#ifndef YBGC_ROS2_HPP
+#define YBGC_ROS2_HPP
+
+#include "ybgc_runtime.hpp"  // ybgc:runtime-import
+
+#include <builtin_interfaces/msg/time.h>
+#include <rosidl_runtime_c/message_type_support_struct.h>
+#include <rosidl_runtime_c/primitives_sequence.h>
+#include <rosidl_runtime_c/primitives_sequence_functions.h>
+#include <rosidl_runtime_c/string.h>
+#include <rosidl_runtime_c/string_functions.h>
+
+#include <type_traits>
+
+namespace ybgc {
+namespace ros2 {
+
+// --- values of each field's C type, as the Python node converts them ------------
+
+/// A mux element as a field of type T: a real as float(x), an integer as
+/// int(x) (a real truncated), a bool as bool(x).
+template <class T>
+T as(const Element& e)
+{
+    if constexpr (std::is_same_v<T, bool>) {
+        return e.kind == Element::Kind::Real ? e.real != 0.0 : e.integer != 0;
+    } else if constexpr (std::is_floating_point_v<T>) {
+        return static_cast<T>(e.asReal());
+    } else {
+        return static_cast<T>(e.asInteger());
+    }
+}
+
+/// One scalar field from one mux element.
+template <class T>
+void set(T& field, const Element& e)
+{
+    field = as<T>(e);
+}
+
+/// A string field from one mux element (a number as Python's str() writes it).
+void set(rosidl_runtime_c__String& field, const Element& e);
+
+/// A number field from a constant or a number of the module (the counter,
+/// the seconds): an integer field wraps like its type.
+template <class T, class V>
+void assign(T& field, V x)
+{
+    field = static_cast<T>(x);
+}
+
+/// A string field.
+void setString(rosidl_runtime_c__String& field, const std::string& text);
+
+/// A builtin_interfaces/Time from nanoseconds since the epoch.
+void setTime(builtin_interfaces__msg__Time& field, std::int64_t ns);
+
+// --- sequences and fixed arrays -------------------------------------------------------
+
+/// Sizes a sequence to n elements (kept when it has them already); false when
+/// it cannot allocate.
+#define YBGC_ROS2_RESIZE(NAME) \
+    inline bool resize(rosidl_runtime_c__##NAME##__Sequence& s, std::size_t n) \
+    { \
+        if (s.size == n && (n == 0 || s.data != nullptr)) { \
+            return true; \
+        } \
+        rosidl_runtime_c__##NAME##__Sequence__fini(&s); \
+        return rosidl_runtime_c__##NAME##__Sequence__init(&s, n); \
+    }
+YBGC_ROS2_RESIZE(float)
+YBGC_ROS2_RESIZE(double)
+YBGC_ROS2_RESIZE(char)
+YBGC_ROS2_RESIZE(boolean)
+YBGC_ROS2_RESIZE(octet)
+YBGC_ROS2_RESIZE(uint8)
+YBGC_ROS2_RESIZE(int8)
+YBGC_ROS2_RESIZE(uint16)
+YBGC_ROS2_RESIZE(int16)
+YBGC_ROS2_RESIZE(uint32)
+YBGC_ROS2_RESIZE(int32)
+YBGC_ROS2_RESIZE(uint64)
+YBGC_ROS2_RESIZE(int64)
+YBGC_ROS2_RESIZE(String)
+#undef YBGC_ROS2_RESIZE
+
+/// The elements [start, stop) of a mux (stop kToEnd: to its end) into a
+/// sequence, each converted to the sequence's element type; `bound` (0: none)
+/// the most a bounded sequence holds. False when they do not fit.
+template <class Seq>
+bool setRange(Seq& seq, const Mux& mux, std::size_t start, std::size_t stop, std::size_t bound = 0)
+{
+    const std::size_t end = stop == kToEnd ? mux.size() : stop;
+    if (start > end || end > mux.size() || (bound != 0 && end - start > bound) || !resize(seq, end - start)) {
+        return false;
+    }
+    for (std::size_t k = start; k < end; ++k) {
+        set(seq.data[k - start], mux[k]);
+    }
+    return true;
+}
+
+/// The same into a fixed-size array: exactly N elements.
+template <class T, std::size_t N>
+bool setRange(T (&array)[N], const Mux& mux, std::size_t start, std::size_t stop, std::size_t /*bound*/ = 0)
+{
+    const std::size_t end = stop == kToEnd ? mux.size() : stop;
+    if (start > end || end > mux.size() || end - start != N) {
+        return false;
+    }
+    for (std::size_t k = start; k < end; ++k) {
+        set(array[k - start], mux[k]);
+    }
+    return true;
+}
+
+/// Constant values (the lowering checked their number) into a sequence or a
+/// fixed-size array.
+template <class V, class Seq>
+void setValues(Seq& seq, std::initializer_list<V> values)
+{
+    resize(seq, values.size());
+    std::size_t k = 0;
+    for (const V& v : values) {
+        seq.data[k++] = static_cast<std::remove_reference_t<decltype(seq.data[0])>>(v);
+    }
+}
+template <class V, class T, std::size_t N>
+void setValues(T (&array)[N], std::initializer_list<V> values)
+{
+    std::size_t k = 0;
+    for (const V& v : values) {
+        array[k++] = static_cast<T>(v);
+    }
+}
+
+/// Constant strings into a sequence of strings or a fixed-size array of them.
+void setStrings(rosidl_runtime_c__String__Sequence& seq, std::initializer_list<std::string> values);
+template <std::size_t N>
+void setStrings(rosidl_runtime_c__String (&array)[N], std::initializer_list<std::string> values)
+{
+    std::size_t k = 0;
+    for (const std::string& v : values) {
+        setString(array[k++], v);
+    }
+}
+
+// --- the publisher --------------------------------------------------------------------
+
+/// The ROS 2 output of a bridge: its topic, node and QoS.
+struct Ros2Spec
+{
+    const char* topic;
+    const char* node;         // the node's name
+    bool reliable;            // reliability = reliable (else best_effort)
+    bool transientLocal;      // durability = transient_local (else volatile)
+    std::size_t depth;        // history: keep the last `depth`
+};
+
+/// The message type the generated module publishes: its type support and
+/// the C functions that create and destroy one message (with its defaults).
+struct MessageType
+{
+    const char* name;  // pkg/msg/Name
+    const rosidl_message_type_support_t* typeSupport;
+    void* (*create)();
+    void (*destroy)(void*);
+};
+
+/// The MessageType of the C struct Msg, from its C functions.
+template <class Msg, Msg* (*Create)(), void (*Destroy)(Msg*)>
+MessageType messageType(const char* name, const rosidl_message_type_support_t* typeSupport)
+{
+    return {name, typeSupport, []() -> void* { return Create(); },
+            [](void* msg) { Destroy(static_cast<Msg*>(msg)); }};
+}
+
+/// Fills one message from the newest input values; false (with the mux
+/// sizes in `failure`) when a mux does not fit the message.
+using FillMessage = std::function<bool(void* msg, const Inputs&, const Context&, std::string& failure)>;
+
+/// Publishes through rcl: one context, node, ROS clock and publisher, opened
+/// by the bridge once its inputs are open. One message is kept and filled
+/// again for each publish (the fields the config leaves unset keep the
+/// defaults of the message's definition). `rosArgs`: the command line's ROS
+/// arguments (`--ros-args ...`), given to rcl; with the parameter
+/// use_sim_time true (`--ros-args -p use_sim_time:=true`), the node's clock
+/// is the simulated time of /clock, as for every ROS 2 node.
+class Publisher : public MessageSink
+{
+public:
+    Publisher(const Ros2Spec& spec, const MessageType& type, FillMessage fill,
+              std::vector<std::string> rosArgs = {});
+    ~Publisher() override;
+
+    bool open() override;
+    std::string describe() const override;
+    std::int64_t nowNs() override;
+    bool publish(const Inputs& in, const Context& ctx, std::string& failure) override;
+    void close() override;
+
+private:
+    struct Rcl;
+    bool useSimTime();
+    bool startClock();
+    void followClock();
+    const Ros2Spec& spec_;
+    std::vector<std::string> rosArgs_;
+    const MessageType& type_;
+    FillMessage fill_;
+    std::unique_ptr<Rcl> rcl_;
+    void* msg_ = nullptr;
+    bool reportedPublishError_ = false;
+};
+
+/// Moves the ROS arguments of a command line (from `--ros-args` to `--` or
+/// the end, as ROS 2 spells them) out of `argv`, into the result.
+std::vector<std::string> takeRosArgs(int& argc, char* argv[]);
+
+/// Parses the command line and runs the bridge with its ROS 2 output until
+/// SIGINT or SIGTERM; the exit status. `fill` is the module's builder for a
+/// message of type `Msg` (the C struct of its definition).
+template <class Msg>
+int run(const BridgeSpec& spec, const Ros2Spec& ros2, const MessageType& type, int argc, char* argv[],
+        bool (*fill)(const Inputs&, const Context&, Msg&, std::string&))
+{
+    std::vector<std::string> rosArgs = takeRosArgs(argc, argv);
+    Publisher publisher(ros2, type, [fill](void* msg, const Inputs& in, const Context& ctx, std::string& failure) {
+        return fill(in, ctx, *static_cast<Msg*>(msg), failure);
+    }, std::move(rosArgs));
+    return ybgc::run(spec, argc, argv, publisher);
+}
+
+}  // namespace ros2
+}  // namespace ybgc
+
+#endif  // YBGC_ROS2_HPP
