@@ -105,6 +105,10 @@ CODES: dict[str, str] = {
     "E319": "ROS topic input needs a message type",
     "E320": "the target YARP version has no ROS 1 support",
     "E321": "ROS 2 output without its message definition",
+    "E330": "wrong number of elements into a geometry converter",
+    "E331": "geometry converter on a mux of unknown width",
+    "E332": "unknown name or function in an expression",
+    "E333": "wrong number of arguments to an expression function",
     # names
     "E401": "invalid YARP port name",
     "E402": "invalid ROS topic name",

@@ -106,6 +106,8 @@ class _ToAst:
             "call": self.call, "at": self.at, "slice": self.slice, "subscript": self.subscript,
             "bracket": self.bracket, "value": self.value, "entry": self.entry,
             "header": self.header, "section": self.section, "start": self.start,
+            "expression": self.expression, "binary": self.binary, "negate": self.negate,
+            "number": self.number, "name": self.name, "function": self.function,
         }
 
     def transform(self, tree: Tree):
@@ -144,6 +146,31 @@ class _ToAst:
     def subscript(self, meta, children):
         base, (start, stop, is_slice) = children
         return ast.Subscript(base, start, stop, is_slice, _meta_span(meta))
+
+    def expression(self, meta, children):
+        _, body = children
+        return ast.Expr(body, _meta_span(meta))
+
+    def binary(self, meta, children):
+        left, op, right = children
+        return ast.Binary(str(op), left, right, _meta_span(meta))
+
+    def negate(self, meta, children):
+        (operand,) = children
+        return ast.Negate(operand, _meta_span(meta))
+
+    def number(self, meta, children):
+        (tok,) = children
+        return ast.Number(str(tok), _tok_span(tok))
+
+    def name(self, meta, children):
+        (tok,) = children
+        return ast.Name(str(tok), _tok_span(tok))
+
+    def function(self, meta, children):
+        name, *args = children
+        args = tuple(a for a in args if a is not None)
+        return ast.Function(str(name), args, _meta_span(meta), _tok_span(name))
 
     def bracket(self, meta, children):
         (value,) = children

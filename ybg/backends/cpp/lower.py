@@ -11,6 +11,7 @@ templates only print what this module hands them.
 
 from __future__ import annotations
 
+import math
 import os
 import re
 from dataclasses import dataclass
@@ -133,6 +134,47 @@ def _time_style(base: str, ros: str | None) -> str:
     if base.startswith("builtin_interfaces/") or ros == "ros2":
         return "ros2"
     return "ros1"
+
+
+#: geometry converter -> the runtime's ybgc::Geometry
+_GEOMETRY = {
+    "euler_to_quat": "EulerToQuat", "quat_to_euler": "QuatToEuler", "axis_angle_to_quat": "AxisAngleToQuat",
+    "quat_to_axis_angle": "QuatToAxisAngle", "matrix_to_quat": "MatrixToQuat",
+    "transform_to_pose": "TransformToPose", "quat_normalize": "QuatNormalize",
+}
+#: expression function -> C++ function (the runtime's where C++ has none)
+_CPP_FUNCTIONS = {"abs": "std::fabs", "min": "ybgc::minOf", "max": "ybgc::maxOf", "clamp": "ybgc::clamp",
+                  "sqrt": "std::sqrt", "sin": "std::sin", "cos": "std::cos", "atan2": "std::atan2"}
+
+
+def cpp_expression(node: ir.ExprNode, top: bool = True) -> str:
+    """C++ source of a checked expression of ``double x``: the operations of
+    the Python module's, in the same order (every operation parenthesised)."""
+    op = node.op
+    if op == "number":
+        return cpp_float(float(node.value))  # type: ignore[arg-type]
+    if op == "x":
+        return "x"
+    if op == "pi":
+        return cpp_float(math.pi)
+    if op == "neg":
+        return "-" + cpp_expression(node.args[0], False)
+    if op in ("+", "-", "*", "/"):
+        text = f"{cpp_expression(node.args[0], False)} {op} {cpp_expression(node.args[1], False)}"
+        return text if top else f"({text})"
+    if op not in _CPP_FUNCTIONS:
+        raise LoweringError(f"unknown expression function {op!r}")
+    return f"{_CPP_FUNCTIONS[op]}({', '.join(cpp_expression(a) for a in node.args)})"
+
+
+def _vector_converter(member: str, c) -> str:
+    """The call of a geometry converter or an expression on mux ``member``."""
+    if isinstance(c, ir.GeometryConverter):
+        axes = cpp_string(c.axes or "xyz")
+        return (f"ybgc::convertGeometry(mux.{member}, ybgc::Geometry::{_GEOMETRY[c.name]}, {_size(c.start)}, "
+                f"{axes}, {'true' if c.degrees else 'false'});  // {comment(c.text)}")
+    return (f"ybgc::convertEach(mux.{member}, []([[maybe_unused]] double x) {{ return {cpp_expression(c.body)}; }}, "
+            f"{_size(c.start)}, {_size(c.stop)});  // {comment('expr(' + c.text + ')')}")
 
 
 def _size(n: int | None) -> str:
@@ -455,6 +497,9 @@ def lower(program: ir.Program) -> ModuleView:
             inputs.append(InputView(n, init, _input_comment(m.name, k, i)))
             gather.append(Line(1, f"ybgc::append(mux.{members[m.name]}, in[{n}]);  // {comment(i.name)}"))
         for c in m.converters:
+            if isinstance(c, (ir.GeometryConverter, ir.ExprConverter)):
+                gather.append(Line(1, _vector_converter(members[m.name], c)))
+                continue
             if c.start < 0 or (c.stop is not None and c.stop < c.start):
                 raise LoweringError(f"converter {c.name} has the range [{c.start}:{c.stop}]")
             stop = "" if c.stop is None else str(c.stop)

@@ -91,12 +91,25 @@ class InputView:
 
 @dataclass(frozen=True)
 class ConverterView:
+    """A linear converter's fields, or, for the others, ``spec``: the whole
+    constructor (``GeometrySpec(...)``, ``EachSpec(...)``) on one line."""
+
     name: str
-    scale: str
-    offset: str
-    to_float: str
-    start: str
-    stop: str
+    scale: str = ""
+    offset: str = ""
+    to_float: str = ""
+    start: str = ""
+    stop: str = ""
+    spec: str = ""
+
+
+@dataclass(frozen=True)
+class RuntimeImport:
+    """``from <runtime>.<module> import <names>`` (a module's runtime
+    names beyond the ones every module imports)."""
+
+    module: str
+    names: str
 
 
 @dataclass(frozen=True)
@@ -135,6 +148,83 @@ class ModuleView:
     output: OutputView
     wire: tuple[tuple[str, str], ...]
     builder: tuple[Line, ...]
+    runtime_imports: tuple[RuntimeImport, ...] = ()
+
+
+# --------------------------------------------------------------------------
+# converters
+
+#: expression function -> the runtime's Python function (geometry.py)
+_PY_FUNCTIONS = {"abs": "fabs", "min": "min_of", "max": "max_of", "clamp": "clamp", "sqrt": "sqrt",
+                 "sin": "sin", "cos": "cos", "atan2": "atan2"}
+#: the Geometry names of the runtime, by converter
+GEOMETRY_SPEC_NAMES = {name: name for name in ir.GEOMETRY_WIDTHS}
+
+
+def py_expression(node: ir.ExprNode, used: set[str], top: bool = True) -> str:
+    """Python source of a checked expression of ``x`` (a float): IEEE
+    arithmetic as in C++, the runtime's functions where Python would raise
+    (``div``, ``sqrt``, ``sin``, ``cos``); names it uses go to ``used``."""
+    op = node.op
+    if op == "number":
+        return py_literal(float(node.value))  # type: ignore[arg-type]
+    if op == "x":
+        return "x"
+    if op == "pi":
+        return py_literal(math.pi)
+    if op == "neg":
+        return "-" + py_expression(node.args[0], used, False)
+    if op == "/":
+        used.add("div")
+        return f"div({py_expression(node.args[0], used)}, {py_expression(node.args[1], used)})"
+    if op in ("+", "-", "*"):
+        text = f"{py_expression(node.args[0], used, False)} {op} {py_expression(node.args[1], used, False)}"
+        return text if top else f"({text})"
+    if op not in _PY_FUNCTIONS:
+        raise LoweringError(f"unknown expression function {op!r}")
+    used.add(_PY_FUNCTIONS[op])
+    return f"{_PY_FUNCTIONS[op]}({', '.join(py_expression(a, used) for a in node.args)})"
+
+
+def converter_views(mux: ir.Mux, used: set[str]) -> tuple[ConverterView, ...]:
+    """The converters of ``mux`` as the runtime's specs; the runtime names
+    they need go to ``used`` (``GeometrySpec``, ``clamp`` ...)."""
+    out = []
+    for c in mux.converters:
+        if isinstance(c, ir.GeometryConverter):
+            used.add("GeometrySpec")
+            args = (c.axes, c.degrees) if c.axes is not None else ()
+            out.append(ConverterView(py_literal(c.text), spec=(
+                f"GeometrySpec({py_literal(c.text)}, {py_literal(GEOMETRY_SPEC_NAMES[c.name])}, "
+                f"{py_literal(args)}, start={py_literal(int(c.start))})")))
+        elif isinstance(c, ir.ExprConverter):
+            used.add("EachSpec")
+            body = py_expression(c.body, used)
+            out.append(ConverterView(py_literal(c.text), spec=(
+                f"EachSpec({py_literal('expr(' + c.text + ')')}, lambda x: {body}, "
+                f"start={py_literal(int(c.start))}, stop={py_literal(None if c.stop is None else int(c.stop))})")))
+        else:
+            out.append(ConverterView(
+                name=py_literal(c.name),
+                scale=py_literal(float(c.scale)),
+                offset=py_literal(float(c.offset)),
+                to_float=py_literal(bool(c.to_float)),
+                start=py_literal(int(c.start)),
+                stop=py_literal(None if c.stop is None else int(c.stop)),
+            ))
+    return tuple(out)
+
+
+def runtime_imports(used: set[str]) -> tuple[RuntimeImport, ...]:
+    """The imports of the runtime names in ``used``, by runtime module."""
+    core = sorted(n for n in used if n in ("GeometrySpec", "EachSpec"))
+    geometry = sorted(used - set(core))
+    out = []
+    if core:
+        out.append(RuntimeImport("core", ", ".join(core)))
+    if geometry:
+        out.append(RuntimeImport("geometry", ", ".join(geometry)))
+    return tuple(out)
 
 
 # --------------------------------------------------------------------------
@@ -321,6 +411,7 @@ def lower(program: ir.Program) -> ModuleView:
     """The view-model of the module generated for ``program``."""
     output = _lower_output(program)
     muxes = []
+    used: set[str] = set()
     for m in program.muxes:
         inputs = []
         for k, i in enumerate(m.inputs):
@@ -339,17 +430,7 @@ def lower(program: ir.Program) -> ModuleView:
                 description=py_literal(f"{i.kind} {i.name}: {width}"),
                 positions=py_literal(i.positions),
             ))
-        convs = tuple(
-            ConverterView(
-                name=py_literal(c.name),
-                scale=py_literal(float(c.scale)),
-                offset=py_literal(float(c.offset)),
-                to_float=py_literal(bool(c.to_float)),
-                start=py_literal(int(c.start)),
-                stop=py_literal(None if c.stop is None else int(c.stop)),
-            )
-            for c in m.converters
-        )
+        convs = converter_views(m, used)
         muxes.append(MuxView(
             name=py_literal(m.name),
             inputs=tuple(inputs),
@@ -396,4 +477,5 @@ def lower(program: ir.Program) -> ModuleView:
         output=output,
         wire=wire,
         builder=tuple(b.lines),
+        runtime_imports=runtime_imports(used),
     )
