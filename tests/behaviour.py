@@ -37,6 +37,7 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
+import geometry_reference
 import middleware
 from middleware import (ROS1_PYTHON, Proc, Ros2Publisher, RospySubscriber, YarpProducer,
                         YarpReader)
@@ -109,6 +110,14 @@ class Envelope:
     tolerance: float = 2e-5
 
 
+@dataclass(frozen=True)
+class Near:
+    """A float the reference computes by other means than the module (a
+    rotation library): equal to within ``tolerance``."""
+    value: float
+    tolerance: float = 1e-12
+
+
 #: what a publisher of a ROS topic input without a declared layout sends:
 #: a geometry_msgs/Point, every leaf
 POINT = {"x": 0.5, "y": -1.25, "z": 2.0}
@@ -177,6 +186,16 @@ def mux_values(program: Program, sent: dict[str, list]) -> dict[str, list]:
             for x, t in zip(raw, types):
                 values.append(float(x) if t in ir.FLOAT_TYPES else (bool(x) if t == "bool" else x))
         for c in m.converters:
+            if isinstance(c, ir.GeometryConverter):
+                part = [float(v) for v in values[c.start:c.start + c.width_in]]
+                values[c.start:c.start + c.width_in] = [
+                    Near(v) for v in geometry_reference.geometry(c.name, part, c.axes, c.degrees)]
+                continue
+            if isinstance(c, ir.ExprConverter):
+                stop = len(values) if c.stop is None else min(c.stop, len(values))
+                values[c.start:stop] = [x if isinstance(x, str) else
+                                        geometry_reference.evaluate(c.body, float(x)) for x in values[c.start:stop]]
+                continue
             if c.scale == 1.0 and c.offset == 0.0 and not c.to_float:
                 continue
             stop = len(values) if c.stop is None else min(c.stop, len(values))
@@ -258,7 +277,14 @@ def expected(program: Program, muxes: dict[str, list], named: bool,
                 if not named:
                     return part
                 types = src.into_types or (None,) * len(part)
-                return {n: _as(t, x) for n, t, x in zip(src.into_fields, types, part)}
+                out: dict = {}
+                for n, t, x in zip(src.into_fields, types, part):  # `position.x`: nested
+                    *parents, leaf = n.split(".")
+                    node = out
+                    for p in parents:
+                        node = node.setdefault(p, {})
+                    node[leaf] = _as(t, x)
+                return out
             return typed(f, v[src.start:src.stop])
         if isinstance(src, Counter):
             return COUNTER
@@ -300,6 +326,10 @@ def assert_matches(got, want, window: tuple, path: str = "msg", exact_fields: bo
             sec, nsec = _time_of(got)
             assert isinstance(sec, int) and isinstance(nsec, int) and 0 <= nsec < 10 ** 9, (path, got)
             assert window[0] <= sec + nsec / 1e9 <= window[1], (path, got, window)
+        return
+    if isinstance(want, Near):
+        assert isinstance(got, float) and (abs(got - want.value) <= want.tolerance
+                                           or (math.isnan(got) and math.isnan(want.value))), (path, want, got)
         return
     if isinstance(want, Envelope):
         sec, nsec = _time_of(got)

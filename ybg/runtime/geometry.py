@@ -66,6 +66,13 @@ def _unit(x, y, z, w):
     return x / n, y / n, z / n, w / n
 
 
+def _positive(q):
+    """The one of q and -q (the same rotation) whose w is not negative."""
+    if q[3] < 0.0:
+        return -q[0], -q[1], -q[2], -q[3]
+    return q
+
+
 def _rot(q, r, c):
     """Element (r, c) of the rotation matrix of the unit quaternion q."""
     w = q[3]
@@ -87,7 +94,7 @@ def euler_to_quat(a1, a2, a3, axes, degrees):
         e = [0.0, 0.0, 0.0, math.cos(h)]
         e[axis] = math.sin(h)
         q = _qmul(e, q)
-    return q
+    return _positive(q)
 
 
 def quat_to_euler(x, y, z, w, axes, degrees):
@@ -112,15 +119,13 @@ def axis_angle_to_quat(ax, ay, az, theta):
         return 0.0, 0.0, 0.0, 1.0
     h = theta * 0.5
     s = math.sin(h) / n
-    return ax * s, ay * s, az * s, math.cos(h)
+    return _positive((ax * s, ay * s, az * s, math.cos(h)))
 
 
 def quat_to_axis_angle(x, y, z, w):
     """Quaternion x y z w (normalised first) -> unit axis and angle in
     [0, pi]; no rotation is the axis 0 0 1 with angle 0."""
-    x, y, z, w = _unit(x, y, z, w)
-    if w < 0.0:
-        x, y, z, w = -x, -y, -z, -w
+    x, y, z, w = _positive(_unit(x, y, z, w))
     v = math.sqrt(x * x + y * y + z * z)
     if v == 0.0:
         return 0.0, 0.0, 1.0, 0.0
@@ -144,10 +149,7 @@ def matrix_to_quat(*m):
     else:
         s = math.sqrt(1.0 + m22 - m00 - m11) * 2.0
         q = ((m02 + m20) / s, (m12 + m21) / s, 0.25 * s, (m10 - m01) / s)
-    x, y, z, w = _unit(*q)
-    if w < 0.0:
-        return -x, -y, -z, -w
-    return x, y, z, w
+    return _positive(_unit(*q))
 
 
 def transform_to_pose(*m):

@@ -160,6 +160,15 @@ Quat qmul(const Quat& p, const Quat& q)
             p.w * q.w - p.x * q.x - p.y * q.y - p.z * q.z};
 }
 
+/// The one of q and -q (the same rotation) whose w is not negative.
+Quat positive(const Quat& q)
+{
+    if (q.w < 0.0) {
+        return {-q.x, -q.y, -q.z, -q.w};
+    }
+    return q;
+}
+
 Quat unit(const Quat& q)
 {
     const double n = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
@@ -208,7 +217,7 @@ Quat eulerToQuat(double a1, double a2, double a3, const char* axes, bool degrees
         e[ax[k]] = std::sin(h);
         q = qmul({e[0], e[1], e[2], e[3]}, q);
     }
-    return q;
+    return positive(q);
 }
 
 std::vector<double> quatToEuler(const Quat& in, const char* axes, bool degrees)
@@ -235,15 +244,12 @@ Quat axisAngleToQuat(double ax, double ay, double az, double theta)
     }
     const double h = theta * 0.5;
     const double s = std::sin(h) / n;
-    return {ax * s, ay * s, az * s, std::cos(h)};
+    return positive({ax * s, ay * s, az * s, std::cos(h)});
 }
 
 std::vector<double> quatToAxisAngle(const Quat& in)
 {
-    Quat q = unit(in);
-    if (q.w < 0.0) {
-        q = {-q.x, -q.y, -q.z, -q.w};
-    }
+    const Quat q = positive(unit(in));
     const double v = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z);
     if (v == 0.0) {
         return {0.0, 0.0, 1.0, 0.0};
@@ -269,11 +275,7 @@ Quat matrixToQuat(double m00, double m01, double m02, double m10, double m11, do
         const double s = std::sqrt(1.0 + m22 - m00 - m11) * 2.0;
         q = {(m02 + m20) / s, (m12 + m21) / s, 0.25 * s, (m10 - m01) / s};
     }
-    q = unit(q);
-    if (q.w < 0.0) {
-        return {-q.x, -q.y, -q.z, -q.w};
-    }
-    return q;
+    return positive(unit(q));
 }
 
 std::vector<double> ofQuat(const Quat& q)
