@@ -157,8 +157,10 @@ def cpp_expression(node: ir.ExprNode, top: bool = True) -> str:
         return "x"
     if op == "pi":
         return cpp_float(math.pi)
-    if op == "neg":
-        return "-" + cpp_expression(node.args[0], False)
+    if op == "neg":  # `-(-x)`, never `--x` (a decrement)
+        inner = node.args[0]
+        text = cpp_expression(inner)
+        return f"-{text}" if inner.op in ("x", "pi", "number") else f"-({text})"
     if op in ("+", "-", "*", "/"):
         text = f"{cpp_expression(node.args[0], False)} {op} {cpp_expression(node.args[1], False)}"
         return text if top else f"({text})"

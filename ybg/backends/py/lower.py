@@ -173,7 +173,9 @@ def py_expression(node: ir.ExprNode, used: set[str], top: bool = True) -> str:
     if op == "pi":
         return py_literal(math.pi)
     if op == "neg":
-        return "-" + py_expression(node.args[0], used, False)
+        inner = node.args[0]
+        text = py_expression(inner, used)
+        return f"-{text}" if inner.op in ("x", "pi", "number") else f"-({text})"
     if op == "/":
         used.add("div")
         return f"div({py_expression(node.args[0], used)}, {py_expression(node.args[1], used)})"
