@@ -246,11 +246,12 @@ def _classify(e: UnexpectedInput, lines: list[str]) -> tuple[str, str, str | Non
         if stripped.startswith("[") and e.line == tok.line and not re.match(r"^\[\s*\]", stripped):
             return ("E104", "malformed section header", "a header is `[name]` or `[name label]`, e.g. `[mux arm]`", max(len(str(tok)), 1))
         indent = len(line) - len(line.lstrip())
-        if tok.line == e.line and tok.column == indent + 1 and tt in ("WORD", "STRING"):
+        # a word the lexer took for an expression's name or number is still a word here
+        if tok.line == e.line and tok.column == indent + 1 and tt in ("WORD", "STRING", "NAME", "NUMBER"):
             if "=" in stripped:
                 return ("E103", "a key is one word, without spaces or quotes", "write `key = value`, e.g. `num_fields = 3`", max(len(str(tok)), 1))
             return ("E103", f"`{stripped}` is not `key = value`", "write `key = value`, or start a section with `[name]`", len(stripped) or 1)
-        if tt == "WORD" and e.column > 1 and line[:col - 1].rstrip().endswith(("[", ":")):
+        if tt in ("WORD", "NAME", "NUMBER") and e.column > 1 and line[:col - 1].rstrip().endswith(("[", ":")):
             return ("E105", f"`{tok}` is not a position: write a whole number, as in `arm[2]` or `arm[0:6]`",
                     None, max(len(str(tok)), 1))
         if tt in ("RPAR", "RSQB"):
