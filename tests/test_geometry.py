@@ -97,15 +97,26 @@ def test_euler_to_quat_and_back(axes, a1, a2, a3, degrees):
 @SETTINGS
 @given(st.sampled_from(ir.EULER_AXES), quaternion, st.booleans())
 def test_quat_to_euler_is_the_same_rotation(axes, q, degrees):
-    """Any quaternion away from the gimbal lock: the angles make the same
-    rotation (at the lock itself the split between the first and the last
-    angle is not handled: docs/config.md says so)."""
+    """Any quaternion: the angles make the same rotation, to 1e-12 away from
+    the gimbal lock, and near it to what the lock's threshold allows."""
     angles = py("quat_to_euler", q, axes, degrees)
     mid = angles[1] if not degrees else math.radians(angles[1])
     assert -math.pi / 2 <= mid <= math.pi / 2
-    assume(abs(abs(mid) - math.pi / 2) > 1e-3)
+    near = abs(abs(mid) - math.pi / 2) < 1e-3
     got = Rotation.from_euler(axes, angles, degrees=degrees)
-    assert got.approx_equal(Rotation.from_quat(q), atol=1e-12)
+    assert got.approx_equal(Rotation.from_quat(q), atol=1e-7 if near else 1e-12)
+
+
+@pytest.mark.parametrize("axes", ir.EULER_AXES)
+@pytest.mark.parametrize("sign", [1, -1])
+def test_quat_to_euler_at_the_gimbal_lock(axes, sign):
+    """The middle angle exactly +-90 degrees: the last angle is 0 and the
+    first one makes the rotation."""
+    for first, last in ((0.3, -1.1), (2.5, 0.7), (-3.0, 3.0)):
+        q = py("euler_to_quat", [first, sign * math.pi / 2, last], axes)
+        angles = py("quat_to_euler", q, axes)
+        assert angles[2] == 0.0 and abs(abs(angles[1]) - math.pi / 2) < 1e-7
+        assert Rotation.from_euler(axes, angles).approx_equal(Rotation.from_quat(q), atol=1e-8)
 
 
 def test_rpy_is_ros_convention():
