@@ -126,6 +126,7 @@ CODES: dict[str, str] = {
     "N601": "legacy form",
     "N602": "a fixed rate that publishes new data only",
     "W510": "`publish` without a rate",
+    "W520": "a quaternion filled with data not known to be one",
 }
 
 

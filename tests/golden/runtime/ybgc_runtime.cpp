@@ -139,6 +139,8 @@ namespace {
 constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
 const double kDeg = 3.141592653589793 / 180.0;
 const double kRad = 180.0 / 3.141592653589793;
+/// |cos| of the middle Euler angle under which quatToEuler takes it for +-pi/2
+constexpr double kGimbalLock = 1e-8;
 
 struct Quat
 {
@@ -229,9 +231,19 @@ std::vector<double> quatToEuler(const Quat& in, const char* axes, bool degrees)
     axesOf(axes, ax);
     const int i = ax[0], j = ax[1], k = ax[2];
     const double s = parity(i, j, k);
-    const double a2 = std::asin(std::min(std::max(-s * rot(q, k, i), -1.0), 1.0));
-    const double a1 = std::atan2(s * rot(q, k, j), rot(q, k, k));
-    const double a3 = std::atan2(s * rot(q, j, i), rot(q, i, i));
+    const double rkj = rot(q, k, j);
+    const double rkk = rot(q, k, k);
+    const double c = std::sqrt(rkj * rkj + rkk * rkk);  // |cos(a2)|
+    const double a2 = std::atan2(-s * rot(q, k, i), c);
+    double a1 = 0.0;
+    double a3 = 0.0;
+    if (c < kGimbalLock) {
+        // the middle angle is +-pi/2: only a1 + a3 (or a1 - a3) is defined; a3 = 0
+        a1 = std::atan2(-s * rot(q, j, k), rot(q, j, j));
+    } else {
+        a1 = std::atan2(s * rkj, rkk);
+        a3 = std::atan2(s * rot(q, j, i), rot(q, i, i));
+    }
     if (degrees) {
         return {a1 * kRad, a2 * kRad, a3 * kRad};
     }

@@ -23,6 +23,9 @@ NAN = float("nan")
 DEG = math.pi / 180.0
 RAD = 180.0 / math.pi
 
+#: |cos| of the middle Euler angle under which quat_to_euler takes it for +-pi/2
+GIMBAL_LOCK = 1e-8
+
 #: Euler axis orders: fixed (extrinsic) axes, the first rotation first.
 #: "xyz" is ROS's rpy: R = Rz(yaw) Ry(pitch) Rx(roll).
 AXES = {"xyz": (0, 1, 2), "xzy": (0, 2, 1), "yxz": (1, 0, 2),
@@ -101,13 +104,22 @@ def euler_to_quat(a1, a2, a3, axes, degrees):
 
 def quat_to_euler(x, y, z, w, axes, degrees):
     """Quaternion x y z w (normalised first) -> Euler angles about the fixed
-    axes ``axes``; the middle angle in [-pi/2, pi/2]."""
+    axes ``axes``; the middle angle in [-pi/2, pi/2]. At the gimbal lock
+    (the middle angle +-pi/2) the last angle is 0 and the first one makes
+    the rotation."""
     q = _unit(x, y, z, w)
     i, j, k = AXES[axes]
     s = _parity(i, j, k)
-    a2 = math.asin(min(max(-s * _rot(q, k, i), -1.0), 1.0))
-    a1 = math.atan2(s * _rot(q, k, j), _rot(q, k, k))
-    a3 = math.atan2(s * _rot(q, j, i), _rot(q, i, i))
+    rkj, rkk = _rot(q, k, j), _rot(q, k, k)
+    c = math.sqrt(rkj * rkj + rkk * rkk)  # |cos(a2)|
+    a2 = math.atan2(-s * _rot(q, k, i), c)
+    if c < GIMBAL_LOCK:
+        # the middle angle is +-pi/2: only a1 + a3 (or a1 - a3) is defined; a3 = 0
+        a1 = math.atan2(-s * _rot(q, j, k), _rot(q, j, j))
+        a3 = 0.0
+    else:
+        a1 = math.atan2(s * rkj, rkk)
+        a3 = math.atan2(s * _rot(q, j, i), _rot(q, i, i))
     if degrees:
         return a1 * RAD, a2 * RAD, a3 * RAD
     return a1, a2, a3
