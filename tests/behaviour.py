@@ -274,8 +274,8 @@ def expected(program: Program, muxes: dict[str, list], named: bool,
                 return typed(f, v[src.index])
             if src.into_fields is not None:
                 part = v[src.start:src.start + len(src.into_fields)]
-                if not named:
-                    return part
+                if not named:  # a Bottle: a list, a list in it for each sub-message (Pose.position)
+                    return _nested_lists(src.into_fields, part)
                 types = src.into_types or (None,) * len(part)
                 out: dict = {}
                 for n, t, x in zip(src.into_fields, types, part):  # `position.x`: nested
@@ -299,6 +299,25 @@ def expected(program: Program, muxes: dict[str, list], named: bool,
         raise AssertionError(src)
 
     return struct(program.message)
+
+
+def _nested_lists(paths, values) -> list:
+    """Leaf values as the ROS 1 layout nests them: `position.x` ... in a
+    list of their own."""
+    out: list = []
+    heads: list = []
+    for path, v in zip(paths, values):
+        head, _, rest = path.partition(".")
+        if not rest:
+            out.append(v)
+            heads.append(None)
+        elif heads and heads[-1] == head:
+            out[-1][0].append(rest)
+            out[-1][1].append(v)
+        else:
+            out.append(([rest], [v]))
+            heads.append(head)
+    return [_nested_lists(*x) if h is not None else x for h, x in zip(heads, out)]
 
 
 def _time_of(got) -> tuple:

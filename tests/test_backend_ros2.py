@@ -485,7 +485,8 @@ def test_no_name_clash_with_the_shared_runtime():
     """The ROS 2 part of the runtime is inlined after the rest with
     --single-file: it must not redefine any of its names."""
     ours = _top_level_names(RUNTIME_DIR / "ros2_io.py")
-    theirs = _top_level_names(RUNTIME_DIR / "core.py") | _top_level_names(RUNTIME_DIR / "yarp_io.py")
+    theirs = (_top_level_names(RUNTIME_DIR / "core.py") | _top_level_names(RUNTIME_DIR / "yarp_io.py")
+              | _top_level_names(RUNTIME_DIR / "geometry.py"))
     assert {"Bridge", "Input", "Context", "convert"} <= theirs
     assert not ours & theirs, ours & theirs
     # and no message class alias (ros_<pkg>_<Name>) can clash with either
@@ -1096,6 +1097,11 @@ def assert_same_values(ros, bottle, path):
         assert math.isclose(float(ros), float(bottle), rel_tol=0, abs_tol=TOL), (path, ros, bottle)
 
 
+def _flat(items: list) -> list:
+    """A Bottle's nested lists (a Pose's position, orientation) as one list."""
+    return [x for i in items for x in (_flat(i) if isinstance(i, list) else [i])]
+
+
 def _compare_tree(struct: Struct, ros: dict, bottle: list, path="msg"):
     """Field by field: the typed ROS 2 message against the py module's Bottle."""
     assert isinstance(bottle, list) and len(bottle) == len(struct.fields), f"{path}: {bottle!r}"
@@ -1110,7 +1116,7 @@ def _compare_tree(struct: Struct, ros: dict, bottle: list, path="msg"):
                 assert [value["sec"], value["nanosec"]] == item, (where, value, item)
         elif isinstance(src, MuxRef) and src.into_fields is not None:
             assert_same_values([functools.reduce(operator.getitem, n.split("."), value) for n in src.into_fields],
-                               item, where)
+                               _flat(item), where)
         else:
             assert_same_values(value, item, where)
 
@@ -1178,7 +1184,7 @@ def test_package_is_well_formed(tmp_path, stem):
     assert sorted(files) == sorted([
         "package.xml", "setup.py", "setup.cfg", f"resource/{pkg}", f"{pkg}/__init__.py",
         f"{pkg}/{exe}.py", f"launch/{program.module}.launch.py"]
-        + [f"{pkg}/ybgc_runtime/{m}.py" for m in ("__init__", "core", "yarp_io", "ros2_io")])
+        + [f"{pkg}/ybgc_runtime/{m}.py" for m in ("__init__", "geometry", "core", "yarp_io", "ros2_io")])
 
     # package.xml: format 3, ament_python, exec_depend on rclpy and the message packages
     xml = ET.parse(root / "package.xml").getroot()

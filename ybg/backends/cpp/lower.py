@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 from ybg.backends.cpp.escape import (cpp_comment, cpp_float, cpp_identifier, cpp_int,
                                      cpp_std_string, cpp_string, mangle)
-from ybg.backends import Line, LoweringError
+from ybg.backends import Line, LoweringError, nest_fields
 from ybg.backends.wire import WIRE_ROS1 as _WIRE_ROS1
 from ybg.backends.wire import WIRE_YARP as _WIRE_YARP
 from ybg.compiler import ir
@@ -352,6 +352,20 @@ class _Builder:
             self.emit(indent + 1, statement(var))
         self.emit(indent, "}")
 
+    def nested(self, parent: str, depth: int, indent: int, tree: list) -> None:
+        """A message filled from mux elements (``nest_fields``): a list, and a
+        list in it for each sub-message (Pose: position, orientation)."""
+        var = f"b{depth + 1}"
+        self.emit(indent, "{")
+        self.emit(indent + 1, f"yarp::os::Bottle& {var} = {parent}.addList();")
+        for _, item in tree:
+            if isinstance(item, list):
+                self.nested(var, depth + 1, indent + 1, item)
+            else:
+                values, k, t, path = item
+                self.emit(indent + 1, f"ybgc::put({var}, {values}[{k:d}], {self.wire_of(t)});  // {comment(path)}")
+        self.emit(indent, "}")
+
     def mux_ref(self, ref: ir.MuxRef, parent: str, depth: int, indent: int) -> None:
         if ref.index is not None:
             values = self.mux(ref.mux, ref.index + 1)
@@ -361,11 +375,8 @@ class _Builder:
             n = len(ref.into_fields)
             values = self.mux(ref.mux, ref.start + n)
             types = ref.into_types or (ref.element_type,) * n
-            self.list_of(parent, depth, indent, [
-                (lambda var, k=k, name=name, t=t:
-                 f"ybgc::put({var}, {values}[{ref.start + k:d}], {self.wire_of(t)});  // {comment(name)}")
-                for k, (name, t) in enumerate(zip(ref.into_fields, types))
-            ])
+            self.nested(parent, depth, indent, nest_fields([
+                (name, (values, ref.start + k, t, name)) for k, (name, t) in enumerate(zip(ref.into_fields, types))]))
             return
         # a slice needs its end (or, open-ended, its start) within the mux: never shortened
         values = self.mux(ref.mux, ref.start if ref.stop is None else ref.stop)

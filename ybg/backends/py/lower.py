@@ -14,7 +14,7 @@ import math
 import os
 from dataclasses import dataclass
 
-from ybg.backends import Line, LoweringError
+from ybg.backends import Line, LoweringError, nest_fields
 from ybg.backends.wire import WIRE_ROS1, WIRE_YARP
 from ybg.compiler import ir
 
@@ -344,11 +344,13 @@ class _Builder:
         if ref.into_fields is not None:
             types = ref.into_types or (ref.element_type,) * len(ref.into_fields)
             msg_type = typ.base if typ is not None and typ.is_message else None
-            items = ", ".join(
-                f"({py_literal(name)}, Scalar({py_literal(t)}, {values}[{ref.start + k:d}]))"
-                for k, (name, t) in enumerate(zip(ref.into_fields, types))
-            )
-            return f"Msg({py_literal(msg_type)}, ({items},))"
+            tree = nest_fields([(name, f"Scalar({py_literal(t)}, {values}[{ref.start + k:d}])")
+                                for k, (name, t) in enumerate(zip(ref.into_fields, types))])
+
+            def msg(type_name, items) -> str:  # a sub-message (Pose.position) is a nested list
+                return "Msg(%s, (%s,))" % (py_literal(type_name), ", ".join(
+                    f"({py_literal(n)}, {msg(None, x) if isinstance(x, list) else x})" for n, x in items))
+            return msg(msg_type, tree)
         # per-element types when the mux mixes them (a spliced legacy mux of ints and floats)
         mux = self.program.mux(ref.mux)
         et = mux.element_types
