@@ -502,7 +502,7 @@ def test_imu_fields_have_the_right_python_types(tmp_path):
 
     program = example("imu_ros2")
     node = import_node(program, tmp_path)
-    values = [0.1, 0.2, 0.3, 0.9, 10.0, 20.0, 30.0, 0.0, 0.0, 9.81]
+    values = [0.5, -0.5, 0.5, 0.5, 10.0, 20.0, 30.0, 0.0, 0.0, 9.81]  # a unit quaternion: quat_normalize keeps it
     ctx = node.Context({"inertial": node.convert(values, node.SPEC.muxes[0].converters)}, 0, {})
     msg = node.build_message(ctx, node.Stamps(rclpy.time.Time(nanoseconds=1_500_000_000), {}))
     assert type(msg).__name__ == "Imu"
