@@ -333,3 +333,65 @@ def test_numpy_reference_is_not_the_runtime():
     src = Path(geometry_reference.__file__).read_text()
     assert "ybg.runtime" not in src and "ybgc_runtime" not in src
     assert np.float64(1.0) / np.float64(3.0) == 1.0 / 3.0
+
+
+LEGACY = """[general]
+num_mux = 1
+output_name = /icub/right_hand/pose
+to_ros = false
+rate = 50
+
+[mux1]
+num_ports = 1
+ports = /icub/cartesianController/right_arm/state:o
+function = expr(clamp(x, -0.6, 0.6) * 2 - -1)[0:3], scale(2)
+verbose = false
+
+[message]
+num_fields = 2
+1_type = single_value
+1_msg = "hand"
+2_type = mux
+2_mux = mux1
+"""
+
+
+def test_fmt_to_named_keeps_an_expression(tmp_path):
+    """A legacy `function` with an expression: `ybgc fmt --to named` writes
+    a named config that checks clean and is the same program."""
+    from generated import ybgc
+    from ybg.compiler.pipeline import compile_path
+
+    old = tmp_path / "pose.ini"
+    old.write_text(LEGACY)
+    new = tmp_path / "pose_named.ini"
+    r = ybgc("fmt", "--to", "named", old, "-o", new)
+    assert r.returncode == 0, r.stderr
+    assert "convert = expr(clamp(x, -0.6, 0.6) * 2 - -1)[0:3], scale(2)" in new.read_text()
+    before, after = compile_path(old), compile_path(new)
+    assert not after.diagnostics and after.program is not None
+    assert after.program.muxes == before.program.muxes
+    (conv, _), = [m.converters for m in after.program.muxes]
+    assert isinstance(conv, ir.ExprConverter) and (conv.start, conv.stop) == (0, 3)
+
+
+def test_runtime_geometry_names_do_not_clash():
+    """--single-file inlines geometry.py before core.py and the I/O modules
+    in one namespace: none of them redefines its names (core takes the two
+    it imports from it)."""
+    import ast as pyast
+
+    def names(module: str) -> set[str]:
+        tree = pyast.parse((RUNTIME.parent / f"{module}.py").read_text())
+        out = set()
+        for node in tree.body:
+            if isinstance(node, (pyast.FunctionDef, pyast.ClassDef)):
+                out.add(node.name)
+            elif isinstance(node, pyast.Assign):
+                out.update(t.id for t in node.targets if isinstance(t, pyast.Name))
+        return out
+
+    ours = names("geometry")
+    assert {"GEOMETRY", "clamp", "div"} <= ours
+    for other in ("core", "yarp_io", "ros2_io"):
+        assert not ours & names(other), (other, ours & names(other))
