@@ -137,7 +137,7 @@ def _range_ok(ctx: Context, mux: ir.Mux, width: int | None, start: int | None, s
         s.error("E315", f"empty element range [{start}:{stop}]", rng_span)
         return False
     if width is not None and (start >= width or (stop is not None and stop > width)):
-        after = " after the converters before it" if mux.converters or width != mux.input_width else ""
+        after = " after the converters before it" if width != mux.input_width else ""
         s.error("E315", f"range [{start}:{'' if stop is None else stop}] is outside mux `{mux.name}`"
                 f" of {width} elements{after}", rng_span, f"elements are 0..{width - 1}")
         return False
