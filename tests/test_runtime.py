@@ -243,6 +243,31 @@ def test_dropped_bottles_are_counted_and_reported_once():
         "further drops are only counted"]
 
 
+def test_a_bottle_wider_than_the_message_reads_is_said_once():
+    """An undeclared port that a nested message cuts (W511, InputSpec.reads):
+    the first Bottle bringing more values than the message reads is said,
+    once; every Bottle is still used whole by the mux."""
+    b, out = bridge(muxes=("a",))
+    inp = b.mux_inputs["a"][0]
+    inp.spec = inp.spec._replace(reads=3)
+    b.publishing = True
+    arrive(b, "a", [1.0, 2.0, 3.0], now=0.0)
+    assert b.logged == []
+    arrive(b, "a", [float(k) for k in range(7)], now=1.0)
+    arrive(b, "a", [float(k) for k in range(9)], now=2.0)
+    assert b.logged == [
+        "input /src/a:o: a Bottle of 7 values, of which the message reads the first 3; the other 4 are "
+        "dropped (declare the port's elements in the config to check its width); said once"]
+    assert [len(m["a"]) for m in out.messages] == [3, 7, 9]
+
+
+def test_a_port_the_message_reads_whole_says_nothing_of_its_width():
+    b, out = bridge(muxes=("a",))
+    b.publishing = True
+    arrive(b, "a", [float(k) for k in range(9)], now=0.0)
+    assert b.logged == [] and len(out.messages) == 1
+
+
 def test_freshness_transitions_are_reported_once_each():
     b, _ = bridge(timeout=0.5)
     b._check_freshness(0.0)

@@ -4,6 +4,12 @@
     ybgc check CONFIG...                        check (pre-commit)
     ybgc fmt CONFIG... [--check] [--to named]   canonical form / conversion
     ybgc ir CONFIG                              the checked program as JSON
+    ybgc graph CONFIG [--format F] [-o FILE]    the dataflow as SVG, DOT or Mermaid
+
+With no CONFIG named, a command takes the folder's config: ``ybgc.ini``,
+else the one ybgc config among the folder's ``.ini`` files (those that are
+not ybgc configs are skipped, as ``--skip-foreign`` does); ``ybgc check``
+with none named checks every config of the folder.
 
 The backends, their names and what each makes are those of the registry
 (``ybg.backends.REGISTRY``); ``ybgc generate --help`` lists them.
@@ -21,8 +27,11 @@ from pathlib import Path
 
 from ybg import __version__
 from ybg.backends import REGISTRY, backend_names
+from ybg.graph import FORMATS, SUFFIXES
 
-COMMANDS = ("check", "fmt", "ir", "generate")
+COMMANDS = ("check", "fmt", "ir", "generate", "graph")
+#: the config a command takes when none is named
+FOLDER_CONFIG = "ybgc.ini"
 EXIT_OK, EXIT_PROBLEMS, EXIT_USAGE = 0, 1, 2
 
 
@@ -44,6 +53,9 @@ def _common(p: argparse.ArgumentParser) -> None:
                         "ROS 1 through YARP is an error for YARP 4, a warning for 3.10 to 3.12")
 
 
+_FOLDER_HELP = f"default: the folder's config ({FOLDER_CONFIG}, or the one config there)"
+
+
 def _backends_epilog() -> str:
     names = backend_names()
     width = max(map(len, names))
@@ -56,7 +68,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", parser_class=_Parser)
 
     c = sub.add_parser("check", help="check configs and report problems")
-    c.add_argument("files", nargs="+", metavar="CONFIG")
+    c.add_argument("files", nargs="*", metavar="CONFIG", help="default: every config of the folder")
     c.add_argument("--strict", action="store_true", help="warnings fail too")
     c.add_argument("--format", choices=("text", "json", "github"), default="text")
     c.add_argument("--backend", choices=backend_names(), help="also check that this backend can build it")
@@ -66,7 +78,7 @@ def build_parser() -> argparse.ArgumentParser:
     _common(c)
 
     f = sub.add_parser("fmt", help="rewrite configs in canonical form")
-    f.add_argument("files", nargs="+", metavar="CONFIG")
+    f.add_argument("files", nargs="*", metavar="CONFIG", help=_FOLDER_HELP)
     f.add_argument("--check", action="store_true", help="only report files that would change (exit 1)")
     f.add_argument("--diff", action="store_true", help="print the changes instead of writing")
     f.add_argument("--to", choices=("named",), help="convert a legacy config to the named form")
@@ -77,13 +89,13 @@ def build_parser() -> argparse.ArgumentParser:
     _common(f)
 
     i = sub.add_parser("ir", help="print the checked program (IR) as JSON")
-    i.add_argument("file", metavar="CONFIG")
+    i.add_argument("file", nargs="?", metavar="CONFIG", help=_FOLDER_HELP)
     i.add_argument("--backend", choices=backend_names(), help="also check that this backend can build it")
     _common(i)
 
     g = sub.add_parser("generate", help="generate a module (also: ybgc CONFIG --backend B)",
                        formatter_class=argparse.RawDescriptionHelpFormatter, epilog=_backends_epilog())
-    g.add_argument("file", metavar="CONFIG")
+    g.add_argument("file", nargs="?", metavar="CONFIG", help=_FOLDER_HELP)
     g.add_argument("--backend", "-b", required=True, choices=backend_names(), help="what to make (backends below)")
     g.add_argument("-o", "--output", metavar="DIR", help="output folder (default: ./<module name>)")
     g.add_argument("--force", action="store_true", help="overwrite files that ybgc did not generate")
@@ -92,6 +104,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="write the runtime inside the module: one file, nothing beside it; by default the "
                         "runtime files are written beside the module")
     _common(g)
+
+    d = sub.add_parser("graph", help="draw the dataflow: ports -> muxes -> converters -> fields -> output")
+    d.add_argument("file", nargs="?", metavar="CONFIG", help=_FOLDER_HELP)
+    d.add_argument("--format", choices=tuple(FORMATS),
+                   help="default: from the -o file's ending (.svg, .dot or .gv, .mmd or .mermaid), else svg")
+    d.add_argument("-o", "--output", metavar="FILE",
+                   help="write here ('-': print); default: svg to ./<module>.svg, dot and mermaid printed")
+    _common(d)
     return p
 
 
@@ -133,7 +153,43 @@ def is_config_file(path: str) -> bool:
     return bool(_MESSAGE_SECTION.search(text) and _CONFIG_SECTIONS.search(text))
 
 
+def folder_configs(folder: Path = Path(".")) -> list[str]:
+    """The ybgc configs of ``folder``: its ``.ini`` files that are ybgc
+    configs (:func:`is_config_file`), and ``ybgc.ini`` whatever it holds."""
+    try:
+        found = sorted(p for p in folder.iterdir() if p.suffix == ".ini" and p.is_file()
+                       and (p.name == FOLDER_CONFIG or is_config_file(str(p))))
+    except OSError as e:
+        _usage_error(f"cannot read the folder {folder.resolve()}: {e.strerror or e}", "name the config")
+    return [str(p) for p in found]
+
+
+def _usage_error(message: str, hint: str) -> None:
+    sys.stderr.write(f"ybgc: error: {message}\n    hint: {hint}\n")
+    sys.exit(EXIT_USAGE)
+
+
+def folder_config(command: str) -> str:
+    """The config ``command`` takes when none is named: ``ybgc.ini``, else
+    the one config of the folder; none or several is a usage error."""
+    if Path(FOLDER_CONFIG).is_file():
+        return FOLDER_CONFIG
+    configs = folder_configs()
+    if len(configs) == 1:
+        return configs[0]
+    folder = Path.cwd()
+    if not configs:
+        _usage_error(f"no config named, and no ybgc config in {folder} (no {FOLDER_CONFIG}, and no .ini file "
+                     "there has a [message] section and an [output] or [general] one)",
+                     f"name the config: ybgc {command} path/to/config.ini")
+    _usage_error(f"no config named, and {len(configs)} ybgc configs in {folder}: {', '.join(configs)}",
+                 f"name the one to use (ybgc {command} {configs[0]}), or call it {FOLDER_CONFIG}")
+
+
 def _select(args) -> list[str]:
+    if not args.files:  # check: every config of the folder; fmt: the folder's one
+        configs = folder_configs() if args.command == "check" else []
+        return configs or [folder_config(args.command)]
     if not getattr(args, "skip_foreign", False):
         return list(args.files)
     return [f for f in args.files if is_config_file(f)]
@@ -156,7 +212,7 @@ def _compile(path: str, args, options):
     from ybg.compiler.pipeline import compile_path
 
     result = compile_path(path, options)
-    if args.backend is None:
+    if getattr(args, "backend", None) is None:
         return result
     from ybg.backends import check_result
     return check_result(result, args.backend)
@@ -210,7 +266,7 @@ def cmd_fmt(args) -> int:
     from ybg.writer import write_text_atomic
 
     options = _options(args)
-    if args.output and len(args.files) != 1:
+    if args.output and len(args.files) > 1:
         sys.stderr.write("ybgc fmt: -o takes one input file\n")
         return EXIT_USAGE
     status = EXIT_OK
@@ -252,7 +308,7 @@ def cmd_fmt(args) -> int:
 def cmd_ir(args) -> int:
     from ybg.compiler import ir
 
-    result = _compile(args.file, args, _options(args))
+    result = _compile(args.file or folder_config("ir"), args, _options(args))
     _print([result], "text")
     if result.program is None:
         return EXIT_USAGE if _io_error(result) else EXIT_PROBLEMS
@@ -264,7 +320,7 @@ def cmd_generate(args) -> int:
     from ybg.backends import LoweringError, RenderOptions, get_backend, lowering_diagnostic
     from ybg.writer import WriteError, write_files
 
-    result = _compile(args.file, args, _options(args))
+    result = _compile(args.file or folder_config(f"--backend {args.backend}"), args, _options(args))
     _print([result], "text")
     if result.program is None:
         return EXIT_USAGE if _io_error(result) else EXIT_PROBLEMS
@@ -290,6 +346,29 @@ def cmd_generate(args) -> int:
     return EXIT_OK
 
 
+def cmd_graph(args) -> int:
+    from ybg.graph import render
+    from ybg.writer import write_text_atomic
+
+    fmt = args.format or SUFFIXES.get(Path(args.output or "").suffix.lower(), "svg")
+    result = _compile(args.file or folder_config("graph"), args, _options(args))
+    _print([result], "text")
+    if result.program is None or result.errors:
+        return EXIT_USAGE if _io_error(result) else EXIT_PROBLEMS
+    text = render(result.program, fmt)
+    output = args.output or (f"{result.program.module}.svg" if fmt == "svg" else "-")
+    if output == "-":
+        sys.stdout.write(text)
+        return EXIT_OK
+    try:
+        write_text_atomic(Path(output), text)
+    except OSError as e:
+        sys.stderr.write(f"ybgc graph: cannot write {output}: {e.strerror or e}\n")
+        return EXIT_USAGE
+    sys.stderr.write(f"ybgc: {fmt} graph of `{result.program.module}` in {output}\n")
+    return EXIT_OK
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     # `ybgc config.ini --backend cpp` is `ybgc generate config.ini --backend cpp`
@@ -303,7 +382,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         parser.print_help(sys.stderr)
         return EXIT_USAGE
-    handler = {"check": cmd_check, "fmt": cmd_fmt, "ir": cmd_ir, "generate": cmd_generate}[args.command]
+    handler = {"check": cmd_check, "fmt": cmd_fmt, "ir": cmd_ir, "generate": cmd_generate,
+               "graph": cmd_graph}[args.command]
     try:
         return handler(args)
     except KeyboardInterrupt:

@@ -421,6 +421,32 @@ void testHoldAndFixedRate()
 
 }  // namespace
 
+/// An undeclared port the message cuts (InputSpec::reads, W511): the first
+/// Bottle wider than what the message reads is said, once; all are kept whole.
+void testCutSaidOnce()
+{
+    ybgc::InputSpec spec = yarpInput(false, {});
+    spec.reads = 3;
+    ybgc::InputState in(spec, spec.timeout);
+    const auto now = ybgc::SteadyClock::now();
+    Mux three(3, Element::ofReal(1.0));
+    ybgc::accept(in, three, false, 0.0, now, 8);
+    CHECK(!in.reportedCut);  // exactly what the message reads
+    Mux seven(7, Element::ofReal(2.0));
+    ybgc::accept(in, seven, false, 0.0, now, 8);
+    CHECK(in.reportedCut);
+    CHECK(in.queue.size() == 2 && in.queue.back().data.values.size() == 7);
+    CHECK(ybgc::cutText("/src:o", 7, 3)
+          == "input /src:o: a Bottle of 7 values, of which the message reads the first 3; the other 4 are "
+             "dropped (declare the port's elements in the config to check its width); said once");
+
+    ybgc::InputSpec whole = yarpInput(false, {});  // no cut: reads -1
+    ybgc::InputState all(whole, whole.timeout);
+    Mux wide(9, Element::ofReal(3.0));
+    ybgc::accept(all, wide, false, 0.0, now, 8);
+    CHECK(whole.reads == -1 && !all.reportedCut);
+}
+
 int main()
 {
     testReprFloat();
@@ -437,6 +463,7 @@ int main()
     testFreshness();
     testHoldAndFixedRate();
     testPublishNewOnly();
+    testCutSaidOnce();
     std::printf("%d checks, %d failed (YARP %s)\n", gChecks, gFailures, YARP_VERSION);
     return gFailures;
 }

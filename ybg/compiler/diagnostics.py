@@ -126,6 +126,7 @@ CODES: dict[str, str] = {
     "N601": "legacy form",
     "N602": "a fixed rate that publishes new data only",
     "W510": "`publish` without a rate",
+    "W511": "a nested message takes part of an undeclared port: the rest is dropped",
     "W520": "a quaternion filled with data not known to be one",
 }
 

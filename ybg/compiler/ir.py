@@ -81,6 +81,7 @@ class Input:
     fields: tuple[str, ...] | None = None
     timeout: float = 1.0
     positions: tuple[tuple[int, ...], ...] | None = None
+    reads: int | None = None
 
     @property
     def width(self) -> int | None:
@@ -536,7 +537,8 @@ def from_dict(d: dict[str, Any]) -> Program:
         layout = None if x["layout"] is None else _tuple(x["layout"], lambda g: ElementGroup(**g))
         fields_ = None if x["fields"] is None else tuple(x["fields"])
         positions = None if x.get("positions") is None else tuple(tuple(p) for p in x["positions"])
-        return Input(x["name"], x["kind"], layout, x["ros_type"], fields_, x["timeout"], positions)
+        return Input(x["name"], x["kind"], layout, x["ros_type"], fields_, x["timeout"], positions,
+                     x.get("reads"))
 
     def node(x):
         return ExprNode(x["op"], _tuple(x["args"], node), x["value"])

@@ -470,7 +470,8 @@ def _input_comment(mux: str, k: int, inp: ir.Input) -> str:
         what = ", ".join(f"{g.type} x{g.count}" for g in inp.layout)
     kind = "ROS 1 topic" if inp.kind == "ros1" else "port"
     extra = f" ({comment(inp.ros_type)})" if inp.ros_type else ""
-    return f"mux {comment(mux)}, input {k}: {kind} {comment(inp.name)}{extra}, {what}"
+    reads = "" if inp.reads is None else f"; the message reads the first {inp.reads} (W511)"
+    return f"mux {comment(mux)}, input {k}: {kind} {comment(inp.name)}{extra}, {what}{reads}"
 
 
 def _executable(module: str) -> tuple[str, str]:
@@ -505,8 +506,9 @@ def lower(program: ir.Program) -> ModuleView:
             n = len(inputs)
             ids.append(n)
             kind = "ybgc::InputKind::Ros1" if i.kind == "ros1" else "ybgc::InputKind::Yarp"
+            reads = "" if i.reads is None else f", {int(i.reads)}"
             init = (f"{{{mi}, {k}, {cpp_string(i.name)}, {kind}, {cpp_float(float(i.timeout))}, "
-                    f"{_layout(i)}, {_fields(i, program.distro)}}}")
+                    f"{_layout(i)}, {_fields(i, program.distro)}{reads}}}")
             inputs.append(InputView(n, init, _input_comment(m.name, k, i)))
             gather.append(Line(1, f"ybgc::append(mux.{members[m.name]}, in[{n}]);  // {comment(i.name)}"))
         for c in m.converters:

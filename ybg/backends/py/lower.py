@@ -87,6 +87,7 @@ class InputView:
     timeout: str
     description: str
     positions: str = "None"
+    reads: str = "None"
 
 
 @dataclass(frozen=True)
@@ -424,6 +425,8 @@ def lower(program: ir.Program) -> ModuleView:
                                     ("input", m.name, i.name))
             types = i.element_types
             width = "any number of numbers" if types is None else f"{len(types)} elements"
+            if i.reads is not None:
+                width += f"; the message reads the first {i.reads} (W511)"
             inputs.append(InputView(
                 mux=py_literal(m.name),
                 index=k,
@@ -433,6 +436,7 @@ def lower(program: ir.Program) -> ModuleView:
                 timeout=py_literal(float(i.timeout)),
                 description=py_literal(f"{i.kind} {i.name}: {width}"),
                 positions=py_literal(i.positions),
+                reads=py_literal(i.reads),
             ))
         convs = converter_views(m, used)
         muxes.append(MuxView(

@@ -450,13 +450,15 @@ def _lower_inputs(program: ir.Program):
                 desc = f"ROS 2 topic {i.name} ({ros2_type_name(i.ros_type)} {', '.join(i.fields)}): {width}"
             elif i.kind == "yarp":
                 desc = f"yarp {i.name}: {width}"
+                if i.reads is not None:
+                    desc += f"; the message reads the first {i.reads} (W511)"
             else:
                 raise LoweringError(f"the ros2 backend cannot read a {i.kind!r} input ({i.name})",
                                     ("input", m.name, i.name))
             inputs.append(InputView(
                 mux=py_literal(m.name), index=k, source=py_literal(i.name), kind=py_literal(i.kind),
                 types=py_literal(types), timeout=py_literal(float(i.timeout)),
-                description=py_literal(desc)))
+                description=py_literal(desc), reads=py_literal(i.reads)))
         convs = converter_views(m, used)
         muxes.append(MuxView(py_literal(m.name), tuple(inputs), convs, py_literal(bool(m.verbose)),
                              py_literal(m.element_types)))

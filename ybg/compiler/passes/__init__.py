@@ -10,5 +10,6 @@ function ``run(ctx)`` over one shared :class:`~ybg.compiler.passes.context.Conte
     message     the [message] entries by field path
     typed       the message tree of a known message type
     bottles     the untyped Bottle tree (YARP output, unknown type)
+    cuts        what the message reads of an undeclared port it cuts (W511)
     program     unused muxes, .msg problems, timing and policy -> Program
 """

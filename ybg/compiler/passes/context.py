@@ -81,6 +81,9 @@ class Context:
     # typed or bottles: the message tree, and the muxes it uses
     message: ir.Struct | None = None
     used_muxes: set[str] = field(default_factory=set)
+    # typed: the muxes of unknown width a nested message takes a part of
+    # without a range (W511); cuts tells their inputs what is read
+    silent_cuts: set[str] = field(default_factory=set)
 
     # program: the checked program, None when there are errors
     program: ir.Program | None = None

@@ -307,9 +307,28 @@ def _mux_into_message(ctx: Context, item: ast.Item, t: ir.TypeRef, e: ast.Entry)
             s.error("E305", f"`{e.key}` holds {', '.join(sorted({ft for _, ft in leaves}))}, "
                     f"mux `{mux.name}` gives {', '.join(bad)}", item.span)
             return ir.Default()
+    if n is None:
+        _silent_cut(ctx, item, e, t, mux, start, leaves)
     _check_quaternions(ctx, mux, start, [p for p, _ in leaves], t, item, e)
     return ir.MuxRef(mux.name, start, stop, None, False, "float64",
                      tuple(p for p, _ in leaves), tuple(ft for _, ft in leaves))
+
+
+def _silent_cut(ctx: Context, item: ast.Item, e: ast.Entry, t: ir.TypeRef, mux: ir.Mux, start: int,
+                leaves: list) -> None:
+    """W511: a nested message takes its numbers from a mux of unknown width,
+    without a range, so whatever a Bottle brings beyond them is dropped."""
+    ctx.silent_cuts.add(mux.name)
+    undeclared = [i.name for i in mux.inputs if i.layout is None]
+    stop = start + len(leaves)
+    port = undeclared[0] if undeclared else "<port>"
+    ctx.sink.warning(
+        "W511", f"`{e.key}` is a {t.base} of {len(leaves)} numbers ({', '.join(p for p, _ in leaves)}): it takes "
+        f"values {start} to {stop - 1} of mux `{mux.name}`, whose port{'s' if len(undeclared) > 1 else ''} "
+        f"{', '.join(f'`{p}`' for p in undeclared)} declare{'' if len(undeclared) > 1 else 's'} no elements; "
+        f"a Bottle's values beyond those are dropped (the module says so once)", item.span,
+        f"declare what the port sends (`{port} (float64 x<N>)`) and take the range "
+        f"(`{e.key} = {mux.name}[{start}:{stop}]`); the range alone says the cut is meant")
 
 
 def _check_quaternions(ctx: Context, mux: ir.Mux, start: int, leaves: list[str], t: ir.TypeRef,

@@ -696,9 +696,20 @@ bool parseBottle(const yarp::os::Bottle& b, const InputSpec& spec, bool dropNan,
 
 // --- what is kept of each input, and which Bottles a message uses ----------------------
 
+std::string cutText(const std::string& source, std::size_t width, std::size_t reads)
+{
+    return "input " + source + ": a Bottle of " + std::to_string(width) + " values, of which the message reads "
+           + "the first " + std::to_string(reads) + "; the other " + std::to_string(width - reads)
+           + " are dropped (declare the port's elements in the config to check its width); said once";
+}
+
 bool accept(InputState& in, Mux& values, bool hasEnvelope, double envelope, SteadyClock::time_point arrival,
             std::size_t queue)
 {
+    if (in.spec.reads >= 0 && values.size() > static_cast<std::size_t>(in.spec.reads) && !in.reportedCut) {
+        in.reportedCut = true;
+        say(cutText(in.spec.source, values.size(), static_cast<std::size_t>(in.spec.reads)));
+    }
     in.queue.emplace_back();
     Pending& entry = in.queue.back();
     entry.data.values.swap(values);

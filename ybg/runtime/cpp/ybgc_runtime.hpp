@@ -257,6 +257,8 @@ struct InputSpec
     bool declared;                  // false: any number of numbers, each a float64
     std::vector<Group> layout;      // the declared elements
     std::vector<FieldPath> fields;  // ROS 1 topic: the fields read (empty: every leaf)
+    int reads = -1;                 // undeclared port cut by the message (W511): the values
+                                    // it reads; a wider Bottle is said once (-1: no cut)
 };
 
 struct MuxSpec
@@ -367,16 +369,22 @@ struct InputState
     Freshness state = Freshness::Waiting;
     bool reportedWaiting = false;
     bool reportedDrop = false;
+    bool reportedCut = false;
 };
 
 /// A Bottle the input accepted, its values moved out of `values`: queued
 /// (at most `queue` kept: the oldest is then unused), the input fresh (said
-/// when it was stale). True when the input was fresh before it.
+/// when it was stale; a Bottle wider than InputSpec::reads is said once).
+/// True when the input was fresh before it.
 bool accept(InputState& in, Mux& values, bool hasEnvelope, double envelope, SteadyClock::time_point arrival,
             std::size_t queue);
 
 /// A Bottle the input refused (`why`): counted, said the first time only.
 void refuse(InputState& in, const std::string& why);
+
+/// What is said, once, when a Bottle of an undeclared port brings more values
+/// (`width`) than the message reads (`reads`, InputSpec::reads).
+std::string cutText(const std::string& source, std::size_t width, std::size_t reads);
 
 /// Which Bottles each message uses and when an input goes stale
 /// (docs/runtime.md, "Which Bottles a message uses", "Freshness"): plain

@@ -52,8 +52,8 @@ const ybgc::BridgeSpec kSpec = {
     },
     {
         // inputs: {mux, index, source, kind, timeout, declared, layout, ROS fields}
-        // mux mux1, input 0: port /pf3dTracker/data:o, any number of numbers
-        {0, 0, "/pf3dTracker/data:o", ybgc::InputKind::Yarp, 1.0, false, {}, {}},
+        // mux mux1, input 0: port /pf3dTracker/data:o, any number of numbers; the message reads the first 3 (W511)
+        {0, 0, "/pf3dTracker/data:o", ybgc::InputKind::Yarp, 1.0, false, {}, {}, 3},
     },
     {0},  // muxes the message reads
     // geometry_msgs/PointStamped on the ROS 1 topic /ball_point (port /ball_point@/yarp/ball_point_bridge)

@@ -49,9 +49,10 @@ SPEC = BridgeSpec(
         MuxSpec(
             name='mux1',
             inputs=(
-                # 'yarp /pf3dTracker/data:o: any number of numbers'
+                # 'yarp /pf3dTracker/data:o: any number of numbers; the message reads the first 3 (W511)'
                 InputSpec('mux1', 0, '/pf3dTracker/data:o', 'yarp',
-                          types=None, timeout=1.0),
+                          types=None, timeout=1.0,
+                          reads=3),
             ),
             converters=(),
             verbose=False,

@@ -23,8 +23,8 @@ _INT_TYPES = frozenset(("int8", "uint8", "int16", "uint16", "int32", "uint32",
 _INT_BITS = {"int8": 8, "uint8": 8, "byte": 8, "char": 8, "int16": 16, "uint16": 16,
              "int32": 32, "uint32": 32, "int64": 64, "uint64": 64}
 
-InputSpec = collections.namedtuple("InputSpec", "mux index source kind types timeout positions",
-                                   defaults=(None,))
+InputSpec = collections.namedtuple("InputSpec", "mux index source kind types timeout positions reads",
+                                   defaults=(None, None))
 ConverterSpec = collections.namedtuple("ConverterSpec", "name scale offset to_float start stop")
 #: a geometry converter (geometry.py) on the elements [start, start + its width)
 GeometrySpec = collections.namedtuple("GeometrySpec", "name function args start")
@@ -126,6 +126,7 @@ class InputState:
         self.state = "waiting"
         self.reported_waiting = False
         self.reported_drop = False
+        self.reported_cut = False
         self.calls = 0  # deliveries begun (closing waits until they settle)
 
     def settled(self):
@@ -232,6 +233,10 @@ class Bridge:
                     self.log("input %s: dropped a Bottle (%s); further drops are only counted"
                              % (inp.source, reason))
                 return
+            reads = inp.spec.reads
+            if reads is not None and len(values) > reads and not inp.reported_cut:
+                inp.reported_cut = True
+                self.log(cut_text(inp.source, len(values), reads))
             queue = inp.queue
             queue.append((values, now, envelope))
             if len(queue) > self.spec.queue:
@@ -440,6 +445,14 @@ class Bridge:
         lines.append("  published %d messages, skipped %d cycles, build failures %d"
                      % (self.published, self.skipped_cycles, self.build_errors))
         print("\n".join(lines), flush=True)
+
+
+def cut_text(source, width, reads):
+    """What the module says, once, when a Bottle of an undeclared port brings
+    more values than the message reads (W511)."""
+    return ("input %s: a Bottle of %d values, of which the message reads the first %d; the other %d are "
+            "dropped (declare the port's elements in the config to check its width); said once"
+            % (source, width, reads, width - reads))
 
 
 def take(values, start, stop):
