@@ -157,6 +157,11 @@ class GeometryConverter:
     def width_out(self) -> int:
         return GEOMETRY_WIDTHS[self.name][1]
 
+    @property
+    def stop(self) -> int:
+        """The end of the elements it gives (``[start, stop)`` after it)."""
+        return self.start + self.width_out
+
 
 @dataclass(frozen=True)
 class ExprNode:
@@ -186,6 +191,10 @@ class ExprConverter:
     start: int = 0
     stop: int | None = None
     text: str = ""
+
+    @property
+    def name(self) -> str:
+        return f"expr({self.text})"
 
 
 AnyConverter = Union[Converter, GeometryConverter, ExprConverter]
