@@ -3,8 +3,8 @@
 Checks: converter names and parameters (E313, E208), element ranges against
 the mux's width as the converters before leave it (E315), converters that need
 numbers applied to other elements (E314), the width of a geometry
-converter's range (E330, E331), the names, functions and arguments of an
-expression (E332, E333).
+converter's range (E322, E323), the names, functions and arguments of an
+expression (E324, E325).
 Reads ``muxes`` and ``mux_keys``. Completes each mux of ``muxes`` with its
 converters.
 """
@@ -165,13 +165,13 @@ def _geometry(ctx: Context, mux: ir.Mux, item: ast.Item, name: str, args, start:
         s.error("E208", f"`{name}` takes no parameters", item.span, f"e.g. `{example}`")
         return None
     if width is None or types is None:
-        s.error("E331", f"`{name}` needs the width of mux `{mux.name}`, which is known only at run time",
+        s.error("E323", f"`{name}` needs the width of mux `{mux.name}`, which is known only at run time",
                 item.span, "declare the ports of the mux, e.g. `/port:o (float64 x7)`")
         return None
     hi = width if stop is None else stop
     if hi - start != need:
         where = f"elements [{start}:{hi}]" if (start, stop) != (0, None) else f"the {width} elements of mux `{mux.name}`"
-        s.error("E330", f"`{name}` takes {need} elements, not {hi - start}: it is given {where}",
+        s.error("E322", f"`{name}` takes {need} elements, not {hi - start}: it is given {where}",
                 item.span, f"give it a range of {need} elements, e.g. `{example}`")
         return None
     bad = sorted({t for t in types[start:hi] if t not in ir.NUMERIC_TYPES})
@@ -196,7 +196,7 @@ def _node(ctx: Context, node: ast.Node) -> ir.ExprNode | None:
             return ir.ExprNode(node.name)
         hint = (f"`{node.name}` is a function: write `{node.name}(...)`" if node.name in ir.EXPR_FUNCTIONS
                 else did_you_mean(node.name, _EXPR_NAMES) or "an expression knows `x` (the element) and `pi`")
-        s.error("E332", f"unknown name `{node.name}` in an expression", node.span, hint)
+        s.error("E324", f"unknown name `{node.name}` in an expression", node.span, hint)
         return None
     if isinstance(node, ast.Negate):
         inner = _node(ctx, node.operand)
@@ -207,12 +207,12 @@ def _node(ctx: Context, node: ast.Node) -> ir.ExprNode | None:
     assert isinstance(node, ast.Function)
     arity = ir.EXPR_FUNCTIONS.get(node.name)
     if arity is None:
-        s.error("E332", f"unknown function `{node.name}` in an expression", node.name_span,
+        s.error("E324", f"unknown function `{node.name}` in an expression", node.name_span,
                 did_you_mean(node.name, ir.EXPR_FUNCTIONS) or f"functions: {', '.join(ir.EXPR_FUNCTIONS)}")
         return None
     args = [_node(ctx, a) for a in node.args]
     if len(args) != arity:
-        s.error("E333", f"`{node.name}` takes {arity} argument{'s' if arity != 1 else ''}, not {len(args)}",
+        s.error("E325", f"`{node.name}` takes {arity} argument{'s' if arity != 1 else ''}, not {len(args)}",
                 node.span, f"e.g. `{node.name}({', '.join(['x', '-1', '1'][:arity])})`")
         return None
     if any(a is None for a in args):
