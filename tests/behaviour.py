@@ -37,6 +37,7 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
+import geometry_reference
 import middleware
 from middleware import (ROS1_PYTHON, Proc, Ros2Publisher, RospySubscriber, YarpProducer,
                         YarpReader)
@@ -107,6 +108,14 @@ class Envelope:
     with 15 significant digits (10 microseconds at this epoch)."""
     seconds: float
     tolerance: float = 2e-5
+
+
+@dataclass(frozen=True)
+class Near:
+    """A float the reference computes by other means than the module (a
+    rotation library): equal to within ``tolerance``."""
+    value: float
+    tolerance: float = 1e-12
 
 
 #: what a publisher of a ROS topic input without a declared layout sends:
@@ -233,6 +242,16 @@ def mux_values(program: Program, sent: dict[str, list]) -> dict[str, list]:
 def _converted(values: list, converters) -> list:
     values = list(values)
     for c in converters:
+        if isinstance(c, ir.GeometryConverter):
+            part = [float(v) for v in values[c.start:c.start + c.width_in]]
+            values[c.start:c.start + c.width_in] = [
+                Near(v) for v in geometry_reference.geometry(c.name, part, c.axes, c.degrees)]
+            continue
+        if isinstance(c, ir.ExprConverter):
+            stop = len(values) if c.stop is None else min(c.stop, len(values))
+            values[c.start:stop] = [x if isinstance(x, str) else
+                                    geometry_reference.evaluate(c.body, float(x)) for x in values[c.start:stop]]
+            continue
         if c.scale == 1.0 and c.offset == 0.0 and not c.to_float:
             continue
         stop = len(values) if c.stop is None else min(c.stop, len(values))
@@ -315,10 +334,17 @@ def expected(program: Program, muxes: dict[str, list], named: bool,
                 return typed(f, v[src.index])
             if src.into_fields is not None:
                 part = v[src.start:src.start + len(src.into_fields)]
-                if not named:
-                    return part
+                if not named:  # a Bottle: a list, a list in it for each sub-message (Pose.position)
+                    return _nested_lists(src.into_fields, part)
                 types = src.into_types or (None,) * len(part)
-                return {n: _as(t, x) for n, t, x in zip(src.into_fields, types, part)}
+                out: dict = {}
+                for n, t, x in zip(src.into_fields, types, part):  # `position.x`: nested
+                    *parents, leaf = n.split(".")
+                    node = out
+                    for p in parents:
+                        node = node.setdefault(p, {})
+                    node[leaf] = _as(t, x)
+                return out
             return typed(f, v[src.start:src.stop])
         if isinstance(src, Counter):
             return COUNTER
@@ -333,6 +359,25 @@ def expected(program: Program, muxes: dict[str, list], named: bool,
         raise AssertionError(src)
 
     return struct(program.message)
+
+
+def _nested_lists(paths, values) -> list:
+    """Leaf values as the ROS 1 layout nests them: `position.x` ... in a
+    list of their own."""
+    out: list = []
+    heads: list = []
+    for path, v in zip(paths, values):
+        head, _, rest = path.partition(".")
+        if not rest:
+            out.append(v)
+            heads.append(None)
+        elif heads and heads[-1] == head:
+            out[-1][0].append(rest)
+            out[-1][1].append(v)
+        else:
+            out.append(([rest], [v]))
+            heads.append(head)
+    return [_nested_lists(*x) if h is not None else x for h, x in zip(heads, out)]
 
 
 def _time_of(got) -> tuple:
@@ -360,6 +405,10 @@ def assert_matches(got, want, window: tuple, path: str = "msg", exact_fields: bo
             sec, nsec = _time_of(got)
             assert isinstance(sec, int) and isinstance(nsec, int) and 0 <= nsec < 10 ** 9, (path, got)
             assert window[0] <= sec + nsec / 1e9 <= window[1], (path, got, window)
+        return
+    if isinstance(want, Near):
+        assert isinstance(got, float) and (abs(got - want.value) <= want.tolerance
+                                           or (math.isnan(got) and math.isnan(want.value))), (path, want, got)
         return
     if isinstance(want, Envelope):
         sec, nsec = _time_of(got)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import string
 from pathlib import Path
 
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import HealthCheck, Phase, assume, find, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.lark import from_lark
 
@@ -52,6 +52,13 @@ def test_grammar_generated_configs_never_raise(text):
     _no_traceback(text)
 
 
+def test_grammar_generation_covers_expressions():
+    """The grammar's strategy writes expressions (`expr(...)`) too."""
+    text = find(GRAMMAR_TEXT, lambda t: "expr(" in t,
+                settings=settings(max_examples=5000, database=None, phases=[Phase.generate]))
+    _no_traceback(text)
+
+
 @settings(max_examples=300, deadline=None, suppress_health_check=list(HealthCheck))
 @given(st.text(alphabet=st.characters(blacklist_categories=("Cs",)), max_size=300))
 def test_arbitrary_text_never_raises(text):
@@ -77,7 +84,10 @@ def ini_like(draw):
                 "tf2_msgs/TFMessage", "trajectory_msgs/JointTrajectory",
                 "deg_to_rad", "arm", "arm[0:2]", '"a", "b"', "[]", "", "true", "mux1", "mux", "msg",
                 "header", "counter", "timestamp", "timestamp(arm)", "scale(2)[0:1]", '"base"', "3",
-                "/a:o, /b:o,", "1, 2, 3"]))
+                "/a:o, /b:o,", "1, 2, 3", "/a:o (float64 x7)", "euler_to_quat(rpy, deg)[0:3]",
+                "axis_angle_to_quat[3:7]", "quat_to_euler(xyz, rad)", "transform_to_pose", "quat_normalize[0:4]",
+                "expr(clamp(x, -1, 1) * 0.5)[0:3]", "expr(x)", "expr(foo(x) / y)[1]", "expr(-(x - 1))",
+                "deg_to_rad, expr(atan2(x, 2))[2:]", "expr(x)(2)", "[expr(x)]"]))
             lines.append(f"{key} = {val}".rstrip())
     return "\n".join(lines) + "\n"
 

@@ -61,6 +61,21 @@ def test_converter_is_scale_then_offset_on_its_range():
     assert convert(values, ()) is values
 
 
+def test_geometry_and_expression_converters():
+    """As the C++ runtime (tests/runtime/test_runtime.cpp): a geometry
+    converter replaces its range by its results, a mux too short for it is
+    left as it is; an expression makes each number of its range a float64."""
+    from ybg.runtime.core import EachSpec, GeometrySpec
+    from ybg.runtime.geometry import clamp
+
+    out = convert(["id", 0.0, 0.0, 90, 7.0], (GeometrySpec("e", "euler_to_quat", ("xyz", True), 1),))
+    h = 90.0 * (math.pi / 180.0) * 0.5
+    assert out == ["id", 0.0, 0.0, math.sin(h), math.cos(h), 7.0]
+    assert convert([1.0, 2.0], (GeometrySpec("n", "quat_normalize", (), 0),)) == [1.0, 2.0]
+    out = convert([3, "s", -5.0, 9.0], (EachSpec("c", lambda x: clamp(x, -1.0, 1.0) * 0.5, 0, 3),))
+    assert out == [0.5, "s", -0.5, 9.0] and type(out[0]) is float
+
+
 def test_converter_keeps_integers_unless_told():
     out = convert([3, 7, 2.5], (conv(0.5),))
     assert out == [1, 3, 1.25] and isinstance(out[0], int) and isinstance(out[1], int)

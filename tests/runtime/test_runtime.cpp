@@ -95,6 +95,31 @@ void testConvert()
     CHECK(r[0].real == 1.0 && r[1].real == 1.0 * 3.0 + 0.1);
 }
 
+void testConvertGeometryAndEach()
+{
+    // a geometry converter replaces its range by its results: the width changes
+    Mux m{Element::ofText("id"), Element::ofReal(0.0), Element::ofReal(0.0), Element::ofInteger(90),
+          Element::ofReal(7.0)};
+    ybgc::convertGeometry(m, ybgc::Geometry::EulerToQuat, 1, "xyz", true);
+    CHECK(m.size() == 6 && m[0].text == "id" && m[5].real == 7.0);
+    const double h = 90.0 * (M_PI / 180.0) * 0.5;
+    CHECK(m[1].real == 0.0 && m[2].real == 0.0 && m[3].real == std::sin(h) && m[4].real == std::cos(h));
+    CHECK(ybgc::geometryWidthIn(ybgc::Geometry::TransformToPose) == 16);
+    CHECK(ybgc::geometryWidthOut(ybgc::Geometry::TransformToPose) == 7);
+    // a mux too short for the range is left as it is
+    Mux shortMux = reals({1.0, 2.0});
+    ybgc::convertGeometry(shortMux, ybgc::Geometry::QuatNormalize, 0, "xyz", false);
+    CHECK(shortMux.size() == 2 && shortMux[1].real == 2.0);
+    // a result that cannot be is all NaN
+    const std::vector<double> zero = ybgc::geometry(ybgc::Geometry::QuatNormalize, {0.0, 0.0, 0.0, 0.0});
+    CHECK(zero.size() == 4 && std::isnan(zero[0]) && std::isnan(zero[3]));
+    // an expression on each number of its range, a float64; strings left alone
+    Mux e{Element::ofInteger(3), Element::ofText("s"), Element::ofReal(-5.0), Element::ofReal(9.0)};
+    ybgc::convertEach(e, [](double x) { return ybgc::clamp(x, -1.0, 1.0) * 0.5; }, 0, 3);
+    CHECK(e[0].kind == Element::Kind::Real && e[0].real == 0.5 && e[1].text == "s" && e[2].real == -0.5);
+    CHECK(e[3].real == 9.0);
+}
+
 void testPut()
 {
     yarp::os::Bottle b;
@@ -464,6 +489,7 @@ int main()
     testReprFloat();
     testElements();
     testConvert();
+    testConvertGeometryAndEach();
     testPut();
     testRos1Bytes();
     testParseBottle();

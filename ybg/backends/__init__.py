@@ -50,6 +50,23 @@ class Line:
     text: str
 
 
+def nest_fields(leaves: list) -> list:
+    """Leaves ``(dotted path, payload)`` of a nested message, in order, as its
+    tree: each item ``(name, payload)`` for a leaf or ``(name, [items])`` for
+    a sub-message (``position.x``, ``position.y`` -> ``("position", [("x", ..),
+    ("y", ..)])``), as a Bottle of the ROS 1 layout nests them."""
+    out: list = []
+    for path, payload in leaves:
+        head, _, rest = path.partition(".")
+        if not rest:
+            out.append((head, payload))
+        elif out and out[-1][0] == head and isinstance(out[-1][1], list):
+            out[-1][1].append((rest, payload))
+        else:
+            out.append((head, [(rest, payload)]))
+    return [(name, nest_fields(sub) if isinstance(sub, list) else sub) for name, sub in out]
+
+
 def code_filter(text) -> str:
     """Template filter: a one-line fragment of code that lowering already built
     from escaped parts (anything else is a bug, not something to print)."""

@@ -31,7 +31,7 @@ CPP_DIR = RUNTIME_DIR / "cpp"
 #: the name of the runtime package beside a Python module
 PY_PACKAGE = "ybgc_runtime"
 #: the Python runtime's modules, in the order they are inlined
-PY_MODULES = ("core", "yarp_io", "ros2_io")
+PY_MODULES = ("geometry", "core", "yarp_io", "ros2_io")
 #: the C++ runtime's files
 CPP_HEADER = "ybgc_runtime.hpp"
 CPP_SOURCE = "ybgc_runtime.cpp"

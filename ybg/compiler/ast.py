@@ -79,7 +79,68 @@ class Bracket:
     span: Span = field(default=NOWHERE, compare=False)
 
 
-Item = Union[Str, Word, Call, Subscript, Bracket]
+@dataclass(frozen=True)
+class Number:
+    """A number in an expression, as written (``0.5``, ``1e-3``)."""
+
+    text: str
+    span: Span = field(default=NOWHERE, compare=False)
+
+    @property
+    def value(self) -> float:
+        return float(self.text)
+
+
+@dataclass(frozen=True)
+class Name:
+    """A name in an expression: ``x`` (the element), ``pi``."""
+
+    name: str
+    span: Span = field(default=NOWHERE, compare=False)
+
+
+@dataclass(frozen=True)
+class Negate:
+    """``-operand``."""
+
+    operand: "Node"
+    span: Span = field(default=NOWHERE, compare=False)
+
+
+@dataclass(frozen=True)
+class Binary:
+    """``left op right``, ``op`` one of ``+ - * /``."""
+
+    op: str
+    left: "Node"
+    right: "Node"
+    span: Span = field(default=NOWHERE, compare=False)
+
+
+@dataclass(frozen=True)
+class Function:
+    """``name(args)`` in an expression: ``clamp(x, -1, 1)``."""
+
+    name: str
+    args: tuple["Node", ...]
+    span: Span = field(default=NOWHERE, compare=False)
+    name_span: Span = field(default=NOWHERE, compare=False)
+
+
+#: a node of an expression
+Node = Union[Number, Name, Negate, Binary, Function]
+
+
+@dataclass(frozen=True)
+class Expr:
+    """``expr(body)``: an element-wise expression of the element ``x``, as a
+    converter (``convert = expr(clamp(x, -1, 1) * 0.5)[0:3]``)."""
+
+    body: Node
+    span: Span = field(default=NOWHERE, compare=False)
+
+
+Item = Union[Str, Word, Call, Subscript, Bracket, Expr]
 
 
 @dataclass(frozen=True)

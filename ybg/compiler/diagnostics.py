@@ -105,6 +105,11 @@ CODES: dict[str, str] = {
     "E319": "ROS topic input needs a message type",
     "E320": "the target YARP version has no ROS 1 support",
     "E321": "ROS 2 output without its message definition",
+    # geometry converters and expressions (E322-E329)
+    "E322": "wrong number of elements into a geometry converter",
+    "E323": "geometry converter on a mux of unknown width",
+    "E324": "unknown name or function in an expression",
+    "E325": "wrong number of arguments to an expression function",
     # arrays of messages (E330-E339)
     "E330": "index on a field that is not an array of messages",
     "E331": "index beyond a fixed-size or bounded array",
@@ -128,6 +133,7 @@ CODES: dict[str, str] = {
     "N602": "a fixed rate that publishes new data only",
     "W510": "`publish` without a rate",
     "W511": "a nested message takes part of an undeclared port: the rest is dropped",
+    "W520": "a quaternion filled with data not known to be one",
 }
 
 

@@ -65,7 +65,40 @@ def format_item(item: ast.Item) -> str:
         return f"{base}[{item.start}]"
     if isinstance(item, ast.Bracket):
         return "[" + ", ".join(format_item(i) for i in item.items) + "]"
+    if isinstance(item, ast.Expr):
+        return f"expr({format_node(item.body)})"
     raise TypeError(item)  # pragma: no cover
+
+
+#: binding strength of an expression's nodes (higher binds tighter)
+_PRECEDENCE = {"+": 1, "-": 1, "*": 2, "/": 2}
+
+
+def _strength(node: ast.Node) -> int:
+    if isinstance(node, ast.Binary):
+        return _PRECEDENCE[node.op]
+    return 3 if isinstance(node, ast.Negate) else 4
+
+
+def format_node(node: ast.Node) -> str:
+    """An expression with the parentheses its tree needs, and no others
+    (``a - (b - c)`` keeps them: the tree, hence the rounding, is kept)."""
+    if isinstance(node, ast.Number):
+        return node.text
+    if isinstance(node, ast.Name):
+        return node.name
+    if isinstance(node, ast.Function):
+        return f"{node.name}({', '.join(format_node(a) for a in node.args)})"
+    if isinstance(node, ast.Negate):
+        inner = format_node(node.operand)
+        return f"-({inner})" if _strength(node.operand) < 3 else f"-{inner}"
+    p = _PRECEDENCE[node.op]
+    left, right = format_node(node.left), format_node(node.right)
+    if _strength(node.left) < p:
+        left = f"({left})"
+    if _strength(node.right) <= p:
+        right = f"({right})"
+    return f"{left} {node.op} {right}"
 
 
 def format_entry(entry: ast.Entry, trailing: str | None = None, wrap: bool = True) -> str:

@@ -123,17 +123,100 @@ class Converter:
         return self.scale == 1.0 and self.offset == 0.0 and not self.to_float
 
 
+#: geometry converter -> (elements it takes, elements it gives); the
+#: runtime's GEOMETRY_WIDTHS (ybg/runtime/geometry.py) agree (a test checks)
+GEOMETRY_WIDTHS: dict[str, tuple[int, int]] = {
+    "euler_to_quat": (3, 4),
+    "quat_to_euler": (4, 3),
+    "axis_angle_to_quat": (4, 4),
+    "quat_to_axis_angle": (4, 4),
+    "matrix_to_quat": (9, 4),
+    "transform_to_pose": (16, 7),
+    "quat_normalize": (4, 4),
+}
+#: the converters whose results are a quaternion at their last four elements
+QUATERNION_RESULTS = frozenset({"euler_to_quat", "axis_angle_to_quat", "matrix_to_quat",
+                                "transform_to_pose", "quat_normalize"})
+#: Euler axis orders (fixed axes, the first rotation first); ROS's rpy is xyz
+EULER_AXES = ("xyz", "xzy", "yxz", "yzx", "zxy", "zyx")
+
+
+@dataclass(frozen=True)
+class GeometryConverter:
+    """A vector-valued converter: the elements ``[start, start + width_in)``
+    become its ``width_out`` results (float64), and the mux's width changes
+    by the difference. ``axes`` and ``degrees``: the Euler converters' axis
+    order and unit. ``text`` is what the user wrote, for comments."""
+
+    name: str
+    start: int
+    axes: str | None = None
+    degrees: bool = False
+    text: str = ""
+
+    @property
+    def width_in(self) -> int:
+        return GEOMETRY_WIDTHS[self.name][0]
+
+    @property
+    def width_out(self) -> int:
+        return GEOMETRY_WIDTHS[self.name][1]
+
+    @property
+    def stop(self) -> int:
+        """The end of the elements it gives (``[start, stop)`` after it)."""
+        return self.start + self.width_out
+
+
+@dataclass(frozen=True)
+class ExprNode:
+    """A node of a checked element-wise expression. ``op``: ``"number"``
+    (``value``), ``"x"`` (the element), ``"pi"``, ``"neg"`` (one operand),
+    ``"+" "-" "*" "/"`` (two), or a function (``EXPR_FUNCTIONS``) with its
+    ``args``."""
+
+    op: str
+    args: tuple["ExprNode", ...] = ()
+    value: float | None = None
+
+
+#: expression function -> number of arguments
+EXPR_FUNCTIONS: dict[str, int] = {
+    "abs": 1, "min": 2, "max": 2, "clamp": 3, "sqrt": 1, "sin": 1, "cos": 1, "atan2": 2,
+}
+
+
+@dataclass(frozen=True)
+class ExprConverter:
+    """An element-wise expression: each element x of ``[start, stop)``
+    becomes ``body`` (float64). ``text`` is the expression as written
+    (canonical form), for comments."""
+
+    body: ExprNode
+    start: int = 0
+    stop: int | None = None
+    text: str = ""
+
+    @property
+    def name(self) -> str:
+        return f"expr({self.text})"
+
+
+AnyConverter = Union[Converter, GeometryConverter, ExprConverter]
+
+
 @dataclass(frozen=True)
 class Mux:
     """Concatenation of its inputs' elements, in input order, then converted.
 
-    ``element_types`` are the types *after* conversion (``None``: dynamic width,
-    all ``float64``). ``verbose`` prints every value after conversion.
+    ``element_types`` and ``width`` are *after* conversion (``None``: dynamic
+    width; elements then all numbers). ``verbose`` prints every value after
+    conversion.
     """
 
     name: str
     inputs: tuple[Input, ...]
-    converters: tuple[Converter, ...] = ()
+    converters: tuple[AnyConverter, ...] = ()
     verbose: bool = False
 
     @property
@@ -143,12 +226,19 @@ class Mux:
         return any(i.each is not None for i in self.inputs)
 
     @property
-    def width(self) -> int | None:
-        """The number of elements (of each row, for a mux of rows)."""
+    def input_width(self) -> int | None:
+        """The number of elements before the converters (of each row, for a
+        mux of rows)."""
         widths = [i.width for i in self.inputs]
         if any(w is None for w in widths):
             return None
         return sum(widths)  # type: ignore[arg-type]
+
+    @property
+    def width(self) -> int | None:
+        """The number of elements after the converters."""
+        types = self.element_types
+        return None if types is None else len(types)
 
     @property
     def element_types(self) -> tuple[str, ...] | None:
@@ -160,7 +250,9 @@ class Mux:
                 return None
             raw.extend(et)
         for c in self.converters:
-            if c.to_float:
+            if isinstance(c, GeometryConverter):
+                raw[c.start:c.start + c.width_in] = ["float64"] * c.width_out
+            elif isinstance(c, ExprConverter) or c.to_float:
                 stop = len(raw) if c.stop is None else c.stop
                 for k in range(c.start, min(stop, len(raw))):
                     raw[k] = "float64"
@@ -405,6 +497,8 @@ _SOURCE_KINDS = {
     "message_array": MessageArray,
 }
 _KIND_OF = {cls: kind for kind, cls in _SOURCE_KINDS.items()}
+_CONVERTER_KINDS = {"geometry": GeometryConverter, "expr": ExprConverter}
+_KIND_OF.update({cls: kind for kind, cls in _CONVERTER_KINDS.items()})
 
 
 def _encode(obj: Any) -> Any:
@@ -481,10 +575,19 @@ def from_dict(d: dict[str, Any]) -> Program:
         return Input(x["name"], x["kind"], layout, x["ros_type"], fields_, x["timeout"], positions,
                      x.get("reads"), x.get("each"))
 
+    def node(x):
+        return ExprNode(x["op"], _tuple(x["args"], node), x["value"])
+
+    def converter(c):
+        args = dict(c)
+        kind = args.pop("kind", None)
+        if kind == "expr":
+            args["body"] = node(args["body"])
+        return _CONVERTER_KINDS.get(kind, Converter)(**args)
+
     muxes = _tuple(
         d["muxes"],
-        lambda m: Mux(m["name"], _tuple(m["inputs"], inp),
-                      _tuple(m["converters"], lambda c: Converter(**c)), m["verbose"]),
+        lambda m: Mux(m["name"], _tuple(m["inputs"], inp), _tuple(m["converters"], converter), m["verbose"]),
     )
     o = d["output"]
     output = Output(o["kind"], o["name"], o["msg_type"], o["node"],
@@ -507,7 +610,8 @@ def from_json(text: str) -> Program:
 
 
 __all__ = [
-    "ElementGroup", "Input", "Converter", "Mux", "TypeRef", "Literal", "MuxRef",
+    "ElementGroup", "Input", "Converter", "GeometryConverter", "ExprNode", "ExprConverter", "AnyConverter",
+    "GEOMETRY_WIDTHS", "QUATERNION_RESULTS", "EULER_AXES", "EXPR_FUNCTIONS", "Mux", "TypeRef", "Literal", "MuxRef",
     "Counter", "Timestamp", "Seconds", "Default", "Field", "Struct", "MessageArray", "QoS",
     "DEFAULT_QUEUE", "Output", "Timing", "Policy", "Program", "to_dict", "to_json", "from_dict",
     "from_json", "IR_VERSION", "NUMERIC_TYPES", "INTEGER_TYPES", "FLOAT_TYPES",

@@ -106,6 +106,8 @@ class _ToAst:
             "call": self.call, "at": self.at, "slice": self.slice, "subscript": self.subscript,
             "bracket": self.bracket, "value": self.value, "entry": self.entry,
             "header": self.header, "section": self.section, "start": self.start,
+            "expression": self.expression, "binary": self.binary, "negate": self.negate,
+            "number": self.number, "name": self.name, "function": self.function,
         }
 
     def transform(self, tree: Tree):
@@ -144,6 +146,31 @@ class _ToAst:
     def subscript(self, meta, children):
         base, (start, stop, is_slice) = children
         return ast.Subscript(base, start, stop, is_slice, _meta_span(meta))
+
+    def expression(self, meta, children):
+        _, body = children
+        return ast.Expr(body, _meta_span(meta))
+
+    def binary(self, meta, children):
+        left, op, right = children
+        return ast.Binary(str(op), left, right, _meta_span(meta))
+
+    def negate(self, meta, children):
+        (operand,) = children
+        return ast.Negate(operand, _meta_span(meta))
+
+    def number(self, meta, children):
+        (tok,) = children
+        return ast.Number(str(tok), _tok_span(tok))
+
+    def name(self, meta, children):
+        (tok,) = children
+        return ast.Name(str(tok), _tok_span(tok))
+
+    def function(self, meta, children):
+        name, *args = children
+        args = tuple(a for a in args if a is not None)
+        return ast.Function(str(name), args, _meta_span(meta), _tok_span(name))
 
     def bracket(self, meta, children):
         (value,) = children
@@ -219,11 +246,12 @@ def _classify(e: UnexpectedInput, lines: list[str]) -> tuple[str, str, str | Non
         if stripped.startswith("[") and e.line == tok.line and not re.match(r"^\[\s*\]", stripped):
             return ("E104", "malformed section header", "a header is `[name]` or `[name label]`, e.g. `[mux arm]`", max(len(str(tok)), 1))
         indent = len(line) - len(line.lstrip())
-        if tok.line == e.line and tok.column == indent + 1 and tt in ("WORD", "STRING"):
+        # a word the lexer took for an expression's name or number is still a word here
+        if tok.line == e.line and tok.column == indent + 1 and tt in ("WORD", "STRING", "NAME", "NUMBER"):
             if "=" in stripped:
                 return ("E103", "a key is one word, without spaces or quotes", "write `key = value`, e.g. `num_fields = 3`", max(len(str(tok)), 1))
             return ("E103", f"`{stripped}` is not `key = value`", "write `key = value`, or start a section with `[name]`", len(stripped) or 1)
-        if tt == "WORD" and e.column > 1 and line[:col - 1].rstrip().endswith(("[", ":")):
+        if tt in ("WORD", "NAME", "NUMBER") and e.column > 1 and line[:col - 1].rstrip().endswith(("[", ":")):
             return ("E105", f"`{tok}` is not a position: write a whole number, as in `arm[2]` or `arm[0:6]`",
                     None, max(len(str(tok)), 1))
         if tt in ("RPAR", "RSQB"):

@@ -11,6 +11,8 @@ import sys
 import threading
 import time
 
+from .geometry import GEOMETRY, GEOMETRY_WIDTHS  # ybgc:runtime-import
+
 #: an input element type -> what the input Bottle must hold there
 _FLOAT_TYPES = frozenset(("float32", "float64"))
 _INT_TYPES = frozenset(("int8", "uint8", "int16", "uint16", "int32", "uint32",
@@ -22,6 +24,10 @@ _INT_BITS = {"int8": 8, "uint8": 8, "byte": 8, "char": 8, "int16": 16, "uint16":
 InputSpec = collections.namedtuple("InputSpec", "mux index source kind types timeout positions reads",
                                    defaults=(None, None))
 ConverterSpec = collections.namedtuple("ConverterSpec", "name scale offset to_float start stop")
+#: a geometry converter (geometry.py) on the elements [start, start + its width)
+GeometrySpec = collections.namedtuple("GeometrySpec", "name function args start")
+#: an element-wise expression: each number x of [start, stop) becomes function(x)
+EachSpec = collections.namedtuple("EachSpec", "name function start stop")
 #: rows: the mux holds one row (a list of values) per element of an array of
 #: messages read from ROS 2, each row converted alike
 MuxSpec = collections.namedtuple("MuxSpec", "name inputs converters verbose types rows", defaults=(False,))
@@ -487,16 +493,28 @@ def take(values, start, stop):
 
 
 def convert(values, converters):
-    """The converters, in order: y = x * scale + offset on [start, stop)."""
+    """The converters, in order: y = x * scale + offset on [start, stop)
+    (ConverterSpec), a geometry converter that replaces its range by its
+    results (GeometrySpec), an expression on each element (EachSpec)."""
     if not converters:
         return values
     values = list(values)
-    n = len(values)
     for c in converters:
-        if c.scale == 1.0 and c.offset == 0.0 and not c.to_float:
+        n = len(values)
+        if isinstance(c, GeometrySpec):
+            width = GEOMETRY_WIDTHS[c.function][0]
+            if c.start + width <= n:  # else left as it is, as in C++
+                part = [float(x) for x in values[c.start:c.start + width]]
+                values[c.start:c.start + width] = GEOMETRY[c.function](part, *c.args)
             continue
         stop = n if c.stop is None else min(c.stop, n)
         if c.start >= stop:
+            continue
+        if isinstance(c, EachSpec):
+            f = c.function
+            values[c.start:stop] = [x if isinstance(x, str) else float(f(float(x))) for x in values[c.start:stop]]
+            continue
+        if c.scale == 1.0 and c.offset == 0.0 and not c.to_float:
             continue
         scale, offset = c.scale, c.offset
         part = values[c.start:stop]

@@ -37,6 +37,7 @@
 #include <vector>
 
 #include <yarp/os/Bottle.h>
+#include <yarp/os/Contact.h>
 #include <yarp/os/Value.h>
 
 namespace ybgc {
@@ -168,6 +169,49 @@ void convert(Mux& mux, double scale, double offset, bool toFloat, std::size_t st
 
 /// Prints every element of a mux: "[<mux>] <index>: <value>".
 void printMux(const char* name, const Mux& mux);
+
+// --- orientation and geometry converters, element-wise expressions ------------
+// The same operations in the same order as ybg/runtime/geometry.py, so that
+// C++ and Python modules give the same bits (the module is built with
+// -ffp-contract=off). Quaternions are x y z w, as ROS orders them.
+
+/// A geometry converter (docs/config.md, "Converters").
+enum class Geometry
+{
+    EulerToQuat,      ///< 3 Euler angles about fixed axes -> quaternion (4)
+    QuatToEuler,      ///< quaternion -> 3 Euler angles about fixed axes
+    AxisAngleToQuat,  ///< iCub's ax ay az theta (radians) -> quaternion
+    QuatToAxisAngle,  ///< quaternion -> unit axis and angle in [0, pi]
+    MatrixToQuat,     ///< 3x3 rotation matrix, row-major (9) -> quaternion
+    TransformToPose,  ///< 4x4 homogeneous transform, row-major (16) -> x y z, quaternion (7)
+    QuatNormalize,    ///< quaternion -> quaternion / its norm
+};
+
+/// Elements a geometry converter takes and gives.
+std::size_t geometryWidthIn(Geometry g);
+std::size_t geometryWidthOut(Geometry g);
+
+/// A geometry converter on plain values (``in`` has geometryWidthIn(g)
+/// values). ``axes``: the Euler axis order about fixed axes, "xyz" (ROS's
+/// rpy: R = Rz(yaw) Ry(pitch) Rx(roll)) or another order of x, y, z;
+/// ``degrees``: Euler angles in degrees. A result that is not finite is all NaN.
+std::vector<double> geometry(Geometry g, const std::vector<double>& in, const char* axes = "xyz",
+                             bool degrees = false);
+
+/// Applies a geometry converter to the elements [start, start + width in) of
+/// a mux: they are replaced by its results (float64). A mux too short for
+/// the range is left as it is.
+void convertGeometry(Mux& mux, Geometry g, std::size_t start, const char* axes, bool degrees);
+
+/// An element-wise expression: each number x of [start, stop) becomes
+/// f(x), a float64; strings are left as they are.
+void convertEach(Mux& mux, double (*f)(double), std::size_t start, std::size_t stop);
+
+/// The functions of expressions that C++ does not have as such:
+/// min and max as std::min and std::max, clamp(x, lo, hi) = min(max(x, lo), hi).
+double minOf(double a, double b);
+double maxOf(double a, double b);
+double clamp(double x, double lo, double hi);
 
 // --- writing Bottles ------------------------------------------------------------
 
@@ -447,6 +491,9 @@ public:
     virtual void close() = 0;
     /// Its name in the YARP name server ("" for none).
     virtual std::string registered() const { return ""; }
+    /// Its YARP port's contact, to register again with a restarted name
+    /// server (an invalid Contact for none).
+    virtual yarp::os::Contact where() const { return yarp::os::Contact(); }
 };
 
 /// Why a message cannot be built when a mux is shorter than it (`sizes`: each

@@ -11,6 +11,7 @@ templates only print what this module hands them.
 
 from __future__ import annotations
 
+import math
 import os
 import re
 from dataclasses import dataclass
@@ -18,7 +19,7 @@ from typing import TYPE_CHECKING
 
 from ybg.backends.cpp.escape import (cpp_comment, cpp_float, cpp_identifier, cpp_int,
                                      cpp_std_string, cpp_string, mangle)
-from ybg.backends import Line, LoweringError
+from ybg.backends import Line, LoweringError, nest_fields
 from ybg.backends.wire import WIRE_ROS1 as _WIRE_ROS1
 from ybg.backends.wire import WIRE_YARP as _WIRE_YARP
 from ybg.backends.wire import has_message_array, ros1_shape
@@ -140,6 +141,49 @@ def _time_style(base: str, ros: str | None) -> str:
     if base.startswith("builtin_interfaces/") or ros == "ros2":
         return "ros2"
     return "ros1"
+
+
+#: geometry converter -> the runtime's ybgc::Geometry
+_GEOMETRY = {
+    "euler_to_quat": "EulerToQuat", "quat_to_euler": "QuatToEuler", "axis_angle_to_quat": "AxisAngleToQuat",
+    "quat_to_axis_angle": "QuatToAxisAngle", "matrix_to_quat": "MatrixToQuat",
+    "transform_to_pose": "TransformToPose", "quat_normalize": "QuatNormalize",
+}
+#: expression function -> C++ function (the runtime's where C++ has none)
+_CPP_FUNCTIONS = {"abs": "std::fabs", "min": "ybgc::minOf", "max": "ybgc::maxOf", "clamp": "ybgc::clamp",
+                  "sqrt": "std::sqrt", "sin": "std::sin", "cos": "std::cos", "atan2": "std::atan2"}
+
+
+def cpp_expression(node: ir.ExprNode, top: bool = True) -> str:
+    """C++ source of a checked expression of ``double x``: the operations of
+    the Python module's, in the same order (every operation parenthesised)."""
+    op = node.op
+    if op == "number":
+        return cpp_float(float(node.value))  # type: ignore[arg-type]
+    if op == "x":
+        return "x"
+    if op == "pi":
+        return cpp_float(math.pi)
+    if op == "neg":  # `-(-x)`, never `--x` (a decrement)
+        inner = node.args[0]
+        text = cpp_expression(inner)
+        return f"-{text}" if inner.op in ("x", "pi", "number") else f"-({text})"
+    if op in ("+", "-", "*", "/"):
+        text = f"{cpp_expression(node.args[0], False)} {op} {cpp_expression(node.args[1], False)}"
+        return text if top else f"({text})"
+    if op not in _CPP_FUNCTIONS:
+        raise LoweringError(f"unknown expression function {op!r}")
+    return f"{_CPP_FUNCTIONS[op]}({', '.join(cpp_expression(a) for a in node.args)})"
+
+
+def _vector_converter(member: str, c) -> str:
+    """The call of a geometry converter or an expression on mux ``member``."""
+    if isinstance(c, ir.GeometryConverter):
+        axes = cpp_string(c.axes or "xyz")
+        return (f"ybgc::convertGeometry(mux.{member}, ybgc::Geometry::{_GEOMETRY[c.name]}, {_size(c.start)}, "
+                f"{axes}, {'true' if c.degrees else 'false'});  // {comment(c.text)}")
+    return (f"ybgc::convertEach(mux.{member}, []([[maybe_unused]] double x) {{ return {cpp_expression(c.body)}; }}, "
+            f"{_size(c.start)}, {_size(c.stop)});  // {comment('expr(' + c.text + ')')}")
 
 
 def _size(n: int | None) -> str:
@@ -332,6 +376,20 @@ class _Builder:
             self.emit(indent + 1, statement(var))
         self.emit(indent, "}")
 
+    def nested(self, parent: str, depth: int, indent: int, tree: list) -> None:
+        """A message filled from mux elements (``nest_fields``): a list, and a
+        list in it for each sub-message (Pose: position, orientation)."""
+        var = f"b{depth + 1}"
+        self.emit(indent, "{")
+        self.emit(indent + 1, f"yarp::os::Bottle& {var} = {parent}.addList();")
+        for _, item in tree:
+            if isinstance(item, list):
+                self.nested(var, depth + 1, indent + 1, item)
+            else:
+                values, k, t, path = item
+                self.emit(indent + 1, f"ybgc::put({var}, {values}[{k:d}], {self.wire_of(t)});  // {comment(path)}")
+        self.emit(indent, "}")
+
     def mux_ref(self, ref: ir.MuxRef, parent: str, depth: int, indent: int) -> None:
         if ref.index is not None:
             values = self.mux(ref.mux, ref.index + 1)
@@ -341,11 +399,8 @@ class _Builder:
             n = len(ref.into_fields)
             values = self.mux(ref.mux, ref.start + n)
             types = ref.into_types or (ref.element_type,) * n
-            self.list_of(parent, depth, indent, [
-                (lambda var, k=k, name=name, t=t:
-                 f"ybgc::put({var}, {values}[{ref.start + k:d}], {self.wire_of(t)});  // {comment(name)}")
-                for k, (name, t) in enumerate(zip(ref.into_fields, types))
-            ])
+            self.nested(parent, depth, indent, nest_fields([
+                (name, (values, ref.start + k, t, name)) for k, (name, t) in enumerate(zip(ref.into_fields, types))]))
             return
         # a slice needs its end (or, open-ended, its start) within the mux: never shortened
         values = self.mux(ref.mux, ref.start if ref.stop is None else ref.stop)
@@ -482,6 +537,9 @@ def lower(program: ir.Program, builder=_Builder) -> ModuleView:
             inputs.append(InputView(n, init, _input_comment(m.name, k, i)))
             gather.append(Line(1, f"ybgc::append(mux.{members[m.name]}, in[{n}]);  // {comment(i.name)}"))
         for c in m.converters:
+            if isinstance(c, (ir.GeometryConverter, ir.ExprConverter)):
+                gather.append(Line(1, _vector_converter(members[m.name], c)))
+                continue
             if c.start < 0 or (c.stop is not None and c.stop < c.start):
                 raise LoweringError(f"converter {c.name} has the range [{c.start}:{c.stop}]")
             stop = "" if c.stop is None else str(c.stop)

@@ -51,7 +51,7 @@ class PyBackend(Backend):
 
     def render(self, program, options: RenderOptions = RenderOptions()) -> dict[str, str]:
         view = lower(program)
-        rt = runtime_view("py", options.single_file, ("core", "yarp_io"))
+        rt = runtime_view("py", options.single_file, ("geometry", "core", "yarp_io"))
         files = {view.filename: environment().get_template("module.py.j2").render(m=view, rt=rt)}
         if not options.single_file:
             files.update(python_files())

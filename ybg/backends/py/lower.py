@@ -14,7 +14,7 @@ import math
 import os
 from dataclasses import dataclass
 
-from ybg.backends import Line, LoweringError
+from ybg.backends import Line, LoweringError, nest_fields
 from ybg.backends.wire import WIRE_ROS1, WIRE_YARP
 from ybg.compiler import ir
 
@@ -92,12 +92,25 @@ class InputView:
 
 @dataclass(frozen=True)
 class ConverterView:
+    """A linear converter's fields, or, for the others, ``spec``: the whole
+    constructor (``GeometrySpec(...)``, ``EachSpec(...)``) on one line."""
+
     name: str
-    scale: str
-    offset: str
-    to_float: str
-    start: str
-    stop: str
+    scale: str = ""
+    offset: str = ""
+    to_float: str = ""
+    start: str = ""
+    stop: str = ""
+    spec: str = ""
+
+
+@dataclass(frozen=True)
+class RuntimeImport:
+    """``from <runtime>.<module> import <names>`` (a module's runtime
+    names beyond the ones every module imports)."""
+
+    module: str
+    names: str
 
 
 @dataclass(frozen=True)
@@ -137,6 +150,85 @@ class ModuleView:
     output: OutputView
     wire: tuple[tuple[str, str], ...]
     builder: tuple[Line, ...]
+    runtime_imports: tuple[RuntimeImport, ...] = ()
+
+
+# --------------------------------------------------------------------------
+# converters
+
+#: expression function -> the runtime's Python function (geometry.py)
+_PY_FUNCTIONS = {"abs": "fabs", "min": "min_of", "max": "max_of", "clamp": "clamp", "sqrt": "sqrt",
+                 "sin": "sin", "cos": "cos", "atan2": "atan2"}
+#: the Geometry names of the runtime, by converter
+GEOMETRY_SPEC_NAMES = {name: name for name in ir.GEOMETRY_WIDTHS}
+
+
+def py_expression(node: ir.ExprNode, used: set[str], top: bool = True) -> str:
+    """Python source of a checked expression of ``x`` (a float): IEEE
+    arithmetic as in C++, the runtime's functions where Python would raise
+    (``div``, ``sqrt``, ``sin``, ``cos``); names it uses go to ``used``."""
+    op = node.op
+    if op == "number":
+        return py_literal(float(node.value))  # type: ignore[arg-type]
+    if op == "x":
+        return "x"
+    if op == "pi":
+        return py_literal(math.pi)
+    if op == "neg":
+        inner = node.args[0]
+        text = py_expression(inner, used)
+        return f"-{text}" if inner.op in ("x", "pi", "number") else f"-({text})"
+    if op == "/":
+        used.add("div")
+        return f"div({py_expression(node.args[0], used)}, {py_expression(node.args[1], used)})"
+    if op in ("+", "-", "*"):
+        text = f"{py_expression(node.args[0], used, False)} {op} {py_expression(node.args[1], used, False)}"
+        return text if top else f"({text})"
+    if op not in _PY_FUNCTIONS:
+        raise LoweringError(f"unknown expression function {op!r}")
+    used.add(_PY_FUNCTIONS[op])
+    return f"{_PY_FUNCTIONS[op]}({', '.join(py_expression(a, used) for a in node.args)})"
+
+
+def converter_views(mux: ir.Mux, used: set[str]) -> tuple[ConverterView, ...]:
+    """The converters of ``mux`` as the runtime's specs; the runtime names
+    they need go to ``used`` (``GeometrySpec``, ``clamp`` ...)."""
+    out = []
+    for c in mux.converters:
+        if isinstance(c, ir.GeometryConverter):
+            used.add("GeometrySpec")
+            args = (c.axes, c.degrees) if c.axes is not None else ()
+            out.append(ConverterView(py_literal(c.text), spec=(
+                f"GeometrySpec({py_literal(c.text)}, {py_literal(GEOMETRY_SPEC_NAMES[c.name])}, "
+                f"{py_literal(args)}, start={py_literal(int(c.start))})")))
+        elif isinstance(c, ir.ExprConverter):
+            used.add("EachSpec")
+            body = py_expression(c.body, used)
+            out.append(ConverterView(py_literal(c.text), spec=(
+                f"EachSpec({py_literal('expr(' + c.text + ')')}, lambda x: {body}, "
+                f"start={py_literal(int(c.start))}, stop={py_literal(None if c.stop is None else int(c.stop))})")))
+        else:
+            out.append(ConverterView(
+                name=py_literal(c.name),
+                scale=py_literal(float(c.scale)),
+                offset=py_literal(float(c.offset)),
+                to_float=py_literal(bool(c.to_float)),
+                start=py_literal(int(c.start)),
+                stop=py_literal(None if c.stop is None else int(c.stop)),
+            ))
+    return tuple(out)
+
+
+def runtime_imports(used: set[str]) -> tuple[RuntimeImport, ...]:
+    """The imports of the runtime names in ``used``, by runtime module."""
+    core = sorted(n for n in used if n in ("GeometrySpec", "EachSpec"))
+    geometry = sorted(used - set(core))
+    out = []
+    if core:
+        out.append(RuntimeImport("core", ", ".join(core)))
+    if geometry:
+        out.append(RuntimeImport("geometry", ", ".join(geometry)))
+    return tuple(out)
 
 
 # --------------------------------------------------------------------------
@@ -286,11 +378,13 @@ class _Builder:
         if ref.into_fields is not None:
             types = ref.into_types or (ref.element_type,) * len(ref.into_fields)
             msg_type = typ.base if typ is not None and typ.is_message else None
-            items = ", ".join(
-                f"({py_literal(name)}, Scalar({py_literal(t)}, {values}[{ref.start + k:d}]))"
-                for k, (name, t) in enumerate(zip(ref.into_fields, types))
-            )
-            return f"Msg({py_literal(msg_type)}, ({items},))"
+            tree = nest_fields([(name, f"Scalar({py_literal(t)}, {values}[{ref.start + k:d}])")
+                                for k, (name, t) in enumerate(zip(ref.into_fields, types))])
+
+            def msg(type_name, items) -> str:  # a sub-message (Pose.position) is a nested list
+                return "Msg(%s, (%s,))" % (py_literal(type_name), ", ".join(
+                    f"({py_literal(n)}, {msg(None, x) if isinstance(x, list) else x})" for n, x in items))
+            return msg(msg_type, tree)
         # per-element types when the mux mixes them (a spliced legacy mux of ints and floats)
         mux = self.program.mux(ref.mux)
         et = mux.element_types
@@ -355,6 +449,7 @@ def lower(program: ir.Program) -> ModuleView:
     """The view-model of the module generated for ``program``."""
     output = _lower_output(program)
     muxes = []
+    used: set[str] = set()
     for m in program.muxes:
         inputs = []
         for k, i in enumerate(m.inputs):
@@ -376,17 +471,7 @@ def lower(program: ir.Program) -> ModuleView:
                 positions=py_literal(i.positions),
                 reads=py_literal(i.reads),
             ))
-        convs = tuple(
-            ConverterView(
-                name=py_literal(c.name),
-                scale=py_literal(float(c.scale)),
-                offset=py_literal(float(c.offset)),
-                to_float=py_literal(bool(c.to_float)),
-                start=py_literal(int(c.start)),
-                stop=py_literal(None if c.stop is None else int(c.stop)),
-            )
-            for c in m.converters
-        )
+        convs = converter_views(m, used)
         muxes.append(MuxView(
             name=py_literal(m.name),
             inputs=tuple(inputs),
@@ -433,4 +518,5 @@ def lower(program: ir.Program) -> ModuleView:
         output=output,
         wire=wire,
         builder=tuple(b.lines),
+        runtime_imports=runtime_imports(used),
     )

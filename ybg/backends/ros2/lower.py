@@ -24,8 +24,8 @@ import re
 from dataclasses import dataclass
 
 from ybg.backends import Line
-from ybg.backends.py.lower import (WIRE_YARP, ConverterView, InputView, LoweringError, MuxView, OutputView,
-                                   py_literal)
+from ybg.backends.py.lower import (WIRE_YARP, InputView, LoweringError, MuxView, OutputView, RuntimeImport,
+                                   converter_views, py_literal, runtime_imports)
 from ybg.backends.py.lower import _Builder as BottleBuilder
 from ybg.compiler import ir
 
@@ -121,6 +121,7 @@ class NodeView:
     wire: tuple[tuple[str, str], ...]
     builder: tuple[Line, ...]
     uses_rows: bool = False  # the message holds a mux of rows: import the runtime's Rows
+    runtime_imports: tuple[RuntimeImport, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -462,6 +463,7 @@ def _lower_inputs(program: ir.Program):
     muxes: list[MuxView] = []
     topics: list[TopicInputView] = []
     imports: dict[str, MsgImport] = {}
+    used: set[str] = set()
     for m in program.muxes:
         inputs = []
         for k, i in enumerate(m.inputs):
@@ -500,15 +502,10 @@ def _lower_inputs(program: ir.Program):
                 mux=py_literal(m.name), index=k, source=py_literal(i.name), kind=py_literal(i.kind),
                 types=py_literal(types), timeout=py_literal(float(i.timeout)),
                 description=py_literal(desc), reads=py_literal(i.reads)))
-        convs = tuple(
-            ConverterView(
-                name=py_literal(c.name), scale=py_literal(float(c.scale)),
-                offset=py_literal(float(c.offset)), to_float=py_literal(bool(c.to_float)),
-                start=py_literal(int(c.start)), stop=py_literal(None if c.stop is None else int(c.stop)))
-            for c in m.converters)
+        convs = converter_views(m, used)
         muxes.append(MuxView(py_literal(m.name), tuple(inputs), convs, py_literal(bool(m.verbose)),
                              py_literal(m.element_types), m.rows))
-    return tuple(muxes), tuple(topics), imports
+    return tuple(muxes), tuple(topics), imports, runtime_imports(used)
 
 
 def _lower_yarp_output(program: ir.Program) -> OutputView:
@@ -524,7 +521,7 @@ def _lower_yarp_output(program: ir.Program) -> OutputView:
 
 def lower(program: ir.Program) -> NodeView:
     """The view-model of the node generated for ``program``."""
-    muxes, topics, imports = _lower_inputs(program)
+    muxes, topics, imports, rt_imports = _lower_inputs(program)
     out = program.output
     uses_yarp = out.kind == "yarp" or any(i.kind == "yarp" for m in program.muxes for i in m.inputs)
     if not uses_yarp:
@@ -610,6 +607,7 @@ def lower(program: ir.Program) -> NodeView:
         wire=wire,
         builder=builder,
         uses_rows=uses_rows,
+        runtime_imports=rt_imports,
     )
 
 

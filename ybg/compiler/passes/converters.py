@@ -1,8 +1,10 @@
 """Pass ``converters``: `convert = ...` of each mux.
 
 Checks: converter names and parameters (E313, E208), element ranges against
-the mux's width (E315), converters that need numbers applied to other
-elements (E314).
+the mux's width as the converters before leave it (E315), converters that need
+numbers applied to other elements (E314), the width of a geometry
+converter's range (E322, E323), the names, functions and arguments of an
+expression (E324, E325).
 Reads ``muxes`` and ``mux_keys``. Completes each mux of ``muxes`` with its
 converters.
 """
@@ -14,6 +16,7 @@ import math
 
 from ybg.compiler import ast, ir
 from ybg.compiler.diagnostics import did_you_mean
+from ybg.compiler.fmt import format_item, format_node
 from ybg.compiler.passes.context import Context
 
 #: converter name -> (number of parameters, scale, offset, to_float)
@@ -26,6 +29,20 @@ CONVERTERS: dict[str, tuple[int, float, float, bool]] = {
     "offset": (1, 1.0, 0.0, True),
 }
 
+#: what a geometry converter's range holds, for the hints
+_GEOMETRY_EXAMPLES = {
+    "euler_to_quat": "euler_to_quat(xyz, deg)[0:3]",
+    "quat_to_euler": "quat_to_euler(xyz, rad)[3:7]",
+    "axis_angle_to_quat": "axis_angle_to_quat[3:7]",
+    "quat_to_axis_angle": "quat_to_axis_angle[3:7]",
+    "matrix_to_quat": "matrix_to_quat[0:9]",
+    "transform_to_pose": "transform_to_pose[0:16]",
+    "quat_normalize": "quat_normalize[3:7]",
+}
+_EULER = ("euler_to_quat", "quat_to_euler")
+#: the names an expression knows
+_EXPR_NAMES = ("x", "pi")
+
 
 def run(ctx: Context) -> None:
     for name, mux in ctx.muxes.items():
@@ -34,12 +51,14 @@ def run(ctx: Context) -> None:
             ctx.muxes[name] = dataclasses.replace(mux, converters=tuple(_converters(ctx, mux, entry)))
 
 
-def _converters(ctx: Context, mux: ir.Mux, entry: ast.Entry) -> list[ir.Converter]:
+def _converters(ctx: Context, mux: ir.Mux, entry: ast.Entry) -> list[ir.AnyConverter]:
     s = ctx.sink
-    out = []
-    width = mux.width
-    types = mux.element_types
+    out: list[ir.AnyConverter] = []
     for item in entry.items:
+        # each converter's range counts the elements as the ones before it leave them
+        current = dataclasses.replace(mux, converters=tuple(out))
+        width = current.width
+        types = current.element_types
         start, stop, rng_span = 0, None, None
         base = item
         if isinstance(item, ast.Subscript):
@@ -53,13 +72,40 @@ def _converters(ctx: Context, mux: ir.Mux, entry: ast.Entry) -> list[ir.Converte
         if isinstance(base, ast.Call):
             args = base.args
             base = base.func
-        if not isinstance(base, ast.Word):
+        if isinstance(base, ast.Expr):
+            name = "expr"
+        elif isinstance(base, ast.Word):
+            name = base.text
+        else:
             s.error("E313", "a converter is a name, e.g. `deg_to_rad` or `scale(0.5)`", item.span)
             continue
-        name = base.text
-        if name not in CONVERTERS:
+        known = (*CONVERTERS, *ir.GEOMETRY_WIDTHS, "expr")
+        if name not in known:
             s.error("E313", f"unknown converter `{name}`", base.span,
-                    did_you_mean(name, CONVERTERS) or f"converters: {', '.join(CONVERTERS)}")
+                    did_you_mean(name, known) or f"converters: {', '.join(known)}")
+            continue
+        if name == "expr" and args:
+            s.error("E208", "an expression takes no parameters after it", item.span,
+                    "write `expr(...)` or `expr(...)[start:stop]`")
+            continue
+        if not _range_ok(ctx, mux, width, start, stop, rng_span):
+            continue
+        if name in ir.GEOMETRY_WIDTHS:
+            conv = _geometry(ctx, mux, item, name, args, start, stop, width, types)
+            if conv is not None:
+                out.append(conv)
+            continue
+        if types is not None and name != "none":
+            hi = width if stop is None else stop
+            bad = sorted({t for t in types[start:hi] if t not in ir.NUMERIC_TYPES})
+            if bad:
+                s.error("E314", f"`{name}` applied to {', '.join(bad)} elements of mux `{mux.name}`",
+                        item.span, "give it a range of numeric elements, e.g. `deg_to_rad[0:6]`")
+                continue
+        if name == "expr":
+            body = _node(ctx, base.body)
+            if body is not None:
+                out.append(ir.ExprConverter(body, start, stop, format_node(base.body)))
             continue
         nparams, scale, offset, to_float = CONVERTERS[name]
         if len(args) != nparams:
@@ -76,24 +122,99 @@ def _converters(ctx: Context, mux: ir.Mux, entry: ast.Entry) -> list[ir.Converte
                 scale = float(k)
             else:
                 offset = float(k)
-        if start is not None and start < 0 or (stop is not None and stop < 0):
-            s.error("E315", "element ranges count from 0 and are not negative", rng_span)
-            continue
-        if stop is not None and stop <= start:
-            s.error("E315", f"empty element range [{start}:{stop}]", rng_span)
-            continue
-        if width is not None and (start >= width or (stop is not None and stop > width)):
-            s.error("E315", f"range [{start}:{'' if stop is None else stop}] is outside mux `{mux.name}`"
-                    f" of {width} elements", rng_span, f"elements are 0..{width - 1}")
-            continue
-        if types is not None and name != "none":
-            hi = width if stop is None else stop
-            bad = sorted({t for t in types[start:hi] if t not in ir.NUMERIC_TYPES})
-            if bad:
-                s.error("E314", f"`{name}` applied to {', '.join(bad)} elements of mux `{mux.name}`",
-                        item.span, "give it a range of numeric elements, e.g. `deg_to_rad[0:6]`")
-                continue
         if name == "none":
             continue
         out.append(ir.Converter(name, scale, offset, to_float, start, stop))
     return out
+
+
+def _range_ok(ctx: Context, mux: ir.Mux, width: int | None, start: int | None, stop: int | None, rng_span) -> bool:
+    s = ctx.sink
+    if start is not None and start < 0 or (stop is not None and stop < 0):
+        s.error("E315", "element ranges count from 0 and are not negative", rng_span)
+        return False
+    if stop is not None and stop <= start:
+        s.error("E315", f"empty element range [{start}:{stop}]", rng_span)
+        return False
+    if width is not None and (start >= width or (stop is not None and stop > width)):
+        after = " after the converters before it" if width != mux.input_width else ""
+        s.error("E315", f"range [{start}:{'' if stop is None else stop}] is outside mux `{mux.name}`"
+                f" of {width} elements{after}", rng_span, f"elements are 0..{width - 1}")
+        return False
+    return True
+
+
+def _geometry(ctx: Context, mux: ir.Mux, item: ast.Item, name: str, args, start: int, stop: int | None,
+              width: int | None, types: tuple[str, ...] | None) -> ir.GeometryConverter | None:
+    """A geometry converter on [start, stop), whose width must be its own."""
+    s = ctx.sink
+    need = ir.GEOMETRY_WIDTHS[name][0]
+    example = _GEOMETRY_EXAMPLES[name]
+    axes, degrees = None, False
+    if name in _EULER:
+        words = [a[0].text if len(a) == 1 and isinstance(a[0], ast.Word) else None for a in args]
+        if len(words) != 2 or words[0] not in (*ir.EULER_AXES, "rpy") or words[1] not in ("deg", "rad"):
+            s.error("E208", f"`{name}` takes the axis order and the unit of its angles: "
+                    f"`{name}(xyz, deg)` or `{name}(xyz, rad)`", item.span,
+                    f"axis orders (fixed axes, the first rotation first): rpy (= xyz, ROS's roll pitch yaw), "
+                    f"{', '.join(ir.EULER_AXES[1:])}")
+            return None
+        axes = "xyz" if words[0] == "rpy" else words[0]
+        degrees = words[1] == "deg"
+    elif args:
+        s.error("E208", f"`{name}` takes no parameters", item.span, f"e.g. `{example}`")
+        return None
+    if width is None or types is None:
+        s.error("E323", f"`{name}` needs the width of mux `{mux.name}`, which is known only at run time",
+                item.span, "declare the ports of the mux, e.g. `/port:o (float64 x7)`")
+        return None
+    hi = width if stop is None else stop
+    if hi - start != need:
+        where = f"elements [{start}:{hi}]" if (start, stop) != (0, None) else f"the {width} elements of mux `{mux.name}`"
+        s.error("E322", f"`{name}` takes {need} elements, not {hi - start}: it is given {where}",
+                item.span, f"give it a range of {need} elements, e.g. `{example}`")
+        return None
+    bad = sorted({t for t in types[start:hi] if t not in ir.NUMERIC_TYPES})
+    if bad:
+        s.error("E314", f"`{name}` applied to {', '.join(bad)} elements of mux `{mux.name}`", item.span,
+                f"give it a range of {need} numbers, e.g. `{example}`")
+        return None
+    return ir.GeometryConverter(name, start, axes, degrees, format_item(item))
+
+
+def _node(ctx: Context, node: ast.Node) -> ir.ExprNode | None:
+    """The checked expression ``node``, or None (reported)."""
+    s = ctx.sink
+    if isinstance(node, ast.Number):
+        v = node.value
+        if not math.isfinite(v):
+            s.error("E208", f"`{node.text}` is too large for a float64", node.span)
+            return None
+        return ir.ExprNode("number", (), v)
+    if isinstance(node, ast.Name):
+        if node.name in _EXPR_NAMES:
+            return ir.ExprNode(node.name)
+        hint = (f"`{node.name}` is a function: write `{node.name}(...)`" if node.name in ir.EXPR_FUNCTIONS
+                else did_you_mean(node.name, _EXPR_NAMES) or "an expression knows `x` (the element) and `pi`")
+        s.error("E324", f"unknown name `{node.name}` in an expression", node.span, hint)
+        return None
+    if isinstance(node, ast.Negate):
+        inner = _node(ctx, node.operand)
+        return None if inner is None else ir.ExprNode("neg", (inner,))
+    if isinstance(node, ast.Binary):
+        left, right = _node(ctx, node.left), _node(ctx, node.right)
+        return None if left is None or right is None else ir.ExprNode(node.op, (left, right))
+    assert isinstance(node, ast.Function)
+    arity = ir.EXPR_FUNCTIONS.get(node.name)
+    if arity is None:
+        s.error("E324", f"unknown function `{node.name}` in an expression", node.name_span,
+                did_you_mean(node.name, ir.EXPR_FUNCTIONS) or f"functions: {', '.join(ir.EXPR_FUNCTIONS)}")
+        return None
+    args = [_node(ctx, a) for a in node.args]
+    if len(args) != arity:
+        s.error("E325", f"`{node.name}` takes {arity} argument{'s' if arity != 1 else ''}, not {len(args)}",
+                node.span, f"e.g. `{node.name}({', '.join(['x', '-1', '1'][:arity])})`")
+        return None
+    if any(a is None for a in args):
+        return None
+    return ir.ExprNode(node.name, tuple(args))  # type: ignore[arg-type]

@@ -413,6 +413,7 @@ def _mux_into_message(ctx: Context, item: ast.Item, t: ir.TypeRef, e: ast.Entry)
             return ir.Default()
     if n is None:
         _silent_cut(ctx, item, e, t, mux, start, leaves)
+    _check_quaternions(ctx, mux, start, [p for p, _ in leaves], t, item, e)
     return ir.MuxRef(mux.name, start, stop, None, False, "float64",
                      tuple(p for p, _ in leaves), tuple(ft for _, ft in leaves))
 
@@ -432,6 +433,52 @@ def _silent_cut(ctx: Context, item: ast.Item, e: ast.Entry, t: ir.TypeRef, mux: 
         f"a Bottle's values beyond those are dropped (the module says so once)", item.span,
         f"declare what the port sends (`{port} (float64 x<N>)`) and take the range "
         f"(`{e.key} = {mux.name}[{start}:{stop}]`); the range alone says the cut is meant")
+
+
+def _check_quaternions(ctx: Context, mux: ir.Mux, start: int, leaves: list[str], t: ir.TypeRef,
+                       item: ast.Item, e: ast.Entry) -> None:
+    """W520: a quaternion (``x y z w`` leaves of a geometry_msgs/Quaternion)
+    filled with elements that come as they are from YARP ports: nothing says
+    they are a quaternion and not an axis-angle or Euler angles."""
+    known = quaternion_elements(mux)
+    if known is None:
+        return
+    for k in range(len(leaves) - 3):
+        prefix = leaves[k][:-1]
+        if [leaf[len(prefix):] for leaf in leaves[k:k + 4]] != ["x", "y", "z", "w"] or \
+                not all(leaf.startswith(prefix) for leaf in leaves[k:k + 4]) or prefix[-1:] not in ("", "."):
+            continue
+        a = start + k
+        if all(known[a:a + 4]):
+            continue
+        ports = ", ".join(i.name for i in mux.inputs if i.kind == "yarp")
+        field = f"{e.key}.{prefix[:-1]}" if prefix else e.key
+        ctx.sink.warning(
+            "W520", f"`{field}` is a quaternion (x y z w): elements {a}..{a + 3} of mux `{mux.name}` come as "
+            f"they are from {ports or 'its inputs'}", item.span,
+            f"an axis-angle (iCub's Cartesian controller: x y z ax ay az theta) needs "
+            f"`convert = axis_angle_to_quat[{a}:{a + 4}]`, Euler angles `euler_to_quat(rpy, deg)[{a}:{a + 3}]`; "
+            f"if the port sends a quaternion, say so: `convert = quat_normalize[{a}:{a + 4}]`")
+
+
+def quaternion_elements(mux: ir.Mux) -> list[bool] | None:
+    """For each element of ``mux`` after its converters: is it known to be
+    part of a quaternion? A typed ROS topic's fields are what they say; a
+    converter that makes a quaternion makes its last four results one; the
+    elements of a YARP port are not known to be anything. None: the width is
+    known only at run time."""
+    known: list[bool] = []
+    for inp in mux.inputs:
+        if inp.width is None:
+            return None
+        known.extend([inp.kind != "yarp"] * inp.width)
+    for c in mux.converters:
+        if isinstance(c, ir.GeometryConverter):
+            out = [False] * c.width_out
+            if c.name in ir.QUATERNION_RESULTS:
+                out[-4:] = [True] * 4
+            known[c.start:c.start + c.width_in] = out
+    return known
 
 
 def _check_lengths(ctx: Context, msgdef: MsgDef, struct: ir.Struct, entries: Entries) -> None:

@@ -95,6 +95,7 @@ void gather([[maybe_unused]] Muxes& mux, [[maybe_unused]] const ybgc::Inputs& in
 {
     mux.inertial.clear();
     ybgc::append(mux.inertial, in[0]);  // /icub/inertial
+    ybgc::convertGeometry(mux.inertial, ybgc::Geometry::QuatNormalize, 0, "xyz", false);  // quat_normalize[0:4]
     ybgc::convert(mux.inertial, 0.017453292519943295, 0.0, true, 4, 7);  // deg_to_rad[4:7]
 }
 

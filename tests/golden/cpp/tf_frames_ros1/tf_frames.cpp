@@ -79,6 +79,7 @@ void gather([[maybe_unused]] Muxes& mux, [[maybe_unused]] const ybgc::Inputs& in
 {
     mux.hand.clear();
     ybgc::append(mux.hand, in[0]);  // /robot/frames/r_hand:o
+    ybgc::convertGeometry(mux.hand, ybgc::Geometry::QuatNormalize, 3, "xyz", false);  // quat_normalize[3:7]
 }
 
 /// Prints the values of the verbose muxes (of every mux with --verbose).

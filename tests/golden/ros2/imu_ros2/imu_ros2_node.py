@@ -36,6 +36,7 @@ if getattr(ybgc_runtime, "VERSION", None) != RUNTIME:
 from ybgc_runtime.core import Array, BridgeSpec, ConverterSpec, InputSpec, Msg, MuxSpec, Scalar, Splice, take, time_msg
 from ybgc_runtime.ros2_io import Ros2Output, bools, bounded, byte, byte_list, floats, ints, run_node, sized, strs
 from ybgc_runtime.yarp_io import YarpOutput
+from ybgc_runtime.core import GeometrySpec
 
 # ybgc:user-begin imports
 # ybgc:user-end imports
@@ -61,6 +62,7 @@ SPEC = BridgeSpec(
                           types=('float64', 'float64', 'float64', 'float64', 'float64', 'float64', 'float64', 'float64', 'float64', 'float64'), timeout=1.0),
             ),
             converters=(
+                GeometrySpec('quat_normalize[0:4]', 'quat_normalize', (), start=0),
                 ConverterSpec('deg_to_rad', scale=0.017453292519943295, offset=0.0,
                               to_float=True, start=4, stop=7),
             ),

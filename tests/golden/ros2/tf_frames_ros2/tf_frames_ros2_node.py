@@ -37,6 +37,7 @@ if getattr(ybgc_runtime, "VERSION", None) != RUNTIME:
 from ybgc_runtime.core import Array, BridgeSpec, ConverterSpec, InputSpec, Msg, MuxSpec, Scalar, Splice, take, time_msg
 from ybgc_runtime.ros2_io import Ros2Output, bools, bounded, byte, byte_list, floats, ints, run_node, sized, strs
 from ybgc_runtime.yarp_io import YarpOutput
+from ybgc_runtime.core import GeometrySpec
 
 # ybgc:user-begin imports
 # ybgc:user-end imports
@@ -62,6 +63,7 @@ SPEC = BridgeSpec(
                           types=('float64', 'float64', 'float64', 'float64', 'float64', 'float64', 'float64'), timeout=1.0),
             ),
             converters=(
+                GeometrySpec('quat_normalize[3:7]', 'quat_normalize', (), start=3),
             ),
             verbose=False,
             types=('float64', 'float64', 'float64', 'float64', 'float64', 'float64', 'float64'),
