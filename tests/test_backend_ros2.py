@@ -1118,9 +1118,18 @@ def test_use_sim_time_stamps_with_the_clock_topic(mw, tmp_path):
             p.wait_outputs(1, timeout=60)
         clock.wait_matched(1, timeout=60)
         wait_matched(node, sub, program)
-        time.sleep(0.3)  # a few /clock messages
-        sent, stamps, t_before = write_all(program, producers)
-        got = sub.wait_after(t_before)
+        sim = {"sec": 4242, "nanosec": 500}
+        deadline = time.monotonic() + 60
+        while True:  # until the node has its first /clock message
+            sent, stamps, t_before = write_all(program, producers)
+            got = sub.wait_after(t_before)
+            stamp = got.msg["header"]["stamp"]
+            if stamp == sim:
+                break
+            # before it, simulated time is 0: never the wall clock
+            assert stamp == {"sec": 0, "nanosec": 0}, stamp
+            assert time.monotonic() < deadline, "no message stamped with the time of /clock in 60 s"
+            time.sleep(0.1)
         stop_clean(node)
     finally:
         for p in producers:
