@@ -50,12 +50,17 @@ def pytest_generate_tests(metafunc):
     versions = matrix_versions(metafunc.config)
     if "yarp_ros_server" in metafunc.fixturenames:
         versions = [v for v in versions if middleware.yarp_install(v).has_ros1]
+    oldest = metafunc.definition.get_closest_marker("yarp_min")
+    if oldest is not None:  # a tool that older YARP releases lack: those are not in the matrix
+        versions = [v for v in versions if middleware.yarp_install(v).key >= tuple(oldest.args[0])]
     metafunc.parametrize("yarp", versions, indirect=True, scope="session",
                          ids=[f"yarp{v}" for v in versions])
 
 
 @pytest.hookimpl(tryfirst=True)
 def pytest_configure(config):
+    config.addinivalue_line("markers", "yarp_min(version): run on the YARP releases of the matrix "
+                                       "from `version` (a tuple) on only")
     config.addinivalue_line("markers", "slow: a long test (real middleware, seconds or more); "
                                        "deselect with -m 'not slow'")
     # A default per-test timeout, so that a hung middleware process cannot
