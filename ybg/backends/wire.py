@@ -57,6 +57,18 @@ def has_message_array(struct: ir.Struct) -> bool:
     return False
 
 
+def has_fixed_array(struct: ir.Struct) -> bool:
+    """Does the message hold a fixed-size array (at any depth, set or not:
+    ``sensor_msgs/Imu``'s covariances)? YARP's Bottle translation to ROS 1
+    sends one with a length before it, which ROS 1 reads as its first values."""
+    for f in struct.fields:
+        if f.type is not None and f.type.array == "fixed":
+            return True
+        if isinstance(f.source, ir.Struct) and has_fixed_array(f.source):
+            return True
+    return False
+
+
 def ros1_shape(struct: ir.Struct) -> str:
     """What each nested list of a ROS 1 message's Bottle is, in depth-first
     order: ``s`` a sequence (serialized with its length), ``f`` a nested

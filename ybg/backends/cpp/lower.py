@@ -22,7 +22,7 @@ from ybg.backends.cpp.escape import (cpp_comment, cpp_float, cpp_identifier, cpp
 from ybg.backends import Line, LoweringError, nest_fields
 from ybg.backends.wire import WIRE_ROS1 as _WIRE_ROS1
 from ybg.backends.wire import WIRE_YARP as _WIRE_YARP
-from ybg.backends.wire import has_message_array, ros1_shape
+from ybg.backends.wire import has_fixed_array, has_message_array, ros1_shape
 from ybg.compiler import ir
 
 if TYPE_CHECKING:
@@ -592,9 +592,10 @@ def lower(program: ir.Program, builder=_Builder) -> ModuleView:
     what = out.msg_type or "untyped Bottles"
     what_comment = comment(out.msg_type) if out.msg_type else "untyped Bottles"
     shape = ""
-    if out.kind == "ros1" and has_message_array(program.message):
+    if out.kind == "ros1" and (has_message_array(program.message) or has_fixed_array(program.message)):
         shape = f", {cpp_string(ros1_shape(program.message))}"
-        what_comment += ", serialized by the runtime (YARP's Bottle translation has no arrays of messages)"
+        what_comment += (", serialized by the runtime (YARP's Bottle translation has no arrays of messages "
+                         "and puts a length before a fixed-size array)")
     output = (f"{{{kind}, {cpp_string(port)}, {cpp_string(out.msg_type or '')}, "
               f"{cpp_string(out.connect_to or '')}{shape}}}")
 

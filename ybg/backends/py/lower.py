@@ -300,6 +300,12 @@ class _Builder:
             self.path.pop()
 
     def _field(self, f: ir.Field, indent: int) -> None:
+        if self.program.output.kind == "ros1" and f.type is not None and f.type.array == "fixed":
+            raise LoweringError(
+                f"a fixed-size array ({f.type}) cannot reach ROS 1 from Python: YARP's Bottle translation "
+                "sends a length before it, which ROS 1 reads as its first values, and YARP's Python bindings "
+                "cannot promise the type that would let the module send the message serialized itself "
+                "(the cpp backend does)")
         head = f"({py_literal(f.name)}, "
         src = f.source
         if isinstance(src, ir.Struct):

@@ -2,7 +2,7 @@
 // the user blocks (between their user-begin and user-end marker lines), which are kept
 // when the file is generated again.
 //
-// Module tf_frames: 1 input(s) in 1 mux(es), publishing tf2_msgs/TFMessage, serialized by the runtime (YARP's Bottle translation has no arrays of messages) on the ROS 1 topic /tf (port /tf@/yarp/tf_frames),
+// Module tf_frames: 1 input(s) in 1 mux(es), publishing tf2_msgs/TFMessage, serialized by the runtime (YARP's Bottle translation has no arrays of messages and puts a length before a fixed-size array) on the ROS 1 topic /tf (port /tf@/yarp/tf_frames),
 // at 50 Hz, on_stale=skip, on_nan=pass.
 //
 // Build it with the CMakeLists.txt next to it (YARP 3.5 or later, C++17):
@@ -57,7 +57,7 @@ const ybgc::BridgeSpec kSpec = {
         {0, 0, "/robot/frames/r_hand:o", ybgc::InputKind::Yarp, 1.0, true, {{"float64", 7}}, {}},
     },
     {0},  // muxes the message reads
-    // tf2_msgs/TFMessage, serialized by the runtime (YARP's Bottle translation has no arrays of messages) on the ROS 1 topic /tf (port /tf@/yarp/tf_frames)
+    // tf2_msgs/TFMessage, serialized by the runtime (YARP's Bottle translation has no arrays of messages and puts a length before a fixed-size array) on the ROS 1 topic /tf (port /tf@/yarp/tf_frames)
     {ybgc::OutputKind::Ros1, "/tf@/yarp/tf_frames", "tf2_msgs/TFMessage", "", "sffffffffffff"},
     50.0,  // rate: Hz
     true,  // trigger = all (else any)
