@@ -1303,7 +1303,7 @@ def test_package_is_well_formed(tmp_path, stem):
     assert (launch.PACKAGE, launch.EXECUTABLE) == (pkg, exe)
     assert launch.PARAMETERS == {"rate": program.timing.rate or 0.0, "timeout": 0.0,
                                  "prefix": "/" + program.module, "verbose": False,
-                                 "use_sim_time": False}
+                                 "diagnostics": True, "use_sim_time": False}
     tree = ast.parse((root / "launch" / f"{program.module}.launch.py").read_text())
     imported = {a.name for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)
                 for a in n.names if n.module in ("launch", "launch_ros.actions")}

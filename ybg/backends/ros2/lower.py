@@ -636,5 +636,6 @@ def lower_package(program: ir.Program, view: NodeView) -> PackageView:
             ("timeout", 0.0),
             ("prefix", "/" + program.module),
             ("verbose", False),
+            ("diagnostics", True),
         ),
     )

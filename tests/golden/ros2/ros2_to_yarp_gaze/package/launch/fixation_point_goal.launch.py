@@ -2,7 +2,7 @@
 #
 # Starts the bridge node with its parameters, each a launch argument:
 #
-#     ros2 launch fixation_point_goal fixation_point_goal.launch.py [rate:=HZ] [timeout:=S] [prefix:=P] [verbose:=true] [use_sim_time:=true]
+#     ros2 launch fixation_point_goal fixation_point_goal.launch.py [rate:=HZ] [timeout:=S] [prefix:=P] [verbose:=true] [diagnostics:=false] [use_sim_time:=true]
 #
 # The launch modules are imported inside generate_launch_description(), so
 # that this file imports (for tools and tests) where ROS 2 launch is absent.
@@ -18,6 +18,7 @@ PARAMETERS = {
     'timeout': 0.0,
     'prefix': '/fixation_point_goal',
     'verbose': False,
+    'diagnostics': True,
     'use_sim_time': False,
 }
 
