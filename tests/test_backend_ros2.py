@@ -732,6 +732,10 @@ def wait_matching(sub, t_before, expected, timeout=60.0):
     raise AssertionError(f"no expected message within {timeout} s: {problem}")
 
 
+# The ROS 2 side of every example (the QoS offered, the exact message), on
+# today's YARP: how each YARP release's Bottles are read is
+# TestRos2Behaviour::test_config_end_to_end, on every release of the matrix.
+@pytest.mark.yarp_min((4, 0))
 @pytest.mark.parametrize("stem", yarp_to_ros2_examples())
 def test_yarp_to_ros2(mw, tmp_path, stem):
     """Producers, the node, a subscriber with the output's QoS: the exact
@@ -1190,6 +1194,7 @@ def _compare_value(src, value, item, where: str) -> None:
         assert_same_values(value, item, where)
 
 
+@pytest.mark.yarp_min((4, 0))  # as test_yarp_to_ros2: the message trees, on today's YARP
 @pytest.mark.parametrize("stem", yarp_to_ros2_examples())
 def test_differential_with_the_py_module(mw, tmp_path, stem):
     """The py module renders the same message tree as a Bottle: every field
