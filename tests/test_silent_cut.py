@@ -87,6 +87,20 @@ linear_acceleration_covariance = m
     assert reads(r.program, "m") == [None]  # the covariance reads all of it
 
 
+def test_the_values_read_inside_an_array_of_messages_count():
+    text = """\
+[output]
+port = /markers:o
+type = visualization_msgs/MarkerArray
+[mux ball]
+ports = /pf3dTracker/data:o
+[message]
+markers[0].pose.position = ball
+"""
+    r, w = cut(text)
+    assert len(w) == 1 and r.program is not None and reads(r.program) == [3]
+
+
 @pytest.mark.parametrize("backend", ["py", "cpp"])
 def test_the_module_says_the_first_wider_bottle_once(yarp, yarp_server, tmp_path, backend):
     env = yarp_server.env

@@ -31,23 +31,22 @@ def run(ctx: Context) -> None:
         ctx.muxes[name] = dataclasses.replace(mux, inputs=_with_reads(mux.inputs, end))
 
 
-def _refs(struct: ir.Struct) -> Iterator[tuple[ir.MuxRef, ir.TypeRef | None]]:
-    for f in struct.fields:
-        if isinstance(f.source, ir.Struct):
-            yield from _refs(f.source)
-        elif isinstance(f.source, ir.MuxRef):
-            yield f.source, f.type
-        elif isinstance(f.source, ir.MessageArray):  # each element: a message, or a mux filling one
-            element = ir.TypeRef(f.source.msg_type)
-            yield from _refs(ir.Struct(tuple(ir.Field(str(k), e, element)
-                                             for k, e in enumerate(f.source.elements))))
+def _refs(sources) -> Iterator[ir.MuxRef]:
+    """Every part of a mux that the message tree below ``sources`` reads."""
+    for src in sources:
+        if isinstance(src, ir.Struct):
+            yield from _refs(f.source for f in src.fields)
+        elif isinstance(src, ir.MessageArray):  # each element: a message, or a mux filling one
+            yield from _refs(src.elements)
+        elif isinstance(src, ir.MuxRef):
+            yield src
 
 
 def _furthest(message: ir.Struct, mux: str) -> int | None:
     """The end of the furthest part of ``mux`` the message reads; None when
     a use reads the mux to its end."""
     end = 0
-    for ref, _ in _refs(message):
+    for ref in _refs([message]):
         if ref.mux != mux:
             continue
         if ref.index is not None:
