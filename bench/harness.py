@@ -95,7 +95,8 @@ def build_generated_cpp(config: Path, out: Path, ros2: bool = False) -> Path:
 
 
 def build_rcl_source(build_root: Path) -> Path:
-    """bench/rcl/rcl_source, against the venv's ROS 2 wheels; returns the binary."""
+    """bench/rcl (rcl_source and rcl_relay), against the venv's ROS 2 wheels (and YARP); returns
+    rcl_source, beside which rcl_relay is."""
     cmake_build(BENCH / "rcl", build_root / "rcl", options=(f"-DYBGC_ROS2_PYTHON_ENV={mw.VENV}",))
     return build_root / "rcl" / "rcl_source"
 

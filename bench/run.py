@@ -28,6 +28,8 @@ Subjects, on the same workloads in the same run:
   rclpy    a bare rclpy publisher -> rclpy subscriber hop, for reference
   rcl      a bare rcl publisher (bench/rcl/rcl_source.cpp) -> rclpy subscriber:
            the "C rcl hop", the floor of cpp-ros2's ROS 2 side
+  rcl-relay  the hand-written YARP -> ROS 2 relay (bench/rcl/rcl_relay.cpp):
+           the floor of cpp-ros2's whole chain (producer -> relay -> rclpy sink)
 Stages: latency (event-driven), fixed rate, memory under a stalling consumer.
 """
 from __future__ import annotations
@@ -70,14 +72,16 @@ SHAPES = {
                     "2 ports x 15 float64 (30-joint state)"),
     "wide": Shape("wide", "wide_4x50.ini", "wide_4x50_ros2.ini", 4, 50, "4 ports x 50 float64"),
 }
-SUBJECTS = ("direct", "relay", "relay-strict", "cpp", "py", "ros2", "cpp-ros2", "rclpy", "rcl")
+SUBJECTS = ("direct", "relay", "relay-strict", "cpp", "py", "ros2", "cpp-ros2", "rclpy", "rcl", "rcl-relay")
 # the subjects of the fixed-rate and memory stages (relay-strict is
 # event-driven only: it is the floor of the latency stage's CPU)
 MODULES = ("relay", "cpp", "py", "ros2", "cpp-ros2")
+# the memory stage's: the modules, and the floor of cpp-ros2 (event-driven only)
+MEMORY_SUBJECTS = MODULES + ("rcl-relay",)
 FLOORS = ("direct", "relay", "relay-strict")  # nothing generated: always available
-ROS2_OUT = ("ros2", "cpp-ros2", "rclpy", "rcl")
+ROS2_OUT = ("ros2", "cpp-ros2", "rclpy", "rcl", "rcl-relay")
 ROS2_ONLY = ("rclpy", "rcl")  # a ROS 2 hop alone, no YARP
-GENERATED = ("cpp", "py", "ros2", "cpp-ros2", "rcl")  # the subjects built (rcl: bench/rcl)
+GENERATED = ("cpp", "py", "ros2", "cpp-ros2", "rcl", "rcl-relay")  # the subjects built (rcl, rcl-relay: bench/rcl)
 DESCRIPTION = {
     "direct": "producer -> consumer, one YARP hop (no bridge)",
     "relay": "hand-written C++ relay (bench/relay/relay.cpp), two YARP hops: the floor",
@@ -89,6 +93,8 @@ DESCRIPTION = {
     "cpp-ros2": "generated C++ module publishing through rcl (--backend cpp): YARP in, ROS 2 JointState out",
     "rclpy": "bare rclpy publisher -> rclpy subscriber, one ROS 2 hop (reference)",
     "rcl": "bare rcl publisher (bench/rcl) -> rclpy subscriber, one ROS 2 hop: the C rcl hop",
+    "rcl-relay": "hand-written C++ relay from YARP ports to a ROS 2 JointState through rcl "
+                 "(bench/rcl/rcl_relay.cpp): the floor of cpp-ros2's chain",
 }
 
 
@@ -159,6 +165,8 @@ def prepare(build_root: Path, subjects: tuple, shapes: list) -> dict:
                     info[shape] = h.build_generated_cpp(CONFIGS / sh.ros2_config, gen, ros2=True)
                 elif s == "rcl":
                     info[shape] = h.build_rcl_source(build_root)
+                elif s == "rcl-relay":
+                    info[shape] = h.build_rcl_source(build_root).with_name("rcl_relay")
         except (BenchError, OSError, mw.subprocess.TimeoutExpired) as e:
             info = {"ok": False, "error": str(e).strip()}
             say(f"  {s}: not available: {info['error'].splitlines()[0]}")
@@ -212,7 +220,7 @@ class Rig:
                                         "--width", sh.width], env=yenv,
                                        name=f"producer{tag}").start()
             if s in ROS2_OUT:
-                scale = "deg" if s in ("ros2", "cpp-ros2") else "1"
+                scale = "deg" if s in ("ros2", "cpp-ros2", "rcl-relay") else "1"
                 self.sink = h.Sink([h.PYTHON, BENCH / "peers" / "ros2_sink.py", "--width", sh.width,
                                     "--scale", scale, *stall, *norec], env=renv,
                                    name=f"ros2_sink{tag}").start()
@@ -254,6 +262,12 @@ class Rig:
                     rate_args = ["--rate", self.rate]
                 self.module = mw.Proc([h.PYTHON, info[sh.name], "--prefix", "/bench/py", *rate_args],
                                       env=yenv, name=f"py_module{tag}", die_with_parent=True)
+            elif s == "rcl-relay":
+                env = dict(yenv)
+                env.update(ctx["ros2_vars"])
+                self.module = mw.Proc([info[sh.name], "--inputs", ",".join(self.src_ports()),
+                                       "--prefix", "/bench/rcl_relay"],
+                                      env=env, name=f"rcl_relay{tag}", die_with_parent=True)
             elif s == "cpp-ros2":
                 env = dict(yenv)
                 env.update(ctx["ros2_vars"])
@@ -627,9 +641,9 @@ def memory_stage(ctx: dict, mode: Mode, progress: Progress) -> list:
     STALL_EVERY s. RSS of each module sampled every second."""
     sh = SHAPES["joints"]
     rate = 1000
-    subjects = [s for s in MODULES if s in mode.subjects and not available(ctx, s)]
+    subjects = [s for s in MEMORY_SUBJECTS if s in mode.subjects and not available(ctx, s)]
     results = []
-    for s in MODULES:
+    for s in MEMORY_SUBJECTS:
         if s in mode.subjects and s not in subjects:
             results.append({"subject": s, "error": available(ctx, s)})
     if not subjects:
@@ -836,7 +850,7 @@ def main(argv=None) -> int:
 
     n_lat = len(mode.latency) * len(subjects)
     n_fix = len(mode.fixed) * len([s for s in MODULES if s in subjects])
-    n_mem = len([s for s in MODULES if s in subjects]) if mode.memory_s else 0
+    n_mem = len([s for s in MEMORY_SUBJECTS if s in subjects]) if mode.memory_s else 0
     progress = Progress(n_lat + n_fix + n_mem)
     data = {
         "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),

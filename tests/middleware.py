@@ -324,23 +324,47 @@ def _port_free(port: int) -> bool:
             return False
 
 
+#: the port ranges free_port() handed out in this process, (start, span,
+#: when): a range is free of bound ports when chosen, but its server binds the
+#: ports after the first only as they register, so two rigs started at once
+#: (the benchmark's rigs, parallel fixtures) must not be handed overlapping
+#: ranges; a range is given back by release_port(), or forgotten after
+#: _HANDED_OUT_FOR seconds
+_HANDED_OUT: list = []
+_HANDED_OUT_FOR = 60.0
+_HANDED_OUT_LOCK = threading.Lock()
+
+
 def free_port(span: int = 64) -> int:
     """A TCP port on 127.0.0.1 that is free now, with the ``span`` ports after
     it free too: yarpserver hands out <port>+2, +3, ... to the ports that
     register with it. Chosen at random below the kernel's ephemeral range
     (where outgoing connections would take them) and above 20000 (clear of
-    YARP's and ROS's default ports)."""
+    YARP's and ROS's default ports), away from the ranges this process has
+    handed out already."""
     import random
 
     lo, _ = _ephemeral_range()
     top = max(20000 + 1000, lo - span - 1)
-    rnd = random.Random(os.getpid() ^ time.monotonic_ns())
-    for _ in range(200):
-        port = rnd.randrange(20000, top)
-        if all(_port_free(p) for p in range(port, port + span, 4)) and _port_free(port):
-            if all(_port_free(p) for p in range(port, port + span)):
-                return port
+    rnd = random.Random(os.getpid() ^ time.monotonic_ns() ^ threading.get_ident())
+    with _HANDED_OUT_LOCK:
+        now = time.monotonic()
+        _HANDED_OUT[:] = [r for r in _HANDED_OUT if now - r[2] < _HANDED_OUT_FOR]
+        for _ in range(200):
+            port = rnd.randrange(20000, top)
+            if any(port < start + width and start < port + span for start, width, _ in _HANDED_OUT):
+                continue
+            if all(_port_free(p) for p in range(port, port + span, 4)) and _port_free(port):
+                if all(_port_free(p) for p in range(port, port + span)):
+                    _HANDED_OUT.append((port, span, now))
+                    return port
     raise RuntimeError("no free port range found")
+
+
+def release_port(port: int) -> None:
+    """Gives back the range free_port() handed out at ``port``."""
+    with _HANDED_OUT_LOCK:
+        _HANDED_OUT[:] = [r for r in _HANDED_OUT if r[0] != port]
 
 
 _ENV_DROP = ("ROS_MASTER_URI", "ROS_IP", "ROS_HOSTNAME", "ROS_DOMAIN_ID",
@@ -869,25 +893,38 @@ class YarpServer:
             raise ValueError("YarpServer(ros=True) needs ros_master_uri (start a RosCore first)")
         self._tmp = _TmpDir("ybg-yarp-", self._tmp_arg)
         self.tmpdir = self._tmp.path
-        if self.port is None:
-            self.port = free_port()
-        env = base_env(self.tmpdir, self.install)
-        env.update(yarp_env(self.tmpdir / "yarp", self.port))
-        if self.ros_master_uri:
-            env["ROS_MASTER_URI"] = self.ros_master_uri
-            env["ROS_IP"] = LOCALHOST
-        self.env = env
-        argv = [self.install.bin / "yarpserver", "--ip", LOCALHOST, "--socket", self.port, "--read"]
-        if self.ros:
-            argv.append("--ros")
-        self.proc = Proc(argv, env=env, name="yarpserver", log_dir=self.tmpdir,
-                         die_with_parent=True).start()
-        try:
-            _wait_until(lambda: self.exists("/root"), self.timeout,
-                        f"yarpserver on port {self.port}", self.proc)
-        except BaseException:
-            self.stop()
-            raise
+        # a port chosen here may be taken by another process before the
+        # server binds it: then the server exits at once, and another port
+        # is tried (a port the caller gave is tried once)
+        chosen = self.port is None
+        for attempt in range(3 if chosen else 1):
+            if chosen:
+                self.port = free_port()
+            env = base_env(self.tmpdir, self.install)
+            env.update(yarp_env(self.tmpdir / "yarp", self.port))
+            if self.ros_master_uri:
+                env["ROS_MASTER_URI"] = self.ros_master_uri
+                env["ROS_IP"] = LOCALHOST
+            self.env = env
+            argv = [self.install.bin / "yarpserver", "--ip", LOCALHOST, "--socket", self.port, "--read"]
+            if self.ros:
+                argv.append("--ros")
+            self.proc = Proc(argv, env=env, name="yarpserver", log_dir=self.tmpdir,
+                             die_with_parent=True).start()
+            try:
+                _wait_until(lambda: self.exists("/root"), self.timeout,
+                            f"yarpserver on port {self.port}", self.proc)
+                return self
+            except RuntimeError:  # it exited: its port was taken
+                self.proc.stop()
+                if chosen:
+                    release_port(self.port)
+                if not chosen or attempt == 2:
+                    self.stop()
+                    raise
+            except BaseException:
+                self.stop()
+                raise
         return self
 
     def yarp(self, *args, timeout: float = 20.0, check: bool = False) -> subprocess.CompletedProcess:
@@ -911,6 +948,8 @@ class YarpServer:
     def stop(self) -> None:
         if self.proc is not None:
             self.proc.stop()
+            if self.port is not None:
+                release_port(self.port)
         if getattr(self, "_tmp", None) is not None:
             self._tmp.remove()
 

@@ -17,6 +17,15 @@ namespace ros2 {
 
 void setString(rosidl_runtime_c__String& field, const std::string& text)
 {
+    // The message is filled again for each publish: a text that fits the
+    // field's buffer (capacity counts the terminating NUL) is copied into it,
+    // without the free and malloc of rosidl's assign.
+    if (field.data != nullptr && field.capacity > text.size()) {
+        std::memcpy(field.data, text.data(), text.size());
+        field.data[text.size()] = '\0';
+        field.size = text.size();
+        return;
+    }
     rosidl_runtime_c__String__assignn(&field, text.data(), text.size());
 }
 
