@@ -1,7 +1,9 @@
 """The C++ runtime library's unit tests (tests/runtime/test_runtime.cpp),
 built against each YARP of the matrix and run with no name server: the
 runtime's logic (values printed, converters, output Bottles, checks of input
-Bottles, whose float32 rule differs between YARP 3 and 4) as plain code.
+Bottles, whose float32 rule differs between YARP 3 and 4) as plain code. Its
+ROS 2 side (tests/runtime/ros2/test_ros2_runtime.cpp) likewise, built
+against the ROS 2 wheels, with no ROS 2 graph.
 
 Beyond it, for a module generated for another runtime version: its build
 stops with a message that says what to do."""
@@ -11,17 +13,21 @@ from __future__ import annotations
 import subprocess
 from pathlib import Path
 
+import pytest
+
 import ybg
 from generated import ybgc
+from middleware import VENV, require_ros2
 from ybg.backends.runtime import CPP_DIR
 
 ROOT = Path(__file__).resolve().parent.parent
 SOURCE = Path(__file__).resolve().parent / "runtime"
 
 
-def cmake_build(src: Path, build: Path, install, target: str | None = None) -> subprocess.CompletedProcess:
+def cmake_build(src: Path, build: Path, install, target: str | None = None,
+                options: tuple = ()) -> subprocess.CompletedProcess:
     r = subprocess.run(["cmake", "-S", str(src), "-B", str(build),
-                        f"-DCMAKE_PREFIX_PATH={install.cmake_prefix_path()}"],
+                        f"-DCMAKE_PREFIX_PATH={install.cmake_prefix_path()}", *options],
                        capture_output=True, text=True, timeout=300)
     if r.returncode != 0:
         return r
@@ -37,6 +43,20 @@ def test_runtime_unit_tests(yarp, tmp_path):
     checks, = [line for line in run.stdout.splitlines() if " checks, " in line]
     assert checks.startswith(tuple(f"{n} checks, 0 failed" for n in range(60, 1000))), checks
     assert f"(YARP {yarp.version}" in checks or yarp.version == "3.5", checks
+
+
+@pytest.mark.yarp_min((4, 0))
+def test_ros2_runtime_unit_tests(yarp, tmp_path):
+    """The helpers a module's ROS 2 message builder calls (they depend on
+    no YARP release: built against the newest)."""
+    require_ros2()
+    built = cmake_build(SOURCE / "ros2", tmp_path / "build", yarp, options=(f"-DYBGC_ROS2_PYTHON_ENV={VENV}",))
+    assert built.returncode == 0, built.stdout[-4000:] + built.stderr[-4000:]
+    run = subprocess.run([str(tmp_path / "build" / "test_ros2_runtime")], capture_output=True, text=True,
+                         timeout=60)
+    assert run.returncode == 0, run.stdout + run.stderr
+    checks, = [line for line in run.stdout.splitlines() if " checks, " in line]
+    assert checks.startswith(tuple(f"{n} checks, 0 failed" for n in range(40, 1000))), checks
 
 
 def test_module_build_refuses_a_runtime_of_another_version(yarp, tmp_path):
