@@ -295,13 +295,13 @@ def write(data: dict, docs: Path, json_path: Path) -> Path:
         "from `bench/findings.md`. Run it again with")
     add("")
     add("```")
-    add(".venv/bin/python bench/run.py            # full run (about 16 minutes): this page")
+    add(".venv/bin/python bench/run.py            # full run (about 19 minutes): this page")
     add(".venv/bin/python bench/run.py --quick    # under a minute once built: bench/results/quick/")
     add(".venv/bin/python bench/run.py --smoke    # the floors only, a few seconds (tests/test_bench.py)")
     add("```")
     add("")
-    add("The full run: latency (3 workloads x 7 subjects, 5 interleaved rounds, about 3 "
-        "minutes), fixed rate (3 workloads x 4 modules, 10 s each, about 2 minutes), memory "
+    add("The full run: latency (3 workloads x 10 subjects, 5 interleaved rounds, about 5 "
+        "minutes), fixed rate (3 workloads x 5 modules, 10 s each, about 3 minutes), memory "
         "(10 minutes). `--quick` runs 2 x 15 at 1 kHz only (2 rounds of 0.5 s), one fixed-rate "
         "workload for 1 s and the memory stage for 20 s; its figures are for development, not "
         "for this page. The first run also builds the C++ peers, the reference relays and the "

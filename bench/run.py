@@ -1,6 +1,6 @@
 """Benchmark of the bridge modules that ybgc generates, against the floor.
 
-    .venv/bin/python bench/run.py            full run, about 16 minutes: writes
+    .venv/bin/python bench/run.py            full run, about 19 minutes: writes
                                              docs/benchmarks.md, docs/bench_*.png,
                                              bench/results/bridges.json
     .venv/bin/python bench/run.py --quick    under a minute once built (the first
