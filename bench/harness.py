@@ -322,15 +322,18 @@ def analyse_latency(records: list, first: int, ticks: int, blocks: int, per_bloc
     is counted as mismatched)."""
     last = first + ticks - 1
     lat, recv, seen = [], [], set()
-    mismatched = bad = foreign = 0
+    mismatched = bad = foreign = late = 0
     for r in records:
         n = int(r[1])
         bad += int(r[2])
         stored = min(n, 4)
         seqs = [int(r[3 + 2 * k]) for k in range(stored)]
         times = [r[4 + 2 * k] for k in range(stored)]
-        if not seqs or min(seqs) < first or max(seqs) > last:
+        if not seqs or max(seqs) > last:
             foreign += 1
+            continue
+        if min(seqs) < first:
+            late += 1  # (partly) an earlier run's tick, the warm-up's, delivered after this run began
             continue
         if not per_block:  # one output of every port's block, all of one tick
             if n != blocks or len(set(seqs)) != 1:
@@ -343,7 +346,7 @@ def analyse_latency(records: list, first: int, ticks: int, blocks: int, per_bloc
     expected = ticks * (blocks if per_block else 1)
     span = (max(recv) - min(recv)) if len(recv) > 1 else 0.0
     return {"sent": expected, "delivered": len(lat), "mismatched": mismatched, "bad": bad,
-            "foreign": foreign, "lat": lat, "span": span,
+            "foreign": foreign, "late": late, "lat": lat, "span": span,
             "outputs": (len(recv) - 1) / (blocks if per_block else 1) if len(recv) > 1 else 0}
 
 
@@ -361,6 +364,7 @@ def merge_latency(chunks: list) -> dict:
         "mismatched": sum(c["mismatched"] for c in chunks),
         "bad": sum(c["bad"] for c in chunks),
         "foreign": sum(c["foreign"] for c in chunks),
+        "late": sum(c.get("late", 0) for c in chunks),
         "median_us": quantile(lat, 0.5) * 1e6 if lat else None,
         "p99_us": quantile(lat, 0.99) * 1e6 if lat else None,
         "max_us": lat[-1] * 1e6 if lat else None,

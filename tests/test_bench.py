@@ -29,6 +29,7 @@ def test_bench_smoke_floors(tmp_path):
     assert set(by) == {"direct", "relay", "relay-strict"}
     for s, e in by.items():
         assert "error" not in e, (s, e.get("error"))
+        # nothing beyond the run's ticks; a warm-up tick delivered late (under load) is counted apart
         assert e["bad"] == 0 and e["foreign"] == 0, e
         assert 0 < e["median_us"] <= e["p99_us"] <= e["max_us"], e
         assert len(e["cdf_us"]) == 1001 and e["cdf_us"] == sorted(e["cdf_us"])
