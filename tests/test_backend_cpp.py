@@ -99,12 +99,94 @@ location = "left"
 """
 
 
+DIFF_TF = """\
+[module]
+name = diff_tf
+
+[output]
+topic = /diff/tf
+type = tf2_msgs/TFMessage
+via = ros2
+depth = 100
+
+[mux hand]
+ports = /diff/hand:o (float64 x6)
+convert = euler_to_quat(rpy, deg)[3:6]
+
+[mux tool]
+ports = /diff/tool:o (float64 x7)
+convert = axis_angle_to_quat[3:7], scale(0.001)[0:3]
+
+[message]
+transforms[0].header.stamp = timestamp(hand)
+transforms[0].header.frame_id = "root_link"
+transforms[0].child_frame_id = "r_hand"
+transforms[0].transform.translation = hand[0:3]
+transforms[0].transform.rotation = hand[3:7]
+transforms[1].header.stamp = timestamp(tool)
+transforms[1].header.frame_id = "r_hand"
+transforms[1].child_frame_id = "r_tool"
+transforms[1].transform.translation.x = tool[0]
+transforms[1].transform.translation.z = tool[2]
+transforms[1].transform.rotation = tool[3:7]
+"""
+
+DIFF_MARKERS = """\
+[module]
+name = diff_markers
+
+[output]
+topic = /diff/markers
+type = visualization_msgs/MarkerArray
+via = ros2
+depth = 100
+
+[mux ball]
+ports = /diff/ball:o (float64 x7)
+convert = expr(clamp(x, -2, 2) * 0.5)[0:3]
+
+[message]
+markers[0].header.stamp = timestamp(ball)
+markers[0].header.frame_id = "camera"
+markers[0].ns = "diff"
+markers[0].id = 7
+markers[0].type = 2
+markers[0].pose.position = ball[0:3]
+markers[0].color.r = ball[6]
+markers[0].color.a = 1.0
+markers[1].id = 8
+markers[1].type = 4
+markers[1].points[0] = ball[0:3]
+markers[1].points[1].x = ball[3]
+markers[1].points[2] = ball[3:6]
+markers[1].colors[0].g = ball[6]
+markers[1].colors[1].b = 0.25
+markers[1].text = "path"
+"""
+
+
+def diff_program(text: str, name: str) -> Program:
+    result = check_result(compile_text(text, name), "cpp")
+    assert result.ok, [str(d) for d in result.diagnostics]
+    return result.program
+
+
 def diff_native_program() -> Program:
     """A ROS 2 output of float32, uint8, bool and string fields, for the
     differential test of the native module and the rclpy node."""
-    result = check_result(compile_text(DIFF_NATIVE, "diff_native.ini"), "cpp")
-    assert result.ok, [str(d) for d in result.diagnostics]
-    return result.program
+    return diff_program(DIFF_NATIVE, "diff_native.ini")
+
+
+def diff_tf_program() -> Program:
+    """tf2_msgs/TFMessage: two transforms from two muxes, each with a geometry converter."""
+    return diff_program(DIFF_TF, "diff_tf.ini")
+
+
+def diff_markers_program() -> Program:
+    """visualization_msgs/MarkerArray: arrays of messages nested in an array of
+    messages (points, colors), elements filled from a mux, float32 fields, an
+    expression converter."""
+    return diff_program(DIFF_MARKERS, "diff_markers.ini")
 
 
 HAND_PROGRAMS = {
@@ -123,6 +205,8 @@ def _build_programs() -> dict:
     programs = {key: make for key, make in {**PROGRAMS, **ROS1_PROGRAMS}.items()}
     programs["typed_ros_input"] = ros1_input_program
     programs["diff_native"] = diff_native_program
+    programs["diff_tf"] = diff_tf_program
+    programs["diff_markers"] = diff_markers_program
     for path in SUPPORTED:
         programs[path.stem] = lambda path=path: config_program(path, "cpp")
     return programs
@@ -540,48 +624,115 @@ def diff_values(rng: random.Random) -> list:
     return reals + [rng.randint(0, 255), rng.randint(0, 255), rng.random() < 0.5]
 
 
+class Differential:
+    """The native module of ``key`` and the rclpy node of the same program
+    (--backend ros2, on a topic of its own), fed the same YARP streams, each
+    with an rclpy subscriber."""
+
+    def __init__(self, builds, key: str, env: dict, tmp_path: Path):
+        from test_backend_ros2 import subscriber_for, write_node
+
+        self.program = program = builds.programs[key]
+        node_program = dataclasses.replace(program, module=f"{program.module}_node",
+                                           output=dataclasses.replace(program.output,
+                                                                      name=program.output.name + "_node"))
+        self.native = Module([builds.exe(key)], env=env, name=key)
+        self.node = Module([VENV / "bin" / "python", write_node(node_program, tmp_path)], env=env,
+                           name=node_program.module)
+        self.subs = [subscriber_for(env, p) for p in (program, node_program)]
+        self.producers = {i.name: YarpProducer(env, i.name) for m in program.muxes for i in m.inputs}
+        self.procs = [self.native, self.node, *self.subs, *self.producers.values()]
+
+    def __enter__(self) -> "Differential":
+        try:
+            for p in self.procs:
+                p.start()
+            self.native.wait_log("event-driven")
+            self.node.wait_log("event-driven")
+            for producer in self.producers.values():
+                producer.wait_outputs(2)
+            for s in self.subs:
+                s.wait_publishers(1)
+        except BaseException:
+            self.__exit__()
+            raise
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for p in reversed(self.procs):
+            p.stop()
+
+    def round(self, k: int, bottles: dict, rng: random.Random) -> None:
+        """Writes one Bottle to each port (in the config's order, each with an
+        envelope), then waits for message k + 1 of both."""
+        for port, values in bottles.items():
+            self.producers[port].write(values, stamp=[k, 1.7e9 + rng.uniform(0, 1e6)])
+        for s in self.subs:
+            s.wait_for(k + 1)
+
+    def messages(self, rounds: int) -> list:
+        """The messages of both, the same bit for bit (the native module's);
+        SIGINT ends the native module with 0 within 2 s, its totals said."""
+        native_msgs, node_msgs = ([float_bits(m.msg) for m in s.messages] for s in self.subs)
+        assert len(native_msgs) == len(node_msgs) == rounds
+        assert native_msgs == node_msgs
+        rc, elapsed = self.native.interrupt(signal.SIGINT)
+        assert rc == 0 and elapsed < 2.0, self.native.log_text()[-2000:]
+        log = self.native.log_text()
+        assert f"published {rounds} messages" in log and "Traceback" not in log, log[-2000:]
+        return native_msgs
+
+
 def test_ros2_output_publishes_what_the_ros2_node_publishes(builds, yarp_server, ros2_domain, tmp_path):
     """The same YARP stream (values and envelopes) through the native module
     and the rclpy node of --backend ros2: the same messages, bit for bit
     (float32 rounding, integer and bool fields, strings, constants, stamps
     from the envelope); SIGINT ends the native module with 0 within 2 s."""
-    from test_backend_ros2 import subscriber_for, write_node
-
-    program = builds.programs["diff_native"]
-    node_program = dataclasses.replace(program, module="diff_node",
-                                       output=dataclasses.replace(program.output, name="/diff/battery_node"))
-    env = ros2_environment(yarp_server.env, ros2_domain)
-    native = Module([builds.exe("diff_native")], env=env, name="diff_native")
-    node = Module([VENV / "bin" / "python", write_node(node_program, tmp_path)], env=env, name="diff_node")
-    subs = [subscriber_for(env, p) for p in (program, node_program)]
-    producer = YarpProducer(env, "/diff/battery:o")
-    procs = [native, node, *subs, producer]
-    try:
-        for p in procs:
-            p.start()
-        native.wait_log("event-driven")
-        node.wait_log("event-driven")
-        producer.wait_outputs(2)
-        for s in subs:
-            s.wait_publishers(1)
-        rng = random.Random(14)
-        rounds = 25
+    rng = random.Random(14)
+    rounds = 25
+    with Differential(builds, "diff_native", ros2_environment(yarp_server.env, ros2_domain), tmp_path) as diff:
         for k in range(rounds):
-            producer.write(diff_values(rng), stamp=[k, 1.7e9 + rng.uniform(0, 1e6)])
-            for s in subs:
-                s.wait_for(k + 1)
-        native_msgs, node_msgs = ([float_bits(m.msg) for m in s.messages] for s in subs)
-        assert len(native_msgs) == len(node_msgs) == rounds
-        assert native_msgs == node_msgs
-        assert len({json.dumps(m["cell_voltage"]) for m in native_msgs}) > rounds // 2  # not a constant
-        assert native_msgs[0]["location"] == "left" and native_msgs[0]["header"]["frame_id"] == 'bat "q" ; #'
-        rc, elapsed = native.interrupt(signal.SIGINT)
-        assert rc == 0 and elapsed < 2.0, native.log_text()[-2000:]
-        log = native.log_text()
-        assert f"published {rounds} messages" in log and "Traceback" not in log, log[-2000:]
-    finally:
-        for p in reversed(procs):
-            p.stop()
+            diff.round(k, {"/diff/battery:o": diff_values(rng)}, rng)
+        msgs = diff.messages(rounds)
+    assert len({json.dumps(m["cell_voltage"]) for m in msgs}) > rounds // 2  # not a constant
+    assert msgs[0]["location"] == "left" and msgs[0]["header"]["frame_id"] == 'bat "q" ; #'
+
+
+def test_ros2_output_arrays_of_messages_as_the_ros2_node(builds, yarp_server, ros2_domain, tmp_path):
+    """Arrays of messages, the same bit for bit through the native module and
+    the rclpy node: a tf2_msgs/TFMessage of two transforms from two muxes
+    with geometry converters (Euler angles and an axis-angle to quaternions),
+    and a visualization_msgs/MarkerArray whose second marker holds arrays of
+    messages of its own (points, one filled from a mux; colors, float32);
+    the message is kept and filled again: every round's values, none stale."""
+    rng = random.Random(1414)
+    rounds = 12
+    env = ros2_environment(yarp_server.env, ros2_domain)
+
+    def reals(n: int, scale: float) -> list:
+        return [rng.choice([rng.uniform(-scale, scale), -0.0, float(rng.randint(-3, 3)), 1e-40])
+                for _ in range(n)]
+
+    with Differential(builds, "diff_tf", env, tmp_path / "tf") as diff:
+        for k in range(rounds):
+            axis = [rng.uniform(-1, 1) for _ in range(3)]
+            diff.round(k, {"/diff/hand:o": reals(3, 2.0) + [rng.uniform(-180, 180) for _ in range(3)],
+                           "/diff/tool:o": reals(3, 500.0) + axis + [rng.uniform(-math.pi, math.pi)]}, rng)
+        tf = diff.messages(rounds)
+    assert [[t["child_frame_id"] for t in m["transforms"]] for m in tf] == [["r_hand", "r_tool"]] * rounds
+    rotations = {json.dumps(m["transforms"][1]["transform"]["rotation"]) for m in tf}
+    assert len(rotations) == rounds  # each round's own, converted
+    # unset: the default (floats as their bits)
+    assert all(m["transforms"][1]["transform"]["translation"]["y"] == (0.0).hex() for m in tf)
+
+    with Differential(builds, "diff_markers", env, tmp_path / "markers") as diff:
+        for k in range(rounds):
+            diff.round(k, {"/diff/ball:o": reals(7, 5.0)}, rng)
+        markers = diff.messages(rounds)
+    assert all(len(m["markers"]) == 2 and len(m["markers"][1]["points"]) == 3 and len(m["markers"][1]["colors"]) == 2
+               for m in markers)
+    assert len({json.dumps(m["markers"][1]["points"]) for m in markers}) == rounds
+    assert markers[-1]["markers"][1]["text"] == "path" and markers[-1]["markers"][0]["pose"]["orientation"]["w"] == (1.0).hex()
 
 
 def test_ros2_output_use_sim_time_stamps_with_the_clock_topic(builds, yarp_server, ros2_domain):
