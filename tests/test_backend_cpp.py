@@ -774,9 +774,10 @@ def test_ros2_output_use_sim_time_stamps_with_the_clock_topic(builds, yarp_serve
 
 
 def test_ros2_output_refuses_what_the_c_struct_builder_cannot_fill():
-    """A field type without a C conversion (wstring) and an input that is a
-    ROS 2 topic are lowering errors at their place, never C++ that does not
-    compile."""
+    """A field type without a C conversion (wstring), an input that is a ROS 2
+    topic, an array of messages of another type than its field's or with more
+    elements than its bound are lowering errors at their place, never C++
+    that does not compile."""
     def program(field: Field, inputs=(Input("/value:o"),)) -> Program:
         return Program(module="label", source="label.ini", muxes=(Mux("m", inputs),),
                        message=Struct((field,), "my_msgs/Label"), output=Output("ros2", "/label", "my_msgs/Label"),
@@ -792,3 +793,51 @@ def test_ros2_output_refuses_what_the_c_struct_builder_cannot_fill():
     files = CppBackend().render(program(Field("value", MuxRef("m", index=0), TypeRef("float64"))))
     assert "ybgc::ros2::set(msg.value, mux.m[0]);" in files["label.cpp"]
     assert "#include <my_msgs/msg/label.h>" in files["label.cpp"]
+    # an array of messages of another type than the field's, more elements than a bounded field holds
+    corner = Struct((Field("x", Literal((1.5,), "float64"), TypeRef("float64")),), "my_msgs/Corner")
+    with pytest.raises(LoweringError) as e:
+        CppBackend().lower(program(Field("corners", ir.MessageArray((corner,), "my_msgs/Other"),
+                                         TypeRef("my_msgs/Corner", "sequence"))))
+    assert e.value.where == ("field", "corners")
+    with pytest.raises(LoweringError) as e:
+        CppBackend().lower(program(Field("corners", ir.MessageArray((corner,) * 3, "my_msgs/Corner"),
+                                         TypeRef("my_msgs/Corner", "sequence", 2))))
+    assert e.value.where == ("field", "corners") and "bounded" in str(e.value)
+
+
+def test_ros2_output_fills_arrays_of_messages_of_every_kind():
+    """An array of messages in the C struct: a sequence (bounded or not) sized
+    to the config's elements with its package's functions, a fixed-size array
+    as it is (its elements are in the struct); the elements' fields by their
+    path, an element filled from a mux, a nested message left unset one
+    comment; the elements' header included and their package linked."""
+    corner = Struct((Field("x", MuxRef("m", index=1), TypeRef("float64")),
+                     Field("at", Struct((Field("sec", Default(), TypeRef("int32")),), "builtin_interfaces/Time"),
+                           TypeRef("builtin_interfaces/Time"))), "my_msgs/Corner")
+    filled = MuxRef("m", 0, 2, into_fields=("x", "at.sec"), into_types=("float64", "int32"))
+    fields = (Field("path", ir.MessageArray((corner, filled), "my_msgs/Corner"),
+                    TypeRef("my_msgs/Corner", "sequence", 4)),
+              Field("box", ir.MessageArray((corner,) * 2, "my_msgs/Corner"), TypeRef("my_msgs/Corner", "fixed", 2)),
+              Field("none", ir.MessageArray((), "my_msgs/Corner"), TypeRef("my_msgs/Corner", "sequence")))
+    program = Program(module="shape", source="shape.ini", muxes=(Mux("m", (Input("/value:o"),)),),
+                      message=Struct(fields, "my_msgs/Shape"), output=Output("ros2", "/shape", "my_msgs/Shape"),
+                      ros="ros2", distro="jazzy")
+    files = CppBackend().render(program)
+    builder = files["shape.cpp"].split("bool buildMessage", 1)[1].split("// ybgc:user-begin message", 1)[0]
+    body = [line.strip() for line in builder.splitlines()]
+    assert body[body.index("// path (my_msgs/Corner[<=4]): 2 elements"):][:9] == [
+        "// path (my_msgs/Corner[<=4]): 2 elements",
+        "ybgc::ros2::resize(msg.path, 2, &my_msgs__msg__Corner__Sequence__init,",
+        "&my_msgs__msg__Corner__Sequence__fini);",
+        "// path[0].x (float64)",
+        "ybgc::ros2::set(msg.path.data[0].x, mux.m[1]);",
+        "// path[0].at (builtin_interfaces/Time): the definition's defaults",
+        "// path[1] (my_msgs/Corner)",
+        "ybgc::ros2::set(msg.path.data[1].x, mux.m[0]);",
+        "ybgc::ros2::set(msg.path.data[1].at.sec, mux.m[1]);",
+    ]
+    assert "// box (my_msgs/Corner[2]): 2 elements" in body and "ybgc::ros2::set(msg.box[1].x, mux.m[1]);" in body
+    assert not any("resize(msg.box" in line for line in body)
+    assert "ybgc::ros2::resize(msg.none, 0, &my_msgs__msg__Corner__Sequence__init," in body
+    assert "#include <my_msgs/msg/corner.h>" in files["shape.cpp"]
+    assert "my_msgs__rosidl_generator_c" in files["CMakeLists.txt"]
