@@ -115,7 +115,7 @@ convert = euler_to_quat(rpy, deg)[3:6]
 
 [mux tool]
 ports = /diff/tool:o (float64 x7)
-convert = axis_angle_to_quat[3:7], scale(0.001)[0:3]
+convert = axis_angle_to_quat[3:7], expr(clamp(x, -2, 2) * 0.5)[0:3]
 
 [message]
 transforms[0].header.stamp = timestamp(hand)
@@ -131,40 +131,6 @@ transforms[1].transform.translation.z = tool[2]
 transforms[1].transform.rotation = tool[3:7]
 """
 
-DIFF_MARKERS = """\
-[module]
-name = diff_markers
-
-[output]
-topic = /diff/markers
-type = visualization_msgs/MarkerArray
-via = ros2
-depth = 100
-
-[mux ball]
-ports = /diff/ball:o (float64 x7)
-convert = expr(clamp(x, -2, 2) * 0.5)[0:3]
-
-[message]
-markers[0].header.stamp = timestamp(ball)
-markers[0].header.frame_id = "camera"
-markers[0].ns = "diff"
-markers[0].id = 7
-markers[0].type = 2
-markers[0].pose.position = ball[0:3]
-markers[0].color.r = ball[6]
-markers[0].color.a = 1.0
-markers[1].id = 8
-markers[1].type = 4
-markers[1].points[0] = ball[0:3]
-markers[1].points[1].x = ball[3]
-markers[1].points[2] = ball[3:6]
-markers[1].colors[0].g = ball[6]
-markers[1].colors[1].b = 0.25
-markers[1].text = "path"
-"""
-
-
 def diff_program(text: str, name: str) -> Program:
     result = check_result(compile_text(text, name), "cpp")
     assert result.ok, [str(d) for d in result.diagnostics]
@@ -178,15 +144,10 @@ def diff_native_program() -> Program:
 
 
 def diff_tf_program() -> Program:
-    """tf2_msgs/TFMessage: two transforms from two muxes, each with a geometry converter."""
+    """tf2_msgs/TFMessage: two transforms from two muxes, each with a geometry
+    converter (Euler angles, an axis-angle to a quaternion), one with an
+    expression too."""
     return diff_program(DIFF_TF, "diff_tf.ini")
-
-
-def diff_markers_program() -> Program:
-    """visualization_msgs/MarkerArray: arrays of messages nested in an array of
-    messages (points, colors), elements filled from a mux, float32 fields, an
-    expression converter."""
-    return diff_program(DIFF_MARKERS, "diff_markers.ini")
 
 
 HAND_PROGRAMS = {
@@ -206,7 +167,6 @@ def _build_programs() -> dict:
     programs["typed_ros_input"] = ros1_input_program
     programs["diff_native"] = diff_native_program
     programs["diff_tf"] = diff_tf_program
-    programs["diff_markers"] = diff_markers_program
     for path in SUPPORTED:
         programs[path.stem] = lambda path=path: config_program(path, "cpp")
     return programs
@@ -698,13 +658,16 @@ def test_ros2_output_publishes_what_the_ros2_node_publishes(builds, yarp_server,
     assert msgs[0]["location"] == "left" and msgs[0]["header"]["frame_id"] == 'bat "q" ; #'
 
 
+# the message trees on today's YARP, as test_backend_ros2's differential: how
+# each release's Bottles are read is the harness's, on every release
+@pytest.mark.yarp_min((4, 0))
 def test_ros2_output_arrays_of_messages_as_the_ros2_node(builds, yarp_server, ros2_domain, tmp_path):
     """Arrays of messages, the same bit for bit through the native module and
     the rclpy node: a tf2_msgs/TFMessage of two transforms from two muxes
-    with geometry converters (Euler angles and an axis-angle to quaternions),
-    and a visualization_msgs/MarkerArray whose second marker holds arrays of
-    messages of its own (points, one filled from a mux; colors, float32);
-    the message is kept and filled again: every round's values, none stale."""
+    with geometry converters and an expression (diff_tf), and the nested
+    visualization_msgs/MarkerArray of examples/ball_markers_ros2.ini (a
+    marker's points, one filled from a mux); the message is kept and filled
+    again: every round's values, none stale, the unset fields' defaults."""
     rng = random.Random(1414)
     rounds = 12
     env = ros2_environment(yarp_server.env, ros2_domain)
@@ -717,7 +680,7 @@ def test_ros2_output_arrays_of_messages_as_the_ros2_node(builds, yarp_server, ro
         for k in range(rounds):
             axis = [rng.uniform(-1, 1) for _ in range(3)]
             diff.round(k, {"/diff/hand:o": reals(3, 2.0) + [rng.uniform(-180, 180) for _ in range(3)],
-                           "/diff/tool:o": reals(3, 500.0) + axis + [rng.uniform(-math.pi, math.pi)]}, rng)
+                           "/diff/tool:o": reals(3, 5.0) + axis + [rng.uniform(-math.pi, math.pi)]}, rng)
         tf = diff.messages(rounds)
     assert [[t["child_frame_id"] for t in m["transforms"]] for m in tf] == [["r_hand", "r_tool"]] * rounds
     rotations = {json.dumps(m["transforms"][1]["transform"]["rotation"]) for m in tf}
@@ -725,14 +688,14 @@ def test_ros2_output_arrays_of_messages_as_the_ros2_node(builds, yarp_server, ro
     # unset: the default (floats as their bits)
     assert all(m["transforms"][1]["transform"]["translation"]["y"] == (0.0).hex() for m in tf)
 
-    with Differential(builds, "diff_markers", env, tmp_path / "markers") as diff:
+    with Differential(builds, "ball_markers_ros2", env, tmp_path / "markers") as diff:
         for k in range(rounds):
-            diff.round(k, {"/diff/ball:o": reals(7, 5.0)}, rng)
+            diff.round(k, {"/pf3dTracker/data:o": reals(3, 5000.0)}, rng)
         markers = diff.messages(rounds)
-    assert all(len(m["markers"]) == 2 and len(m["markers"][1]["points"]) == 3 and len(m["markers"][1]["colors"]) == 2
-               for m in markers)
-    assert len({json.dumps(m["markers"][1]["points"]) for m in markers}) == rounds
-    assert markers[-1]["markers"][1]["text"] == "path" and markers[-1]["markers"][0]["pose"]["orientation"]["w"] == (1.0).hex()
+    assert all(len(m["markers"]) == 2 and len(m["markers"][1]["points"]) == 2 for m in markers)
+    assert len({json.dumps(m["markers"][1]["points"][1]) for m in markers}) == rounds
+    assert markers[-1]["markers"][1]["points"][0]["y"] == (0.0).hex()
+    assert markers[-1]["markers"][0]["pose"]["orientation"]["w"] == (1.0).hex()
 
 
 def test_ros2_output_use_sim_time_stamps_with_the_clock_topic(builds, yarp_server, ros2_domain):
