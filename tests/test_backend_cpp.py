@@ -99,12 +99,55 @@ location = "left"
 """
 
 
+DIFF_TF = """\
+[module]
+name = diff_tf
+
+[output]
+topic = /diff/tf
+type = tf2_msgs/TFMessage
+via = ros2
+depth = 100
+
+[mux hand]
+ports = /diff/hand:o (float64 x6)
+convert = euler_to_quat(rpy, deg)[3:6]
+
+[mux tool]
+ports = /diff/tool:o (float64 x7)
+convert = axis_angle_to_quat[3:7], expr(clamp(x, -2, 2) * 0.5)[0:3]
+
+[message]
+transforms[0].header.stamp = timestamp(hand)
+transforms[0].header.frame_id = "root_link"
+transforms[0].child_frame_id = "r_hand"
+transforms[0].transform.translation = hand[0:3]
+transforms[0].transform.rotation = hand[3:7]
+transforms[1].header.stamp = timestamp(tool)
+transforms[1].header.frame_id = "r_hand"
+transforms[1].child_frame_id = "r_tool"
+transforms[1].transform.translation.x = tool[0]
+transforms[1].transform.translation.z = tool[2]
+transforms[1].transform.rotation = tool[3:7]
+"""
+
+def diff_program(text: str, name: str) -> Program:
+    result = check_result(compile_text(text, name), "cpp")
+    assert result.ok, [str(d) for d in result.diagnostics]
+    return result.program
+
+
 def diff_native_program() -> Program:
     """A ROS 2 output of float32, uint8, bool and string fields, for the
     differential test of the native module and the rclpy node."""
-    result = check_result(compile_text(DIFF_NATIVE, "diff_native.ini"), "cpp")
-    assert result.ok, [str(d) for d in result.diagnostics]
-    return result.program
+    return diff_program(DIFF_NATIVE, "diff_native.ini")
+
+
+def diff_tf_program() -> Program:
+    """tf2_msgs/TFMessage: two transforms from two muxes, each with a geometry
+    converter (Euler angles, an axis-angle to a quaternion), one with an
+    expression too."""
+    return diff_program(DIFF_TF, "diff_tf.ini")
 
 
 HAND_PROGRAMS = {
@@ -123,6 +166,7 @@ def _build_programs() -> dict:
     programs = {key: make for key, make in {**PROGRAMS, **ROS1_PROGRAMS}.items()}
     programs["typed_ros_input"] = ros1_input_program
     programs["diff_native"] = diff_native_program
+    programs["diff_tf"] = diff_tf_program
     for path in SUPPORTED:
         programs[path.stem] = lambda path=path: config_program(path, "cpp")
     return programs
@@ -540,48 +584,118 @@ def diff_values(rng: random.Random) -> list:
     return reals + [rng.randint(0, 255), rng.randint(0, 255), rng.random() < 0.5]
 
 
+class Differential:
+    """The native module of ``key`` and the rclpy node of the same program
+    (--backend ros2, on a topic of its own), fed the same YARP streams, each
+    with an rclpy subscriber."""
+
+    def __init__(self, builds, key: str, env: dict, tmp_path: Path):
+        from test_backend_ros2 import subscriber_for, write_node
+
+        self.program = program = builds.programs[key]
+        node_program = dataclasses.replace(program, module=f"{program.module}_node",
+                                           output=dataclasses.replace(program.output,
+                                                                      name=program.output.name + "_node"))
+        self.native = Module([builds.exe(key)], env=env, name=key)
+        self.node = Module([VENV / "bin" / "python", write_node(node_program, tmp_path)], env=env,
+                           name=node_program.module)
+        self.subs = [subscriber_for(env, p) for p in (program, node_program)]
+        self.producers = {i.name: YarpProducer(env, i.name) for m in program.muxes for i in m.inputs}
+        self.procs = [self.native, self.node, *self.subs, *self.producers.values()]
+
+    def __enter__(self) -> "Differential":
+        try:
+            for p in self.procs:
+                p.start()
+            self.native.wait_log("event-driven")
+            self.node.wait_log("event-driven")
+            for producer in self.producers.values():
+                producer.wait_outputs(2)
+            for s in self.subs:
+                s.wait_publishers(1)
+        except BaseException:
+            self.__exit__()
+            raise
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for p in reversed(self.procs):
+            p.stop()
+
+    def round(self, k: int, bottles: dict, rng: random.Random) -> None:
+        """Writes one Bottle to each port (in the config's order, each with an
+        envelope), then waits for message k + 1 of both."""
+        for port, values in bottles.items():
+            self.producers[port].write(values, stamp=[k, 1.7e9 + rng.uniform(0, 1e6)])
+        for s in self.subs:
+            s.wait_for(k + 1)
+
+    def messages(self, rounds: int) -> list:
+        """The messages of both, the same bit for bit (the native module's);
+        SIGINT ends the native module with 0 within 2 s, its totals said."""
+        native_msgs, node_msgs = ([float_bits(m.msg) for m in s.messages] for s in self.subs)
+        assert len(native_msgs) == len(node_msgs) == rounds
+        assert native_msgs == node_msgs
+        rc, elapsed = self.native.interrupt(signal.SIGINT)
+        assert rc == 0 and elapsed < 2.0, self.native.log_text()[-2000:]
+        log = self.native.log_text()
+        assert f"published {rounds} messages" in log and "Traceback" not in log, log[-2000:]
+        return native_msgs
+
+
 def test_ros2_output_publishes_what_the_ros2_node_publishes(builds, yarp_server, ros2_domain, tmp_path):
     """The same YARP stream (values and envelopes) through the native module
     and the rclpy node of --backend ros2: the same messages, bit for bit
     (float32 rounding, integer and bool fields, strings, constants, stamps
     from the envelope); SIGINT ends the native module with 0 within 2 s."""
-    from test_backend_ros2 import subscriber_for, write_node
-
-    program = builds.programs["diff_native"]
-    node_program = dataclasses.replace(program, module="diff_node",
-                                       output=dataclasses.replace(program.output, name="/diff/battery_node"))
-    env = ros2_environment(yarp_server.env, ros2_domain)
-    native = Module([builds.exe("diff_native")], env=env, name="diff_native")
-    node = Module([VENV / "bin" / "python", write_node(node_program, tmp_path)], env=env, name="diff_node")
-    subs = [subscriber_for(env, p) for p in (program, node_program)]
-    producer = YarpProducer(env, "/diff/battery:o")
-    procs = [native, node, *subs, producer]
-    try:
-        for p in procs:
-            p.start()
-        native.wait_log("event-driven")
-        node.wait_log("event-driven")
-        producer.wait_outputs(2)
-        for s in subs:
-            s.wait_publishers(1)
-        rng = random.Random(14)
-        rounds = 25
+    rng = random.Random(14)
+    rounds = 25
+    with Differential(builds, "diff_native", ros2_environment(yarp_server.env, ros2_domain), tmp_path) as diff:
         for k in range(rounds):
-            producer.write(diff_values(rng), stamp=[k, 1.7e9 + rng.uniform(0, 1e6)])
-            for s in subs:
-                s.wait_for(k + 1)
-        native_msgs, node_msgs = ([float_bits(m.msg) for m in s.messages] for s in subs)
-        assert len(native_msgs) == len(node_msgs) == rounds
-        assert native_msgs == node_msgs
-        assert len({json.dumps(m["cell_voltage"]) for m in native_msgs}) > rounds // 2  # not a constant
-        assert native_msgs[0]["location"] == "left" and native_msgs[0]["header"]["frame_id"] == 'bat "q" ; #'
-        rc, elapsed = native.interrupt(signal.SIGINT)
-        assert rc == 0 and elapsed < 2.0, native.log_text()[-2000:]
-        log = native.log_text()
-        assert f"published {rounds} messages" in log and "Traceback" not in log, log[-2000:]
-    finally:
-        for p in reversed(procs):
-            p.stop()
+            diff.round(k, {"/diff/battery:o": diff_values(rng)}, rng)
+        msgs = diff.messages(rounds)
+    assert len({json.dumps(m["cell_voltage"]) for m in msgs}) > rounds // 2  # not a constant
+    assert msgs[0]["location"] == "left" and msgs[0]["header"]["frame_id"] == 'bat "q" ; #'
+
+
+# the message trees on today's YARP, as test_backend_ros2's differential: how
+# each release's Bottles are read is the harness's, on every release
+@pytest.mark.yarp_min((4, 0))
+def test_ros2_output_arrays_of_messages_as_the_ros2_node(builds, yarp_server, ros2_domain, tmp_path):
+    """Arrays of messages, the same bit for bit through the native module and
+    the rclpy node: a tf2_msgs/TFMessage of two transforms from two muxes
+    with geometry converters and an expression (diff_tf), and the nested
+    visualization_msgs/MarkerArray of examples/ball_markers_ros2.ini (a
+    marker's points, one filled from a mux); the message is kept and filled
+    again: every round's values, none stale, the unset fields' defaults."""
+    rng = random.Random(1414)
+    rounds = 12
+    env = ros2_environment(yarp_server.env, ros2_domain)
+
+    def reals(n: int, scale: float) -> list:
+        return [rng.choice([rng.uniform(-scale, scale), -0.0, float(rng.randint(-3, 3)), 1e-40])
+                for _ in range(n)]
+
+    with Differential(builds, "diff_tf", env, tmp_path / "tf") as diff:
+        for k in range(rounds):
+            axis = [rng.uniform(-1, 1) for _ in range(3)]
+            diff.round(k, {"/diff/hand:o": reals(3, 2.0) + [rng.uniform(-180, 180) for _ in range(3)],
+                           "/diff/tool:o": reals(3, 5.0) + axis + [rng.uniform(-math.pi, math.pi)]}, rng)
+        tf = diff.messages(rounds)
+    assert [[t["child_frame_id"] for t in m["transforms"]] for m in tf] == [["r_hand", "r_tool"]] * rounds
+    rotations = {json.dumps(m["transforms"][1]["transform"]["rotation"]) for m in tf}
+    assert len(rotations) == rounds  # each round's own, converted
+    # unset: the default (floats as their bits)
+    assert all(m["transforms"][1]["transform"]["translation"]["y"] == (0.0).hex() for m in tf)
+
+    with Differential(builds, "ball_markers_ros2", env, tmp_path / "markers") as diff:
+        for k in range(rounds):
+            diff.round(k, {"/pf3dTracker/data:o": reals(3, 5000.0)}, rng)
+        markers = diff.messages(rounds)
+    assert all(len(m["markers"]) == 2 and len(m["markers"][1]["points"]) == 2 for m in markers)
+    assert len({json.dumps(m["markers"][1]["points"][1]) for m in markers}) == rounds
+    assert markers[-1]["markers"][1]["points"][0]["y"] == (0.0).hex()
+    assert markers[-1]["markers"][0]["pose"]["orientation"]["w"] == (1.0).hex()
 
 
 def test_ros2_output_use_sim_time_stamps_with_the_clock_topic(builds, yarp_server, ros2_domain):
@@ -623,9 +737,10 @@ def test_ros2_output_use_sim_time_stamps_with_the_clock_topic(builds, yarp_serve
 
 
 def test_ros2_output_refuses_what_the_c_struct_builder_cannot_fill():
-    """A field type without a C conversion (wstring) and an input that is a
-    ROS 2 topic are lowering errors at their place, never C++ that does not
-    compile."""
+    """A field type without a C conversion (wstring), an input that is a ROS 2
+    topic, an array of messages of another type than its field's or with more
+    elements than its bound are lowering errors at their place, never C++
+    that does not compile."""
     def program(field: Field, inputs=(Input("/value:o"),)) -> Program:
         return Program(module="label", source="label.ini", muxes=(Mux("m", inputs),),
                        message=Struct((field,), "my_msgs/Label"), output=Output("ros2", "/label", "my_msgs/Label"),
@@ -641,3 +756,51 @@ def test_ros2_output_refuses_what_the_c_struct_builder_cannot_fill():
     files = CppBackend().render(program(Field("value", MuxRef("m", index=0), TypeRef("float64"))))
     assert "ybgc::ros2::set(msg.value, mux.m[0]);" in files["label.cpp"]
     assert "#include <my_msgs/msg/label.h>" in files["label.cpp"]
+    # an array of messages of another type than the field's, more elements than a bounded field holds
+    corner = Struct((Field("x", Literal((1.5,), "float64"), TypeRef("float64")),), "my_msgs/Corner")
+    with pytest.raises(LoweringError) as e:
+        CppBackend().lower(program(Field("corners", ir.MessageArray((corner,), "my_msgs/Other"),
+                                         TypeRef("my_msgs/Corner", "sequence"))))
+    assert e.value.where == ("field", "corners")
+    with pytest.raises(LoweringError) as e:
+        CppBackend().lower(program(Field("corners", ir.MessageArray((corner,) * 3, "my_msgs/Corner"),
+                                         TypeRef("my_msgs/Corner", "sequence", 2))))
+    assert e.value.where == ("field", "corners") and "bounded" in str(e.value)
+
+
+def test_ros2_output_fills_arrays_of_messages_of_every_kind():
+    """An array of messages in the C struct: a sequence (bounded or not) sized
+    to the config's elements with its package's functions, a fixed-size array
+    as it is (its elements are in the struct); the elements' fields by their
+    path, an element filled from a mux, a nested message left unset one
+    comment; the elements' header included and their package linked."""
+    corner = Struct((Field("x", MuxRef("m", index=1), TypeRef("float64")),
+                     Field("at", Struct((Field("sec", Default(), TypeRef("int32")),), "builtin_interfaces/Time"),
+                           TypeRef("builtin_interfaces/Time"))), "my_msgs/Corner")
+    filled = MuxRef("m", 0, 2, into_fields=("x", "at.sec"), into_types=("float64", "int32"))
+    fields = (Field("path", ir.MessageArray((corner, filled), "my_msgs/Corner"),
+                    TypeRef("my_msgs/Corner", "sequence", 4)),
+              Field("box", ir.MessageArray((corner,) * 2, "my_msgs/Corner"), TypeRef("my_msgs/Corner", "fixed", 2)),
+              Field("none", ir.MessageArray((), "my_msgs/Corner"), TypeRef("my_msgs/Corner", "sequence")))
+    program = Program(module="shape", source="shape.ini", muxes=(Mux("m", (Input("/value:o"),)),),
+                      message=Struct(fields, "my_msgs/Shape"), output=Output("ros2", "/shape", "my_msgs/Shape"),
+                      ros="ros2", distro="jazzy")
+    files = CppBackend().render(program)
+    builder = files["shape.cpp"].split("bool buildMessage", 1)[1].split("// ybgc:user-begin message", 1)[0]
+    body = [line.strip() for line in builder.splitlines()]
+    assert body[body.index("// path (my_msgs/Corner[<=4]): 2 elements"):][:9] == [
+        "// path (my_msgs/Corner[<=4]): 2 elements",
+        "ybgc::ros2::resize(msg.path, 2, &my_msgs__msg__Corner__Sequence__init,",
+        "&my_msgs__msg__Corner__Sequence__fini);",
+        "// path[0].x (float64)",
+        "ybgc::ros2::set(msg.path.data[0].x, mux.m[1]);",
+        "// path[0].at (builtin_interfaces/Time): the definition's defaults",
+        "// path[1] (my_msgs/Corner)",
+        "ybgc::ros2::set(msg.path.data[1].x, mux.m[0]);",
+        "ybgc::ros2::set(msg.path.data[1].at.sec, mux.m[1]);",
+    ]
+    assert "// box (my_msgs/Corner[2]): 2 elements" in body and "ybgc::ros2::set(msg.box[1].x, mux.m[1]);" in body
+    assert not any("resize(msg.box" in line for line in body)
+    assert "ybgc::ros2::resize(msg.none, 0, &my_msgs__msg__Corner__Sequence__init," in body
+    assert "#include <my_msgs/msg/corner.h>" in files["shape.cpp"]
+    assert "my_msgs__rosidl_generator_c" in files["CMakeLists.txt"]

@@ -22,6 +22,7 @@
 #include <rosidl_runtime_c/string.h>
 #include <rosidl_runtime_c/string_functions.h>
 
+#include <new>
 #include <type_traits>
 
 namespace ybgc {
@@ -95,6 +96,24 @@ YBGC_ROS2_RESIZE(uint64)
 YBGC_ROS2_RESIZE(int64)
 YBGC_ROS2_RESIZE(String)
 #undef YBGC_ROS2_RESIZE
+
+/// Sizes a sequence of messages to n elements (kept when it has them
+/// already: the config fixes their number, so the elements and the fields
+/// the config leaves unset stay from one message to the next) with its
+/// package's functions, pkg__msg__Name__Sequence__init and __fini: a new
+/// element has the defaults of its definition. Throws std::bad_alloc when it
+/// cannot allocate.
+template <class Seq>
+void resize(Seq& seq, std::size_t n, bool (*init)(Seq*, std::size_t), void (*fini)(Seq*))
+{
+    if (seq.size == n && (n == 0 || seq.data != nullptr)) {
+        return;
+    }
+    fini(&seq);
+    if (!init(&seq, n)) {
+        throw std::bad_alloc();
+    }
+}
 
 /// The elements [start, stop) of a mux (stop kToEnd: to its end) into a
 /// sequence, each converted to the sequence's element type; `bound` (0: none)

@@ -7,7 +7,11 @@ another message builder: :class:`CStructBuilder` fills the message's C struct
 (``<pkg>/msg/<name>.h``) field by field, one call of a ``ybgc::ros2`` helper
 a field, converting each value as the Python ROS 2 node does (so that both
 publish the same message, bit for bit). Fields the config leaves unset keep
-the defaults of the message's definition (the C struct's ``__init``).
+the defaults of the message's definition (the C struct's ``__init``). An
+array of messages is sized to the elements the config gives (a sequence
+through its package's ``pkg__msg__Name__Sequence__init``, which gives each
+element its defaults; a fixed-size array is as it is), and each element is
+filled as any nested message.
 """
 
 from __future__ import annotations
@@ -35,6 +39,7 @@ class Ros2View:
     """What the module and its CMakeLists print of the ROS 2 side."""
 
     include: str            # <pkg>/msg/<name>.h of the output's message
+    element_includes: tuple[str, ...]  # those of the elements of its arrays of messages
     c_type: str             # its C struct, pkg__msg__Name
     type_name: str          # string literal "pkg/msg/Name"
     type_support: str       # ROSIDL_GET_MSG_TYPE_SUPPORT(pkg, msg, Name)
@@ -50,10 +55,48 @@ def snake_case(name: str) -> str:
 
 
 def _member(name: str) -> str:
+    """A field, or a dotted path of fields (``position.x``), as members of a C struct."""
     try:
-        return cpp_identifier(name)
+        return ".".join(cpp_identifier(part) for part in name.split("."))
     except ValueError as e:
         raise LoweringError(f"field {name!r} cannot be a member of a C struct ({e})") from None
+
+
+def c_struct(msg_type: str) -> str:
+    """The C struct of a message type (``geometry_msgs/Point`` -> ``geometry_msgs__msg__Point``)."""
+    pkg, name = split_type(msg_type)
+    return f"{pkg}__msg__{name}"
+
+
+def c_header(msg_type: str) -> str:
+    """The header that declares a message's C struct and its functions."""
+    pkg, name = split_type(msg_type)
+    return f"{pkg}/msg/{snake_case(name)}.h"
+
+
+def _all_defaults(struct: ir.Struct) -> bool:
+    """Does the config leave every field of this nested message unset?"""
+    return all(isinstance(f.source, ir.Default) or (isinstance(f.source, ir.Struct) and _all_defaults(f.source))
+               for f in struct.fields)
+
+
+def array_element_types(struct: ir.Struct) -> tuple[str, ...]:
+    """The message types of the arrays of messages in ``struct``, nested ones
+    too, in order of appearance."""
+    out: list[str] = []
+
+    def walk(src) -> None:
+        if isinstance(src, ir.Struct):
+            for f in src.fields:
+                walk(f.source)
+        elif isinstance(src, ir.MessageArray):
+            if src.msg_type not in out:
+                out.append(src.msg_type)
+            for element in src.elements:
+                walk(element)
+
+    walk(struct)
+    return tuple(out)
 
 
 def _literal(value, base: str) -> str:
@@ -90,12 +133,16 @@ class CStructBuilder(BottleBuilder):
         for f in struct.fields:
             self.field(f, target)
 
+    def where(self) -> str:
+        """The field being built, as the config writes it (``markers[1].points[0]``)."""
+        return ".".join(self.path).replace(".[", "[")
+
     def field(self, f: ir.Field, target: str) -> None:
         self.path.append(f.name)
         try:
-            self._field(f, f"{target}.{_member(f.name)}", ".".join(self.path))
+            self._field(f, f"{target}.{_member(f.name)}", self.where())
         except LoweringError as e:
-            raise e.at("field", ".".join(self.path))
+            raise e.at("field", self.where())
         finally:
             self.path.pop()
 
@@ -110,7 +157,13 @@ class CStructBuilder(BottleBuilder):
         if isinstance(src, ir.Struct):
             if typ.array is not None or not typ.is_message:
                 raise LoweringError(f"field {name}: a nested message for a {typ} field")
-            self.struct(src, target)
+            if _all_defaults(src):
+                self.line(f"{what}: the definition's defaults")
+            else:
+                self.struct(src, target)
+            return
+        if isinstance(src, ir.MessageArray):
+            self.message_array(src, typ, target, name)
             return
         if not typ.is_message and typ.base not in ir.ELEMENT_TYPES and typ.base not in _TIME_TYPES:
             raise LoweringError(f"field {name}: the C++ module cannot fill a {typ.base} field")
@@ -138,6 +191,36 @@ class CStructBuilder(BottleBuilder):
                 self.line(f"ybgc::ros2::assign({target}, {value});")
         else:
             raise LoweringError(f"field {name}: unknown source {type(src).__name__}")
+
+    def message_array(self, src: ir.MessageArray, typ: ir.TypeRef, target: str, name: str) -> None:
+        """A sequence sized to the elements the config gives (kept when it has
+        them: the count is the config's), a fixed-size array as it is; then
+        each element, a nested message or a mux filling one."""
+        if typ.array is None or not typ.is_message or typ.base != src.msg_type:
+            raise LoweringError(f"field {name}: an array of {src.msg_type} for a {typ} field")
+        _check_size(typ, len(src.elements), f"field {name}")
+        n = len(src.elements)
+        self.line(f"// {comment(name)} ({comment(str(typ))}): {n:d} element{'' if n == 1 else 's'}")
+        if typ.array == "fixed":
+            items = [f"{target}[{k:d}]" for k in range(n)]
+        else:
+            seq = c_struct(src.msg_type) + "__Sequence"
+            self.line(f"ybgc::ros2::resize({target}, {n:d}, &{seq}__init,")
+            self.line(f"                   &{seq}__fini);")
+            items = [f"{target}.data[{k:d}]" for k in range(n)]
+        element_type = ir.TypeRef(src.msg_type)
+        for k, (element, item) in enumerate(zip(src.elements, items)):
+            self.path.append(f"[{k:d}]")
+            try:
+                if isinstance(element, ir.Struct):
+                    self.struct(element, item)
+                elif isinstance(element, ir.MuxRef) and element.into_fields is not None:
+                    self.line(f"// {comment(self.where())} ({comment(src.msg_type)})")
+                    self.into_fields(element, element_type, item, self.where())
+                else:
+                    raise LoweringError(f"field {self.where()}: an element is a message or a mux filling one")
+            finally:
+                self.path.pop()
 
     def into_fields(self, ref: ir.MuxRef, typ: ir.TypeRef, target: str, name: str) -> None:
         if typ.array is not None or not typ.is_message:
@@ -203,8 +286,11 @@ def ros2_view(program: ir.Program) -> Ros2View:
         raise LoweringError("a ROS 2 output needs its message type", ("type",))
     try:
         pkg, name = split_type(msg_type)
+        # the packages of the elements of its arrays of messages (the module calls their functions)
+        elements = array_element_types(program.message)
         # and those of the runtime: builtin_interfaces (stamps), rosgraph_msgs (/clock, use_sim_time)
-        packages = tuple(sorted(set(used_packages(program)) | set(RUNTIME_PACKAGES)))
+        packages = tuple(sorted(set(used_packages(program)) | {split_type(t)[0] for t in elements}
+                                | set(RUNTIME_PACKAGES)))
     except LoweringError as e:
         raise e.at("type")
     qos = out.qos or ir.QoS()
@@ -214,8 +300,9 @@ def ros2_view(program: ir.Program) -> Ros2View:
     spec = (f"{{{cpp_string(out.name)}, {cpp_string(node)}, {'true' if qos.reliability == 'reliable' else 'false'}, "
             f"{'true' if qos.durability == 'transient_local' else 'false'}, {int(qos.depth):d}}}")
     return Ros2View(
-        include=f"{pkg}/msg/{snake_case(name)}.h",
-        c_type=f"{pkg}__msg__{name}",
+        include=c_header(msg_type),
+        element_includes=tuple(sorted({c_header(t) for t in elements} - {c_header(msg_type)})),
+        c_type=c_struct(msg_type),
         type_name=cpp_string(f"{pkg}/msg/{name}"),
         type_support=f"ROSIDL_GET_MSG_TYPE_SUPPORT({pkg}, msg, {name})",
         spec=spec,
@@ -235,4 +322,5 @@ def lower(program: ir.Program) -> ModuleView:
                                description=view.description + (ros_args,))
 
 
-__all__ = ["CStructBuilder", "Ros2View", "lower", "ros2_view", "snake_case"]
+__all__ = ["CStructBuilder", "Ros2View", "array_element_types", "c_header", "c_struct", "lower", "ros2_view",
+           "snake_case"]
