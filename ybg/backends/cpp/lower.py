@@ -27,6 +27,7 @@ from ybg.compiler import ir
 
 if TYPE_CHECKING:
     from ybg.backends.cpp.ros2 import Ros2View
+    from ybg.backends.cpp.ros2_inputs import Ros2InputsView
 
 #: The runtime's `Wire` enumerator of each element type (the shared tables of
 #: ybg.backends, in C++ spelling: "float64" -> "Float64").
@@ -107,6 +108,17 @@ class ModuleView:
     ros1: bool                       # uses YARP's ROS 1 support (output or an input)
     ros2: "Ros2View | None" = None   # publishes to ROS 2 through rcl (.ros2)
     message_cpp: str = "yarp::os::Bottle"  # the C++ type buildMessage fills
+    ros2_inputs: "Ros2InputsView | None" = None  # reads ROS 2 topics through rcl (.ros2_inputs)
+
+    @property
+    def uses_ros2(self) -> bool:
+        """Does the module use rcl (a ROS 2 output or input)?"""
+        return self.ros2 is not None or self.ros2_inputs is not None
+
+    @property
+    def ros2_packages(self) -> tuple[str, ...]:
+        """The message packages to link (those of the output's message, the inputs' and the runtime's)."""
+        return self.ros2.packages if self.ros2 is not None else self.ros2_inputs.packages if self.ros2_inputs else ()
 
 
 # --------------------------------------------------------------------------
@@ -492,7 +504,7 @@ def _input_comment(mux: str, k: int, inp: ir.Input) -> str:
         what = "any number of numbers"
     else:
         what = ", ".join(f"{g.type} x{g.count}" for g in inp.layout)
-    kind = "ROS 1 topic" if inp.kind == "ros1" else "port"
+    kind = {"ros1": "ROS 1 topic", "ros2": "ROS 2 topic"}.get(inp.kind, "port")
     extra = f" ({comment(inp.ros_type)})" if inp.ros_type else ""
     reads = "" if inp.reads is None else f"; the message reads the first {inp.reads} (W511)"
     return f"mux {comment(mux)}, input {k}: {kind} {comment(inp.name)}{extra}, {what}{reads}"
@@ -523,14 +535,15 @@ def lower(program: ir.Program, builder=_Builder) -> ModuleView:
         ids = []
         gather = [Line(1, f"mux.{members[m.name]}.clear();")]
         for k, i in enumerate(m.inputs):
-            if i.kind not in ("yarp", "ros1"):
+            if i.kind not in ("yarp", "ros1", "ros2"):
                 raise LoweringError(f"the cpp backend cannot read a {i.kind!r} input ({i.name})",
                                     ("input", m.name, i.name))
             if not i.timeout > 0:
                 raise LoweringError(f"input {i.name} has a timeout of {i.timeout!r}", ("input", m.name, i.name))
             n = len(inputs)
             ids.append(n)
-            kind = "ybgc::InputKind::Ros1" if i.kind == "ros1" else "ybgc::InputKind::Yarp"
+            kind = {"ros1": "ybgc::InputKind::Ros1", "ros2": "ybgc::InputKind::Ros2"}.get(
+                i.kind, "ybgc::InputKind::Yarp")
             reads = "" if i.reads is None else f", {int(i.reads)}"
             init = (f"{{{mi}, {k}, {cpp_string(i.name)}, {kind}, {cpp_float(float(i.timeout))}, "
                     f"{_layout(i)}, {_fields(i, program.distro)}{reads}}}")
@@ -612,12 +625,18 @@ def lower(program: ir.Program, builder=_Builder) -> ModuleView:
         f"publishes {what} on {plain_where}",
         f"publishing {timing}, {policy}",
     )
+    if out.kind != "ros2" and any(i.kind == "ros2" for m in program.muxes for i in m.inputs):
+        description += ("ROS arguments after --ros-args (remappings, the node's name)",)
     header = (
         (f"Module {comment(program.module)}: {n_in} input(s) in {len(program.muxes)} mux(es), "
          f"publishing {what_comment} on {where},"),
         f"{timing}, {policy}.",
     )
     config_name = os.path.basename(program.source) if program.source else program.module
+    ros2_inputs = None
+    if any(i.kind == "ros2" for m in program.muxes for i in m.inputs):
+        from ybg.backends.cpp import ros2_inputs as readers
+        ros2_inputs = readers.lower(program, members)
     sizes = " + \", \" + ".join(
         f"{cpp_string(m.name + ' has ')} + std::to_string(mux.{members[m.name]}.size())" for m in program.muxes
     ) or '""'
@@ -648,6 +667,7 @@ def lower(program: ir.Program, builder=_Builder) -> ModuleView:
         builder=builder,
         sizes=sizes,
         ros1=out.kind == "ros1" or any(i.kind == "ros1" for m in program.muxes for i in m.inputs),
+        ros2_inputs=ros2_inputs,
     )
 
 

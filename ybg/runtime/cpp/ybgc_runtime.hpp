@@ -245,14 +245,16 @@ struct FieldPath
     std::vector<int> at;
 };
 
-enum class InputKind { Yarp, Ros1 };
+/// Where an input is read: a YARP port, a ROS 1 topic through YARP, or a
+/// ROS 2 topic (its values delivered by an InputFeed: ybgc_ros2.hpp).
+enum class InputKind { Yarp, Ros1, Ros2 };
 
 /// One input of a mux.
 struct InputSpec
 {
     int mux;                        // index of its mux in BridgeSpec::muxes
     int index;                      // its position in the mux
-    const char* source;             // the YARP port, or the ROS 1 topic, read
+    const char* source;             // the YARP port, or the ROS topic, read
     InputKind kind;
     double timeout;                 // freshness timeout, seconds
     bool declared;                  // false: any number of numbers, each a float64
@@ -349,6 +351,14 @@ void append(Mux& mux, const Latest& input);
 /// holds its values; else `why` says what is wrong. `in` is scratch space.
 bool parseBottle(const yarp::os::Bottle& b, const InputSpec& spec, bool dropNan, Mux& out, std::string& why,
                  std::vector<const yarp::os::Value*>& in);
+
+/// Checks the values read from a message of another middleware (a ROS 2
+/// topic: numbers, a time as seconds) against the input's layout, as
+/// parseBottle checks a Bottle: undeclared, every value a number, each made
+/// a float64; declared, the declared number of values, a real for a float
+/// type, an integer for an integer type, a bool or 0/1 for a bool. The
+/// values are converted in place; else `why` says what is wrong.
+bool checkValues(Mux& values, const InputSpec& spec, bool dropNan, std::string& why);
 
 // --- what is kept of each input, and which Bottles a message uses --------------
 
@@ -498,12 +508,33 @@ public:
 /// mux's size, as the module's makeMessage() gives them).
 std::string tooShort(const std::string& sizes);
 
+/// Hands the values of one message of an input read outside YARP to the
+/// bridge: `input` its index in BridgeSpec::inputs, `values` (moved out) what
+/// was read, `why` non-empty when the message could not be read.
+using Deliver = std::function<void(std::size_t input, Mux& values, bool hasEnvelope, double envelope,
+                                   const std::string& why)>;
+
+/// The inputs of a bridge that are read by another middleware
+/// (InputKind::Ros2: ybgc_ros2.hpp's Subscriptions): opened after the
+/// output, closed before it; each message read goes through `deliver`, from
+/// a thread of the feed's own, into the same checks, freshness and matching
+/// as a Bottle.
+class InputFeed
+{
+public:
+    virtual ~InputFeed() = default;
+    /// Opens it; false, said, when it cannot.
+    virtual bool open(Deliver deliver) = 0;
+    /// Stops delivering (returns once no delivery runs) and closes it.
+    virtual void close() = 0;
+};
+
 /// Parses the command line and runs the bridge until SIGINT or SIGTERM; the
-/// exit status.
-int run(const BridgeSpec& spec, int argc, char* argv[], MakeMessage make);
+/// exit status. `feed`: its inputs that are not YARP ports (none: nullptr).
+int run(const BridgeSpec& spec, int argc, char* argv[], MakeMessage make, InputFeed* feed = nullptr);
 
 /// The same with the messages published through `sink`.
-int run(const BridgeSpec& spec, int argc, char* argv[], MessageSink& sink);
+int run(const BridgeSpec& spec, int argc, char* argv[], MessageSink& sink, InputFeed* feed = nullptr);
 
 }  // namespace ybgc
 
