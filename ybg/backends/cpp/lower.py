@@ -77,6 +77,7 @@ class MuxView:
     comment: str
     gather: tuple[Line, ...]  # statements of gather()
     verbose: bool
+    cpp_type: str = "ybgc::Mux"  # ybgc::Rows: a row for each element of an array of messages
 
 
 @dataclass(frozen=True)
@@ -188,14 +189,21 @@ def cpp_expression(node: ir.ExprNode, top: bool = True) -> str:
     return f"{_CPP_FUNCTIONS[op]}({', '.join(cpp_expression(a) for a in node.args)})"
 
 
-def _vector_converter(member: str, c) -> str:
-    """The call of a geometry converter or an expression on mux ``member``."""
+def _converter(target: str, c) -> str:
+    """The call of converter ``c`` on the mux (or row) ``target``."""
     if isinstance(c, ir.GeometryConverter):
         axes = cpp_string(c.axes or "xyz")
-        return (f"ybgc::convertGeometry(mux.{member}, ybgc::Geometry::{_GEOMETRY[c.name]}, {_size(c.start)}, "
+        return (f"ybgc::convertGeometry({target}, ybgc::Geometry::{_GEOMETRY[c.name]}, {_size(c.start)}, "
                 f"{axes}, {'true' if c.degrees else 'false'});  // {comment(c.text)}")
-    return (f"ybgc::convertEach(mux.{member}, []([[maybe_unused]] double x) {{ return {cpp_expression(c.body)}; }}, "
-            f"{_size(c.start)}, {_size(c.stop)});  // {comment('expr(' + c.text + ')')}")
+    if isinstance(c, ir.ExprConverter):
+        return (f"ybgc::convertEach({target}, []([[maybe_unused]] double x) {{ return {cpp_expression(c.body)}; }}, "
+                f"{_size(c.start)}, {_size(c.stop)});  // {comment('expr(' + c.text + ')')}")
+    if c.start < 0 or (c.stop is not None and c.stop < c.start):
+        raise LoweringError(f"converter {c.name} has the range [{c.start}:{c.stop}]")
+    stop = "" if c.stop is None else str(c.stop)
+    return (f"ybgc::convert({target}, {cpp_float(float(c.scale))}, {cpp_float(float(c.offset))}, "
+            f"{'true' if c.to_float else 'false'}, {_size(c.start)}, {_size(c.stop)});"
+            f"  // {comment(c.name)}[{c.start}:{stop}]")
 
 
 def _size(n: int | None) -> str:
@@ -403,6 +411,12 @@ class _Builder:
         self.emit(indent, "}")
 
     def mux_ref(self, ref: ir.MuxRef, parent: str, depth: int, indent: int) -> None:
+        if self.program.mux(ref.mux).rows:  # one nested list per row, whole
+            if ref.index is not None or ref.start != 0 or ref.stop is not None or ref.into_fields:
+                raise LoweringError(f"a part of mux {ref.mux}, which holds rows")
+            target = parent if ref.splice else f"{parent}.addList()"
+            self.emit(indent, f"ybgc::putRows({target}, {self.mux(ref.mux)}, {self.wire_of(ref.element_type)});")
+            return
         if ref.index is not None:
             values = self.mux(ref.mux, ref.index + 1)
             self.emit(indent, f"ybgc::put({parent}, {values}[{ref.index:d}], {self.wire_of(ref.element_type)});")
@@ -549,20 +563,18 @@ def lower(program: ir.Program, builder=_Builder) -> ModuleView:
                     f"{_layout(i)}, {_fields(i, program.distro)}{reads}}}")
             inputs.append(InputView(n, init, _input_comment(m.name, k, i)))
             gather.append(Line(1, f"ybgc::append(mux.{members[m.name]}, in[{n}]);  // {comment(i.name)}"))
-        for c in m.converters:
-            if isinstance(c, (ir.GeometryConverter, ir.ExprConverter)):
-                gather.append(Line(1, _vector_converter(members[m.name], c)))
-                continue
-            if c.start < 0 or (c.stop is not None and c.stop < c.start):
-                raise LoweringError(f"converter {c.name} has the range [{c.start}:{c.stop}]")
-            stop = "" if c.stop is None else str(c.stop)
-            gather.append(Line(1, (
-                f"ybgc::convert(mux.{members[m.name]}, {cpp_float(float(c.scale))}, {cpp_float(float(c.offset))}, "
-                f"{'true' if c.to_float else 'false'}, {_size(c.start)}, {_size(c.stop)});"
-                f"  // {comment(c.name)}[{c.start}:{stop}]")))
+        if m.rows and m.converters:  # each row converted alike
+            gather.append(Line(1, f"for (ybgc::Mux& row : mux.{members[m.name]}) {{"))
+            gather += [Line(2, _converter("row", c)) for c in m.converters]
+            gather.append(Line(1, "}"))
+        else:
+            gather += [Line(1, _converter(f"mux.{members[m.name]}", c)) for c in m.converters]
         input_ids[m.name] = ids
         srcs = ", ".join(comment(i.name) for i in m.inputs)
-        mux_views.append(MuxView(members[m.name], cpp_string(m.name), srcs, tuple(gather), bool(m.verbose)))
+        if m.rows:
+            srcs += ": a row for each element of its array of messages"
+        mux_views.append(MuxView(members[m.name], cpp_string(m.name), srcs, tuple(gather), bool(m.verbose),
+                                 "ybgc::Rows" if m.rows else "ybgc::Mux"))
 
     b = builder(program, members, input_ids)
     b.struct(program.message, "msg", 0, 1)

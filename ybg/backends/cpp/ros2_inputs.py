@@ -34,6 +34,7 @@ class TopicReaderView:
 
     function: str             # its C++ name
     c_type: str               # the message's C struct
+    out: str                  # its output parameter: the input's values, or its rows
     comment: str
     lines: tuple[Line, ...]   # its body
     entry: tuple[Line, ...]   # its ybgc::ros2::topic<...>(...) in kTopics
@@ -70,12 +71,20 @@ def _reader(program: ir.Program, m: ir.Mux, k: int, i: ir.Input, index: int, mem
         raise LoweringError(f"the ROS 2 input {i.name} has no message type", where)
     if not i.fields:
         raise LoweringError(f"the ROS 2 input {i.name} names no numeric field", where)
-    if i.each is not None:
+    if i.each is not None and program.output.kind == "ros2":
         raise LoweringError(f"the ROS 2 input {i.name} reads the elements of an array of messages "
-                            f"({i.each}), one row each: the C++ module has no mux of rows", where)
+                            f"({i.each}), a row each, which a ROS 2 message is not filled from", where)
     try:
         pkg, name = split_type(i.ros_type)
-        lines = tuple(Line(1, f"ybgc::ros2::read(out, msg.{_member_path(f)});") for f in i.fields)
+        if i.each is None:
+            out = "ybgc::Mux& out"
+            lines = tuple(Line(1, f"ybgc::ros2::read(out, msg.{_member_path(f)});") for f in i.fields)
+        else:  # one row for each element of the array of messages
+            out = "ybgc::Rows& rows"
+            lines = (Line(1, f"ybgc::ros2::forEach(msg.{_member_path(i.each)}, [&rows](const auto& element) {{"),
+                     Line(2, "ybgc::Mux& row = rows.emplace_back();"),
+                     *(Line(2, f"ybgc::ros2::read(row, element.{_member_path(f)});") for f in i.fields),
+                     Line(1, "});"))
     except LoweringError as e:
         raise e.at(*where)
     c_type = f"{pkg}__msg__{name}"
@@ -84,7 +93,10 @@ def _reader(program: ir.Program, m: ir.Mux, k: int, i: ir.Input, index: int, mem
              Line(3, f"{index}, {cpp_string(i.name)}, {cpp_string(f'{pkg}/msg/{name}')}, "
                      f"ROSIDL_GET_MSG_TYPE_SUPPORT({pkg}, msg, {name})),"))
     what = f"{comment(i.name)} ({comment(f'{pkg}/msg/{name}')}): {comment(' '.join(i.fields))}"
-    return TopicReaderView(function, c_type, what, lines, entry)
+    if i.each is not None:
+        what = (f"{comment(i.name)} ({comment(f'{pkg}/msg/{name}')}): a row for each element of "
+                f"{comment(i.each)}, {comment(' '.join(i.fields))}")
+    return TopicReaderView(function, c_type, out, what, lines, entry)
 
 
 def lower(program: ir.Program, members: dict[str, str]) -> Ros2InputsView:

@@ -423,7 +423,7 @@ void Subscriptions::follow()
         say("cannot wait for the ROS 2 topics: " + rclError());
         return;
     }
-    Mux values;
+    Reading reading;
     while (!r.stopping) {
         finished(rcl_wait_set_clear(&waitSet));
         for (std::size_t k = 0; k < r.subscribed; ++k) {
@@ -440,10 +440,11 @@ void Subscriptions::follow()
             }
             const Topic& t = topics_.topics[k];
             while (!r.stopping && rcl_take(&r.subscriptions[k], r.messages[k], nullptr, nullptr) == RCL_RET_OK) {
-                values.clear();
-                double envelope = 0.0;
-                const bool hasEnvelope = t.read(r.messages[k], values, envelope);
-                deliver_(t.input, values, hasEnvelope, envelope, "");
+                reading.values.clear();
+                reading.rows.clear();
+                reading.envelope = 0.0;
+                t.read(r.messages[k], reading);
+                deliver_(t.input, reading);
             }
             rcl_reset_error();
         }

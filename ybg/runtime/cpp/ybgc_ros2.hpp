@@ -274,6 +274,23 @@ void read(Mux& out, const T (&array)[N])
     }
 }
 
+/// Calls `f` on each element of an array of messages (a sequence or a
+/// fixed-size array), in order.
+template <class Seq, class F>
+void forEach(const Seq& seq, F f)
+{
+    for (std::size_t k = 0; k < seq.size; ++k) {
+        f(seq.data[k]);
+    }
+}
+template <class T, std::size_t N, class F>
+void forEach(const T (&array)[N], F f)
+{
+    for (const T& x : array) {
+        f(x);
+    }
+}
+
 void read(Mux& out, const builtin_interfaces__msg__Time& field);
 void read(Mux& out, const builtin_interfaces__msg__Duration& field);
 
@@ -314,20 +331,27 @@ struct Topic
     std::size_t input;
     const char* name;  // the topic
     MessageType type;
-    bool (*read)(const void* msg, Mux& out, double& envelope);
+    void (*read)(const void* msg, Reading& out);
 };
 
-/// The Topic of input `input` (topic `name`), a message of C struct Msg read by `Read`
-/// (the module's reader of the fields the config lists).
-template <class Msg, Msg* (*Create)(), void (*Destroy)(Msg*), void (*Read)(const Msg&, Mux&)>
+/// The Topic of input `input` (topic `name`), a message of C struct Msg read
+/// by `Read`, the module's reader of the fields the config lists: into the
+/// input's values, `void (const Msg&, Mux&)`, or one row for each element of
+/// an array of messages, `void (const Msg&, Rows&)`.
+template <class Msg, Msg* (*Create)(), void (*Destroy)(Msg*), auto Read>
 Topic topic(std::size_t input, const char* name, const char* typeName,
             const rosidl_message_type_support_t* typeSupport)
 {
     return {input, name, messageType<Msg, Create, Destroy>(typeName, typeSupport),
-            [](const void* msg, Mux& out, double& envelope) {
+            [](const void* msg, Reading& out) {
                 const Msg& m = *static_cast<const Msg*>(msg);
-                Read(m, out);
-                return envelopeOf(m, envelope);
+                if constexpr (std::is_invocable_v<decltype(Read), const Msg&, Rows&>) {
+                    out.isRows = true;
+                    Read(m, out.rows);
+                } else {
+                    Read(m, out.values);
+                }
+                out.hasEnvelope = envelopeOf(m, out.envelope);
             }};
 }
 

@@ -408,6 +408,19 @@ void printMux(const char* name, const Mux& mux)
     printLines(out);
 }
 
+void printMux(const char* name, const Rows& rows)
+{
+    std::string out;
+    for (std::size_t k = 0; k < rows.size(); ++k) {
+        out += "[" + std::string(name) + "] " + std::to_string(k) + ": [";
+        for (std::size_t j = 0; j < rows[k].size(); ++j) {
+            out += (j > 0 ? ", " : "") + rows[k][j].repr();
+        }
+        out += "]\n";
+    }
+    printLines(out);
+}
+
 void putInteger(yarp::os::Bottle& b, std::int64_t x, Wire wire)
 {
     switch (wire) {
@@ -480,6 +493,13 @@ void putRange(yarp::os::Bottle& b, const Mux& mux, std::size_t start, std::size_
 }
 
 /// Appends a time, `ns` nanoseconds since the epoch, as a nested list (sec nsec).
+void putRows(yarp::os::Bottle& b, const Rows& rows, Wire wire)
+{
+    for (const Mux& row : rows) {
+        putRange(b.addList(), row, 0, kToEnd, wire);
+    }
+}
+
 void putTime(yarp::os::Bottle& b, std::int64_t ns, Wire secWire, Wire nsecWire)
 {
     std::int64_t sec = ns / 1000000000;
@@ -496,6 +516,11 @@ void putTime(yarp::os::Bottle& b, std::int64_t ns, Wire secWire, Wire nsecWire)
 void append(Mux& mux, const Latest& input)
 {
     mux.insert(mux.end(), input.values.begin(), input.values.end());
+}
+
+void append(Rows& rows, const Latest& input)
+{
+    rows.insert(rows.end(), input.rows.begin(), input.rows.end());
 }
 
 bool isInteger(const yarp::os::Value& v)
@@ -1041,13 +1066,22 @@ public:
         take(ok, scratch_, hasEnvelope, hasEnvelope ? stamp.getTime() : 0.0, why, now);
     }
 
-    /// The values of one message read by an InputFeed (its thread): checked
-    /// against the layout, then as a Bottle. `why`: it could not be read.
-    void deliver(Mux& values, bool hasEnvelope, double envelope, std::string why)
+    /// One message read by an InputFeed (its thread): checked against the
+    /// layout (each row of it: one that does not check drops it whole), then
+    /// as a Bottle.
+    void deliver(Reading& reading)
     {
         const SteadyClock::time_point now = SteadyClock::now();
-        const bool ok = why.empty() && checkValues(values, spec, shared_.dropNan, why);
-        take(ok, values, hasEnvelope, envelope, why, now);
+        std::string why;
+        bool ok = reading.isRows || checkValues(reading.values, spec, shared_.dropNan, why);
+        for (std::size_t k = 0; ok && reading.isRows && k < reading.rows.size(); ++k) {
+            if (!checkValues(reading.rows[k], spec, shared_.dropNan, why)) {
+                why = "element " + std::to_string(k) + ": " + why;
+                ok = false;
+            }
+        }
+        take(ok, reading.values, reading.hasEnvelope, reading.envelope, why, now,
+             reading.isRows ? &reading.rows : nullptr);
     }
 
     /// Its port's name and address, once open.
@@ -1057,9 +1091,10 @@ public:
     std::string registered;   // its name in the name server (topic-@node for ROS)
 
 private:
-    /// A message read (accepted when `ok`, else refused for `why`), under the lock.
+    /// A message read (accepted when `ok`, else refused for `why`), under
+    /// the lock; `rows`: its rows (moved out), for an array of messages.
     void take(bool ok, Mux& values, bool hasEnvelope, double envelope, const std::string& why,
-              SteadyClock::time_point now)
+              SteadyClock::time_point now, Rows* rows = nullptr)
     {
         std::lock_guard<std::mutex> lock(shared_.mutex);
         ++received;
@@ -1068,6 +1103,9 @@ private:
             return;
         }
         const bool wasFresh = accept(*this, values, hasEnvelope, envelope, now, shared_.queue);
+        if (rows != nullptr) {
+            queue.back().data.rows.swap(*rows);
+        }
         if (shared_.listener != nullptr) {
             shared_.listener->arrived(*this, wasFresh);
         }
@@ -1788,10 +1826,7 @@ public:
         }
         bool feedOpen = false;
         if (status == 0 && feed_ != nullptr) {
-            feedOpen = feed_->open([this](std::size_t k, Mux& values, bool hasEnvelope, double envelope,
-                                          const std::string& why) {
-                inputs_[k]->deliver(values, hasEnvelope, envelope, why);
-            });
+            feedOpen = feed_->open([this](std::size_t k, Reading& reading) { inputs_[k]->deliver(reading); });
             if (!feedOpen) {
                 feed_->close();
                 status = 1;

@@ -157,6 +157,10 @@ struct Element
 /// A mux: the elements of its inputs, in input order, then converted.
 using Mux = std::vector<Element>;
 
+/// A mux of rows: one row for each element of an array of messages (a ROS 2
+/// input with `each`), each row converted alike.
+using Rows = std::vector<Mux>;
+
 /// "Up to the end" for a range of mux elements.
 constexpr std::size_t kToEnd = std::numeric_limits<std::size_t>::max();
 
@@ -167,6 +171,8 @@ void convert(Mux& mux, double scale, double offset, bool toFloat, std::size_t st
 
 /// Prints every element of a mux: "[<mux>] <index>: <value>".
 void printMux(const char* name, const Mux& mux);
+/// Prints every row of a mux of rows: "[<mux>] <index>: [<value>, ...]".
+void printMux(const char* name, const Rows& rows);
 
 // --- orientation and geometry converters, element-wise expressions ------------
 // The same operations in the same order as ybg/runtime/geometry.py, so that
@@ -226,6 +232,8 @@ void put(yarp::os::Bottle& b, const Element& e, Wire wire);
 void putRange(yarp::os::Bottle& b, const Mux& mux, std::size_t start, std::size_t stop, Wire wire);
 /// Appends a time as a nested list (sec, nsec) with the given tags.
 void putTime(yarp::os::Bottle& b, std::int64_t ns, Wire secWire, Wire nsecWire);
+/// Appends each row of a mux of rows as a nested list, each element with the given tag.
+void putRows(yarp::os::Bottle& b, const Rows& rows, Wire wire);
 
 // --- the bridge's description (filled in by namespace bridge) --------------------
 
@@ -316,6 +324,7 @@ struct BridgeSpec
 struct Latest
 {
     Mux values;
+    Rows rows;  // an input read from an array of messages: its rows (values empty)
     bool hasEnvelope = false;
     double envelope = 0.0;  // envelope time stamp, seconds
 };
@@ -346,6 +355,8 @@ private:
 
 /// Appends the values of one input to a mux.
 void append(Mux& mux, const Latest& input);
+/// Appends the rows of one input to a mux of rows.
+void append(Rows& rows, const Latest& input);
 
 /// Checks an input Bottle against the input's layout. On success `out`
 /// holds its values; else `why` says what is wrong. `in` is scratch space.
@@ -508,11 +519,19 @@ public:
 /// mux's size, as the module's makeMessage() gives them).
 std::string tooShort(const std::string& sizes);
 
-/// Hands the values of one message of an input read outside YARP to the
-/// bridge: `input` its index in BridgeSpec::inputs, `values` (moved out) what
-/// was read, `why` non-empty when the message could not be read.
-using Deliver = std::function<void(std::size_t input, Mux& values, bool hasEnvelope, double envelope,
-                                   const std::string& why)>;
+/// What was read of one message of an input read outside YARP.
+struct Reading
+{
+    Mux values;
+    Rows rows;             // read from an array of messages: one row an element
+    bool isRows = false;
+    bool hasEnvelope = false;
+    double envelope = 0.0;  // seconds
+};
+
+/// Hands one message's Reading to the bridge (its contents are moved out):
+/// `input` its index in BridgeSpec::inputs.
+using Deliver = std::function<void(std::size_t input, Reading& reading)>;
 
 /// The inputs of a bridge that are read by another middleware
 /// (InputKind::Ros2: ybgc_ros2.hpp's Subscriptions): opened after the
