@@ -406,7 +406,7 @@ def test_wire_tables_cover_every_element_type():
 def test_backend_registered():
     b = get_backend("cpp")
     assert isinstance(b, CppBackend)
-    assert b.output_kinds == {"yarp", "ros1", "ros2"} and b.input_kinds == {"yarp", "ros1"}
+    assert b.output_kinds == {"yarp", "ros1", "ros2"} and b.input_kinds == {"yarp", "ros1", "ros2"}
 
 
 def render(program) -> dict[str, str]:
@@ -420,7 +420,8 @@ GOLDEN_CASES = [(k, f) for k, f in HAND_PROGRAMS.items()] + [(p.stem, p) for p i
 def test_golden_files(key, what, update_goldens):
     program = config_program(what, "cpp") if isinstance(what, Path) else what()
     files = render(program)
-    ros2 = {"ybgc_ros2.hpp", "ybgc_ros2.cpp"} if program.output.kind == "ros2" else set()
+    uses_rcl = program.output.kind == "ros2" or any(i.kind == "ros2" for m in program.muxes for i in m.inputs)
+    ros2 = {"ybgc_ros2.hpp", "ybgc_ros2.cpp"} if uses_rcl else set()
     assert set(files) == {f"{program.module}.cpp", "CMakeLists.txt", f"{program.module}.xml", "ybgc_runtime.hpp",
                           "ybgc_runtime.cpp"} | ros2
     files = without_runtime(files)  # the runtime's own golden files: tests/test_runtime.py
