@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import random
 import signal
 import struct
@@ -77,6 +78,16 @@ def compiled(text: str, name: str):
     result = check_result(compile_text(text, name), "cpp")
     assert result.ok, [str(d) for d in result.diagnostics]
     return result.program
+
+
+# the first test builds the modules (two jobs: seconds on a quiet machine,
+# minutes on a busy one): more time than a single test gets
+@pytest.mark.timeout(900)
+def test_modules_build_with_werror(built):
+    """Each module's generated CMakeLists links rcl and the message packages
+    of the topics it reads, with a YARP output too; built with -Werror."""
+    for key in built.programs:
+        assert os.access(built.exe(key), os.X_OK)
 
 
 def ros2_type(msg_type: str) -> str:
