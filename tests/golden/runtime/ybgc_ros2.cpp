@@ -411,6 +411,12 @@ bool Subscriptions::open(Deliver deliver)
             return false;
         }
     }
+    std::string names;
+    for (const Topic& t : topics_.topics) {
+        names += (names.empty() ? "" : ", ") + std::string(t.name) + " (" + t.type.name + ")";
+    }
+    say("reading the ROS 2 topics " + names + " on the node " + rcl_node_get_name(r.node)
+        + " (best_effort, volatile, depth 1)");
     r.thread = std::thread([this] { follow(); });
     return true;
 }
@@ -434,6 +440,9 @@ void Subscriptions::follow()
         const rcl_ret_t woke = rcl_wait(&waitSet, RCL_MS_TO_NS(100));
         if (woke != RCL_RET_OK) {
             rcl_reset_error();
+            if (woke != RCL_RET_TIMEOUT) {
+                std::this_thread::sleep_for(std::chrono::milliseconds(10));  // no busy loop on an error
+            }
             continue;
         }
         for (std::size_t k = 0; k < r.subscribed && !r.stopping; ++k) {

@@ -411,11 +411,12 @@ class _Builder:
         self.emit(indent, "}")
 
     def mux_ref(self, ref: ir.MuxRef, parent: str, depth: int, indent: int) -> None:
+        rows = self.mux(ref.mux)
         if self.program.mux(ref.mux).rows:  # one nested list per row, whole
             if ref.index is not None or ref.start != 0 or ref.stop is not None or ref.into_fields:
                 raise LoweringError(f"a part of mux {ref.mux}, which holds rows")
             target = parent if ref.splice else f"{parent}.addList()"
-            self.emit(indent, f"ybgc::putRows({target}, {self.mux(ref.mux)}, {self.wire_of(ref.element_type)});")
+            self.emit(indent, f"ybgc::putRows({target}, {rows}, {self.wire_of(ref.element_type)});")
             return
         if ref.index is not None:
             values = self.mux(ref.mux, ref.index + 1)
@@ -576,6 +577,11 @@ def lower(program: ir.Program, builder=_Builder) -> ModuleView:
         mux_views.append(MuxView(members[m.name], cpp_string(m.name), srcs, tuple(gather), bool(m.verbose),
                                  "ybgc::Rows" if m.rows else "ybgc::Mux"))
 
+    ros2_inputs = None
+    if any(i.kind == "ros2" for m in program.muxes for i in m.inputs):
+        from ybg.backends.cpp import ros2_inputs as readers
+        ros2_inputs = readers.lower(program, members)
+
     b = builder(program, members, input_ids)
     b.struct(program.message, "msg", 0, 1)
     checks: list[Line] = []
@@ -645,10 +651,6 @@ def lower(program: ir.Program, builder=_Builder) -> ModuleView:
         f"{timing}, {policy}.",
     )
     config_name = os.path.basename(program.source) if program.source else program.module
-    ros2_inputs = None
-    if any(i.kind == "ros2" for m in program.muxes for i in m.inputs):
-        from ybg.backends.cpp import ros2_inputs as readers
-        ros2_inputs = readers.lower(program, members)
     sizes = " + \", \" + ".join(
         f"{cpp_string(m.name + ' has ')} + std::to_string(mux.{members[m.name]}.size())" for m in program.muxes
     ) or '""'
