@@ -153,6 +153,11 @@ class Builds:
         self.log = ""
 
     def add(self, key: str, program: Program, optimize: bool = False) -> None:
+        # one CMake project holds every module: a module named as one added
+        # before (examples/ros2_to_yarp_gaze.ini and the legacy config it
+        # comes from) gets a name, and a target, of its own
+        if any(p.module == program.module for p in self.programs.values()):
+            program = dataclasses.replace(program, module=f"{program.module}_{key}")
         self.programs[key] = program
         if optimize:
             self.optimized.add(key)
