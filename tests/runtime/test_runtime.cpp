@@ -265,6 +265,60 @@ void testParseBottle()
     CHECK_EQ(why, "the message has no field missing");
 }
 
+/// The values of a ROS 2 message checked as the Python node checks them
+/// (ros2_io.message_values): the same conversions, the same reasons.
+void testCheckValues()
+{
+    std::string why;
+    ybgc::InputSpec spec = yarpInput(false, {});
+    spec.kind = ybgc::InputKind::Ros2;
+    // undeclared: numbers, each a float64
+    Mux m{Element::ofInteger(3), Element::ofReal(2.5)};
+    CHECK(ybgc::checkValues(m, spec, false, why));
+    CHECK(m[0].kind == Element::Kind::Real && m[0].real == 3.0 && m[1].real == 2.5);
+    m = {Element::ofReal(1.0), Element::ofBool(true)};
+    CHECK(!ybgc::checkValues(m, spec, false, why));
+    CHECK_EQ(why, "element 1 is not a number");
+    // declared: the number of values and their kinds
+    spec.declared = true;
+    spec.layout = {{"float64", 1}, {"int32", 1}, {"bool", 2}};
+    m = {Element::ofInteger(2), Element::ofInteger(-7), Element::ofBool(true), Element::ofInteger(0)};
+    CHECK(ybgc::checkValues(m, spec, false, why));
+    CHECK(m[0].kind == Element::Kind::Real && m[0].real == 2.0 && m[1].kind == Element::Kind::Integer);
+    CHECK(m[2].kind == Element::Kind::Boolean && m[3].kind == Element::Kind::Boolean && m[3].integer == 0);
+    m = {Element::ofReal(1.0)};
+    CHECK(!ybgc::checkValues(m, spec, false, why));
+    CHECK_EQ(why, "1 elements, expected 4");
+    m = {Element::ofBool(true), Element::ofInteger(1), Element::ofBool(true), Element::ofBool(false)};
+    CHECK(!ybgc::checkValues(m, spec, false, why));
+    CHECK_EQ(why, "element 0 is not a number, expected float64");
+    m = {Element::ofReal(1.0), Element::ofReal(1.0), Element::ofBool(true), Element::ofBool(false)};
+    CHECK(!ybgc::checkValues(m, spec, false, why));
+    CHECK_EQ(why, "element 1 is not an integer, expected int32");
+    m = {Element::ofReal(1.0), Element::ofInteger(1), Element::ofInteger(2), Element::ofBool(false)};
+    CHECK(!ybgc::checkValues(m, spec, false, why));
+    CHECK_EQ(why, "element 2 is not a bool (0 or 1)");
+    m = {Element::ofReal(std::nan("")), Element::ofInteger(1), Element::ofBool(true), Element::ofBool(false)};
+    CHECK(ybgc::checkValues(m, spec, false, why));
+    CHECK(!ybgc::checkValues(m, spec, true, why));
+    CHECK_EQ(why, "element 0 is NaN");
+}
+
+/// A mux of rows: appended from an input, printed and written one list a row.
+void testRows()
+{
+    ybgc::Latest in;
+    in.rows = {reals({0.5, 1.0}), reals({1.25})};
+    ybgc::Rows rows;
+    ybgc::append(rows, in);
+    CHECK(rows.size() == 2 && rows[1].size() == 1 && rows[1][0].real == 1.25);
+    yarp::os::Bottle b;
+    b.addString("plan");
+    ybgc::putRows(b, rows, Wire::Float64);
+    CHECK_EQ(b.toString(), "plan (0.5 1.0) (1.25)");
+    CHECK(b.get(1).asList()->get(0).isFloat64());
+}
+
 void testAppendAndEnvelope()
 {
     ybgc::Latest a;
@@ -493,6 +547,8 @@ int main()
     testPut();
     testRos1Bytes();
     testParseBottle();
+    testCheckValues();
+    testRows();
     testAppendAndEnvelope();
     testMatchingTriggerAllByEnvelope();
     testMatchingByArrival();

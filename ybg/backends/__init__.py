@@ -161,7 +161,7 @@ _YARP = frozenset({"yarp", "ros1"})
 REGISTRY: dict[str, BackendInfo] = {
     "cpp": BackendInfo("ybg.backends.cpp:CppBackend",
                        "a C++17 YARP module and its CMakeLists.txt, on ybgc's C++ runtime library "
-                       "(ROS 2 outputs through rcl)", _YARP | {"ros2"}, _YARP),
+                       "(ROS 2 outputs and inputs through rcl)", _YARP | {"ros2"}, _YARP | {"ros2"}),
     "py": BackendInfo("ybg.backends.py:PyBackend",
                       "a Python module on YARP's Python bindings and ybgc's Python runtime library", _YARP, _YARP),
     "ros2": BackendInfo("ybg.backends.ros2:Ros2Backend",

@@ -15,6 +15,7 @@
 
 #include "ybgc_runtime.hpp"  // ybgc:runtime-import
 
+#include <builtin_interfaces/msg/duration.h>
 #include <builtin_interfaces/msg/time.h>
 #include <rosidl_runtime_c/message_type_support_struct.h>
 #include <rosidl_runtime_c/primitives_sequence.h>
@@ -242,6 +243,7 @@ private:
     std::unique_ptr<Rcl> rcl_;
     void* msg_ = nullptr;
     bool reportedPublishError_ = false;
+    friend class Subscriptions;  // which share its node
 };
 
 /// Moves the ROS arguments of a command line (from `--ros-args` to `--` or
@@ -260,6 +262,170 @@ int run(const BridgeSpec& spec, const Ros2Spec& ros2, const MessageType& type, i
         return fill(in, ctx, *static_cast<Msg*>(msg), failure);
     }, std::move(rosArgs));
     return ybgc::run(spec, argc, argv, publisher);
+}
+
+// --- ROS 2 topics as inputs -------------------------------------------------------------
+
+/// The values of one field of a message taken from a topic, appended to a
+/// mux as the Python ROS 2 node reads them: a number as it is (a float a
+/// real, an integer an integer, a bool a bool), a time or a duration as
+/// seconds (sec + nanosec / 1e9), a sequence element by element.
+template <class T>
+void read(Mux& out, const T& field)
+{
+    if constexpr (std::is_same_v<T, bool>) {
+        out.push_back(Element::ofBool(field));
+    } else if constexpr (std::is_floating_point_v<T>) {
+        out.push_back(Element::ofReal(static_cast<double>(field)));
+    } else if constexpr (std::is_integral_v<T>) {
+        out.push_back(Element::ofInteger(static_cast<std::int64_t>(field)));
+    } else {  // a sequence: rosidl_runtime_c's {data, size, capacity}
+        for (std::size_t k = 0; k < field.size; ++k) {
+            read(out, field.data[k]);
+        }
+    }
+}
+
+/// A fixed-size array, element by element.
+template <class T, std::size_t N>
+void read(Mux& out, const T (&array)[N])
+{
+    for (const T& x : array) {
+        read(out, x);
+    }
+}
+
+/// Calls `f` on each element of an array of messages (a sequence or a
+/// fixed-size array), in order.
+template <class Seq, class F>
+void forEach(const Seq& seq, F f)
+{
+    for (std::size_t k = 0; k < seq.size; ++k) {
+        f(seq.data[k]);
+    }
+}
+template <class T, std::size_t N, class F>
+void forEach(const T (&array)[N], F f)
+{
+    for (const T& x : array) {
+        f(x);
+    }
+}
+
+void read(Mux& out, const builtin_interfaces__msg__Time& field);
+void read(Mux& out, const builtin_interfaces__msg__Duration& field);
+
+/// Has the message a header.stamp?
+template <class Msg, class = void>
+struct HasStamp : std::false_type
+{
+};
+template <class Msg>
+struct HasStamp<Msg, std::void_t<decltype(std::declval<const Msg&>().header.stamp.nanosec)>> : std::true_type
+{
+};
+
+/// The envelope of a message: its header.stamp in seconds, when it has a
+/// header and the stamp is not zero (as the Python node takes it).
+template <class Msg>
+bool envelopeOf(const Msg& msg, double& seconds)
+{
+    if constexpr (HasStamp<Msg>::value) {
+        const builtin_interfaces__msg__Time& stamp = msg.header.stamp;
+        if (stamp.sec == 0 && stamp.nanosec == 0) {
+            return false;
+        }
+        seconds = static_cast<double>(stamp.sec) + static_cast<double>(stamp.nanosec) * 1e-9;
+        return true;
+    } else {
+        (void)msg;
+        (void)seconds;
+        return false;
+    }
+}
+
+/// One ROS 2 topic a bridge input reads: the input's index in
+/// BridgeSpec::inputs, the message type, and the module's reader of its
+/// fields (with the message's envelope).
+struct Topic
+{
+    std::size_t input;
+    const char* name;  // the topic
+    MessageType type;
+    void (*read)(const void* msg, Reading& out);
+};
+
+/// The Topic of input `input` (topic `name`), a message of C struct Msg read
+/// by `Read`, the module's reader of the fields the config lists: into the
+/// input's values, `void (const Msg&, Mux&)`, or one row for each element of
+/// an array of messages, `void (const Msg&, Rows&)`.
+template <class Msg, Msg* (*Create)(), void (*Destroy)(Msg*), auto Read>
+Topic topic(std::size_t input, const char* name, const char* typeName,
+            const rosidl_message_type_support_t* typeSupport)
+{
+    return {input, name, messageType<Msg, Create, Destroy>(typeName, typeSupport),
+            [](const void* msg, Reading& out) {
+                const Msg& m = *static_cast<const Msg*>(msg);
+                if constexpr (std::is_invocable_v<decltype(Read), const Msg&, Rows&>) {
+                    out.isRows = true;
+                    Read(m, out.rows);
+                } else {
+                    Read(m, out.values);
+                }
+                out.hasEnvelope = envelopeOf(m, out.envelope);
+            }};
+}
+
+/// The ROS 2 topics a bridge reads, and the name of the node that reads
+/// them when the output is a YARP port (a ROS 2 output's node reads them
+/// otherwise).
+struct Topics
+{
+    const char* node;
+    std::vector<Topic> topics;
+};
+
+/// The bridge's ROS 2 inputs: one rcl subscription a topic, with the QoS of
+/// the Python node's inputs (keep the last 1, best effort, which matches
+/// reliable and best-effort publishers alike, volatile), all taken through
+/// one rcl wait set by a thread of their own; each message's values go to
+/// the bridge as a Bottle's do. On a node of their own (a YARP output:
+/// `rosArgs` given to rcl), or on the node of `publisher` (a ROS 2 output).
+class Subscriptions : public InputFeed
+{
+public:
+    Subscriptions(const Topics& topics, std::vector<std::string> rosArgs, Publisher* publisher = nullptr);
+    ~Subscriptions() override;
+
+    bool open(Deliver deliver) override;
+    void close() override;
+
+private:
+    struct Rcl;
+    void follow();
+    const Topics& topics_;
+    std::vector<std::string> rosArgs_;
+    Publisher* publisher_;
+    std::unique_ptr<Rcl> rcl_;
+    Deliver deliver_;
+};
+
+/// Runs a bridge whose output is a YARP port and whose inputs include ROS 2
+/// topics until SIGINT or SIGTERM; the exit status.
+int run(const BridgeSpec& spec, const Topics& topics, int argc, char* argv[], MakeMessage make);
+
+/// Runs a bridge that reads ROS 2 topics (besides YARP ports) and publishes
+/// to ROS 2, on one node.
+template <class Msg>
+int run(const BridgeSpec& spec, const Ros2Spec& ros2, const MessageType& type, const Topics& topics, int argc,
+        char* argv[], bool (*fill)(const Inputs&, const Context&, Msg&, std::string&))
+{
+    std::vector<std::string> rosArgs = takeRosArgs(argc, argv);
+    Publisher publisher(ros2, type, [fill](void* msg, const Inputs& in, const Context& ctx, std::string& failure) {
+        return fill(in, ctx, *static_cast<Msg*>(msg), failure);
+    }, std::move(rosArgs));
+    Subscriptions subscriptions(topics, {}, &publisher);
+    return ybgc::run(spec, argc, argv, publisher, &subscriptions);
 }
 
 }  // namespace ros2

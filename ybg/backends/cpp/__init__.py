@@ -43,7 +43,7 @@ class CppBackend(Backend):
 
     def render(self, program, options: RenderOptions = RenderOptions()) -> dict[str, str]:
         view = self._lower(program)
-        ros2 = view.ros2 is not None
+        ros2 = view.uses_ros2
         env = environment()
         rt = runtime_view("cpp", options.single_file, ros2=ros2)
         sources = f"{CPP_SOURCE} {CPP_ROS2_SOURCE}" if ros2 else CPP_SOURCE

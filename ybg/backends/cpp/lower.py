@@ -27,6 +27,7 @@ from ybg.compiler import ir
 
 if TYPE_CHECKING:
     from ybg.backends.cpp.ros2 import Ros2View
+    from ybg.backends.cpp.ros2_inputs import Ros2InputsView
 
 #: The runtime's `Wire` enumerator of each element type (the shared tables of
 #: ybg.backends, in C++ spelling: "float64" -> "Float64").
@@ -76,6 +77,7 @@ class MuxView:
     comment: str
     gather: tuple[Line, ...]  # statements of gather()
     verbose: bool
+    cpp_type: str = "ybgc::Mux"  # ybgc::Rows: a row for each element of an array of messages
 
 
 @dataclass(frozen=True)
@@ -107,6 +109,17 @@ class ModuleView:
     ros1: bool                       # uses YARP's ROS 1 support (output or an input)
     ros2: "Ros2View | None" = None   # publishes to ROS 2 through rcl (.ros2)
     message_cpp: str = "yarp::os::Bottle"  # the C++ type buildMessage fills
+    ros2_inputs: "Ros2InputsView | None" = None  # reads ROS 2 topics through rcl (.ros2_inputs)
+
+    @property
+    def uses_ros2(self) -> bool:
+        """Does the module use rcl (a ROS 2 output or input)?"""
+        return self.ros2 is not None or self.ros2_inputs is not None
+
+    @property
+    def ros2_packages(self) -> tuple[str, ...]:
+        """The message packages to link (those of the output's message, the inputs' and the runtime's)."""
+        return self.ros2.packages if self.ros2 is not None else self.ros2_inputs.packages if self.ros2_inputs else ()
 
 
 # --------------------------------------------------------------------------
@@ -176,14 +189,21 @@ def cpp_expression(node: ir.ExprNode, top: bool = True) -> str:
     return f"{_CPP_FUNCTIONS[op]}({', '.join(cpp_expression(a) for a in node.args)})"
 
 
-def _vector_converter(member: str, c) -> str:
-    """The call of a geometry converter or an expression on mux ``member``."""
+def _converter(target: str, c) -> str:
+    """The call of converter ``c`` on the mux (or row) ``target``."""
     if isinstance(c, ir.GeometryConverter):
         axes = cpp_string(c.axes or "xyz")
-        return (f"ybgc::convertGeometry(mux.{member}, ybgc::Geometry::{_GEOMETRY[c.name]}, {_size(c.start)}, "
+        return (f"ybgc::convertGeometry({target}, ybgc::Geometry::{_GEOMETRY[c.name]}, {_size(c.start)}, "
                 f"{axes}, {'true' if c.degrees else 'false'});  // {comment(c.text)}")
-    return (f"ybgc::convertEach(mux.{member}, []([[maybe_unused]] double x) {{ return {cpp_expression(c.body)}; }}, "
-            f"{_size(c.start)}, {_size(c.stop)});  // {comment('expr(' + c.text + ')')}")
+    if isinstance(c, ir.ExprConverter):
+        return (f"ybgc::convertEach({target}, []([[maybe_unused]] double x) {{ return {cpp_expression(c.body)}; }}, "
+                f"{_size(c.start)}, {_size(c.stop)});  // {comment('expr(' + c.text + ')')}")
+    if c.start < 0 or (c.stop is not None and c.stop < c.start):
+        raise LoweringError(f"converter {c.name} has the range [{c.start}:{c.stop}]")
+    stop = "" if c.stop is None else str(c.stop)
+    return (f"ybgc::convert({target}, {cpp_float(float(c.scale))}, {cpp_float(float(c.offset))}, "
+            f"{'true' if c.to_float else 'false'}, {_size(c.start)}, {_size(c.stop)});"
+            f"  // {comment(c.name)}[{c.start}:{stop}]")
 
 
 def _size(n: int | None) -> str:
@@ -391,6 +411,13 @@ class _Builder:
         self.emit(indent, "}")
 
     def mux_ref(self, ref: ir.MuxRef, parent: str, depth: int, indent: int) -> None:
+        rows = self.mux(ref.mux)
+        if self.program.mux(ref.mux).rows:  # one nested list per row, whole
+            if ref.index is not None or ref.start != 0 or ref.stop is not None or ref.into_fields:
+                raise LoweringError(f"a part of mux {ref.mux}, which holds rows")
+            target = parent if ref.splice else f"{parent}.addList()"
+            self.emit(indent, f"ybgc::putRows({target}, {rows}, {self.wire_of(ref.element_type)});")
+            return
         if ref.index is not None:
             values = self.mux(ref.mux, ref.index + 1)
             self.emit(indent, f"ybgc::put({parent}, {values}[{ref.index:d}], {self.wire_of(ref.element_type)});")
@@ -492,7 +519,7 @@ def _input_comment(mux: str, k: int, inp: ir.Input) -> str:
         what = "any number of numbers"
     else:
         what = ", ".join(f"{g.type} x{g.count}" for g in inp.layout)
-    kind = "ROS 1 topic" if inp.kind == "ros1" else "port"
+    kind = {"ros1": "ROS 1 topic", "ros2": "ROS 2 topic"}.get(inp.kind, "port")
     extra = f" ({comment(inp.ros_type)})" if inp.ros_type else ""
     reads = "" if inp.reads is None else f"; the message reads the first {inp.reads} (W511)"
     return f"mux {comment(mux)}, input {k}: {kind} {comment(inp.name)}{extra}, {what}{reads}"
@@ -523,33 +550,37 @@ def lower(program: ir.Program, builder=_Builder) -> ModuleView:
         ids = []
         gather = [Line(1, f"mux.{members[m.name]}.clear();")]
         for k, i in enumerate(m.inputs):
-            if i.kind not in ("yarp", "ros1"):
+            if i.kind not in ("yarp", "ros1", "ros2"):
                 raise LoweringError(f"the cpp backend cannot read a {i.kind!r} input ({i.name})",
                                     ("input", m.name, i.name))
             if not i.timeout > 0:
                 raise LoweringError(f"input {i.name} has a timeout of {i.timeout!r}", ("input", m.name, i.name))
             n = len(inputs)
             ids.append(n)
-            kind = "ybgc::InputKind::Ros1" if i.kind == "ros1" else "ybgc::InputKind::Yarp"
+            kind = {"ros1": "ybgc::InputKind::Ros1", "ros2": "ybgc::InputKind::Ros2"}.get(
+                i.kind, "ybgc::InputKind::Yarp")
             reads = "" if i.reads is None else f", {int(i.reads)}"
             init = (f"{{{mi}, {k}, {cpp_string(i.name)}, {kind}, {cpp_float(float(i.timeout))}, "
                     f"{_layout(i)}, {_fields(i, program.distro)}{reads}}}")
             inputs.append(InputView(n, init, _input_comment(m.name, k, i)))
             gather.append(Line(1, f"ybgc::append(mux.{members[m.name]}, in[{n}]);  // {comment(i.name)}"))
-        for c in m.converters:
-            if isinstance(c, (ir.GeometryConverter, ir.ExprConverter)):
-                gather.append(Line(1, _vector_converter(members[m.name], c)))
-                continue
-            if c.start < 0 or (c.stop is not None and c.stop < c.start):
-                raise LoweringError(f"converter {c.name} has the range [{c.start}:{c.stop}]")
-            stop = "" if c.stop is None else str(c.stop)
-            gather.append(Line(1, (
-                f"ybgc::convert(mux.{members[m.name]}, {cpp_float(float(c.scale))}, {cpp_float(float(c.offset))}, "
-                f"{'true' if c.to_float else 'false'}, {_size(c.start)}, {_size(c.stop)});"
-                f"  // {comment(c.name)}[{c.start}:{stop}]")))
+        if m.rows and m.converters:  # each row converted alike
+            gather.append(Line(1, f"for (ybgc::Mux& row : mux.{members[m.name]}) {{"))
+            gather += [Line(2, _converter("row", c)) for c in m.converters]
+            gather.append(Line(1, "}"))
+        else:
+            gather += [Line(1, _converter(f"mux.{members[m.name]}", c)) for c in m.converters]
         input_ids[m.name] = ids
         srcs = ", ".join(comment(i.name) for i in m.inputs)
-        mux_views.append(MuxView(members[m.name], cpp_string(m.name), srcs, tuple(gather), bool(m.verbose)))
+        if m.rows:
+            srcs += ": a row for each element of its array of messages"
+        mux_views.append(MuxView(members[m.name], cpp_string(m.name), srcs, tuple(gather), bool(m.verbose),
+                                 "ybgc::Rows" if m.rows else "ybgc::Mux"))
+
+    ros2_inputs = None
+    if any(i.kind == "ros2" for m in program.muxes for i in m.inputs):
+        from ybg.backends.cpp import ros2_inputs as readers
+        ros2_inputs = readers.lower(program, members)
 
     b = builder(program, members, input_ids)
     b.struct(program.message, "msg", 0, 1)
@@ -612,6 +643,8 @@ def lower(program: ir.Program, builder=_Builder) -> ModuleView:
         f"publishes {what} on {plain_where}",
         f"publishing {timing}, {policy}",
     )
+    if out.kind != "ros2" and any(i.kind == "ros2" for m in program.muxes for i in m.inputs):
+        description += ("ROS arguments after --ros-args (remappings, the node's name)",)
     header = (
         (f"Module {comment(program.module)}: {n_in} input(s) in {len(program.muxes)} mux(es), "
          f"publishing {what_comment} on {where},"),
@@ -648,6 +681,7 @@ def lower(program: ir.Program, builder=_Builder) -> ModuleView:
         builder=builder,
         sizes=sizes,
         ros1=out.kind == "ros1" or any(i.kind == "ros1" for m in program.muxes for i in m.inputs),
+        ros2_inputs=ros2_inputs,
     )
 
 

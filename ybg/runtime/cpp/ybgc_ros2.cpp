@@ -327,5 +327,184 @@ void Publisher::close()
     rcl_reset_error();
 }
 
+// --- ROS 2 topics as inputs -------------------------------------------------------------
+
+void read(Mux& out, const builtin_interfaces__msg__Time& field)
+{
+    out.push_back(Element::ofReal(static_cast<double>(field.sec) + static_cast<double>(field.nanosec) / 1e9));
+}
+
+void read(Mux& out, const builtin_interfaces__msg__Duration& field)
+{
+    out.push_back(Element::ofReal(static_cast<double>(field.sec) + static_cast<double>(field.nanosec) / 1e9));
+}
+
+struct Subscriptions::Rcl
+{
+    rcl_allocator_t allocator = rcl_get_default_allocator();
+    rcl_context_t ownContext = rcl_get_zero_initialized_context();
+    rcl_node_t ownNode = rcl_get_zero_initialized_node();
+    rcl_context_t* context = nullptr;  // its own, or the publisher's
+    rcl_node_t* node = nullptr;
+    std::vector<rcl_subscription_t> subscriptions;  // one a topic, in Topics order
+    std::vector<void*> messages;                    // one taken message a topic
+    std::size_t subscribed = 0;
+    std::thread thread;
+    std::atomic<bool> stopping{false};
+    bool contextOk = false;
+    bool nodeOk = false;
+};
+
+Subscriptions::Subscriptions(const Topics& topics, std::vector<std::string> rosArgs, Publisher* publisher) :
+        topics_(topics), rosArgs_(std::move(rosArgs)), publisher_(publisher), rcl_(std::make_unique<Rcl>())
+{
+}
+
+Subscriptions::~Subscriptions()
+{
+    close();
+}
+
+bool Subscriptions::open(Deliver deliver)
+{
+    Rcl& r = *rcl_;
+    deliver_ = std::move(deliver);
+    if (publisher_ != nullptr) {
+        r.context = &publisher_->rcl_->context;
+        r.node = &publisher_->rcl_->node;
+    } else {
+        rcl_init_options_t options = rcl_get_zero_initialized_init_options();
+        if (rcl_init_options_init(&options, r.allocator) != RCL_RET_OK) {
+            say("cannot start ROS 2: " + rclError());
+            return false;
+        }
+        std::vector<const char*> argv{topics_.node};
+        for (const std::string& arg : rosArgs_) {
+            argv.push_back(arg.c_str());
+        }
+        const rcl_ret_t init = rcl_init(static_cast<int>(argv.size()), argv.data(), &options, &r.ownContext);
+        finished(rcl_init_options_fini(&options));
+        if (init != RCL_RET_OK) {
+            say("cannot start ROS 2: " + rclError());
+            return false;
+        }
+        r.contextOk = true;
+        rcl_node_options_t nodeOptions = rcl_node_get_default_options();
+        if (rcl_node_init(&r.ownNode, topics_.node, "", &r.ownContext, &nodeOptions) != RCL_RET_OK) {
+            say(std::string("cannot create the ROS 2 node ") + topics_.node + ": " + rclError());
+            return false;
+        }
+        r.nodeOk = true;
+        r.context = &r.ownContext;
+        r.node = &r.ownNode;
+    }
+    r.subscriptions.assign(topics_.topics.size(), rcl_get_zero_initialized_subscription());
+    for (const Topic& t : topics_.topics) {
+        rcl_subscription_options_t options = rcl_subscription_get_default_options();
+        options.qos.history = RMW_QOS_POLICY_HISTORY_KEEP_LAST;
+        options.qos.depth = 1;
+        options.qos.reliability = RMW_QOS_POLICY_RELIABILITY_BEST_EFFORT;
+        options.qos.durability = RMW_QOS_POLICY_DURABILITY_VOLATILE;
+        const std::size_t k = r.subscribed;
+        if (rcl_subscription_init(&r.subscriptions[k], r.node, t.type.typeSupport, t.name, &options)
+            != RCL_RET_OK) {
+            say(std::string("cannot subscribe to ") + t.name + " (" + t.type.name + "): " + rclError());
+            return false;
+        }
+        ++r.subscribed;
+        r.messages.push_back(t.type.create());
+        if (r.messages.back() == nullptr) {
+            say(std::string("cannot allocate a message ") + t.type.name);
+            return false;
+        }
+    }
+    std::string names;
+    for (const Topic& t : topics_.topics) {
+        names += (names.empty() ? "" : ", ") + std::string(t.name) + " (" + t.type.name + ")";
+    }
+    say("reading the ROS 2 topics " + names + " on the node " + rcl_node_get_name(r.node)
+        + " (best_effort, volatile, depth 1)");
+    r.thread = std::thread([this] { follow(); });
+    return true;
+}
+
+/// Takes the messages of every topic as they come, through one wait set
+/// (woken every 100 ms to see whether the bridge stops).
+void Subscriptions::follow()
+{
+    Rcl& r = *rcl_;
+    rcl_wait_set_t waitSet = rcl_get_zero_initialized_wait_set();
+    if (rcl_wait_set_init(&waitSet, r.subscribed, 0, 0, 0, 0, 0, r.context, r.allocator) != RCL_RET_OK) {
+        say("cannot wait for the ROS 2 topics: " + rclError());
+        return;
+    }
+    Reading reading;
+    while (!r.stopping) {
+        finished(rcl_wait_set_clear(&waitSet));
+        for (std::size_t k = 0; k < r.subscribed; ++k) {
+            finished(rcl_wait_set_add_subscription(&waitSet, &r.subscriptions[k], nullptr));
+        }
+        const rcl_ret_t woke = rcl_wait(&waitSet, RCL_MS_TO_NS(100));
+        if (woke != RCL_RET_OK) {
+            rcl_reset_error();
+            if (woke != RCL_RET_TIMEOUT) {
+                std::this_thread::sleep_for(std::chrono::milliseconds(10));  // no busy loop on an error
+            }
+            continue;
+        }
+        for (std::size_t k = 0; k < r.subscribed && !r.stopping; ++k) {
+            if (waitSet.subscriptions[k] == nullptr) {
+                continue;
+            }
+            const Topic& t = topics_.topics[k];
+            while (!r.stopping && rcl_take(&r.subscriptions[k], r.messages[k], nullptr, nullptr) == RCL_RET_OK) {
+                reading.values.clear();
+                reading.rows.clear();
+                reading.envelope = 0.0;
+                t.read(r.messages[k], reading);
+                deliver_(t.input, reading);
+            }
+            rcl_reset_error();
+        }
+    }
+    finished(rcl_wait_set_fini(&waitSet));
+}
+
+void Subscriptions::close()
+{
+    Rcl& r = *rcl_;
+    r.stopping = true;
+    if (r.thread.joinable()) {
+        r.thread.join();
+    }
+    for (std::size_t k = 0; k < r.subscribed; ++k) {
+        finished(rcl_subscription_fini(&r.subscriptions[k], r.node));
+    }
+    r.subscribed = 0;
+    for (std::size_t k = 0; k < r.messages.size(); ++k) {
+        if (r.messages[k] != nullptr) {
+            topics_.topics[k].type.destroy(r.messages[k]);
+        }
+    }
+    r.messages.clear();
+    if (r.nodeOk) {
+        finished(rcl_node_fini(&r.ownNode));
+        r.nodeOk = false;
+    }
+    if (r.contextOk) {
+        finished(rcl_shutdown(&r.ownContext));
+        finished(rcl_context_fini(&r.ownContext));
+        r.contextOk = false;
+    }
+    rcl_reset_error();
+}
+
+int run(const BridgeSpec& spec, const Topics& topics, int argc, char* argv[], MakeMessage make)
+{
+    std::vector<std::string> rosArgs = takeRosArgs(argc, argv);
+    Subscriptions subscriptions(topics, std::move(rosArgs));
+    return ybgc::run(spec, argc, argv, std::move(make), &subscriptions);
+}
+
 }  // namespace ros2
 }  // namespace ybgc

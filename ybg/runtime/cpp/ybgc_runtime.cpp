@@ -408,6 +408,19 @@ void printMux(const char* name, const Mux& mux)
     printLines(out);
 }
 
+void printMux(const char* name, const Rows& rows)
+{
+    std::string out;
+    for (std::size_t k = 0; k < rows.size(); ++k) {
+        out += "[" + std::string(name) + "] " + std::to_string(k) + ": [";
+        for (std::size_t j = 0; j < rows[k].size(); ++j) {
+            out += (j > 0 ? ", " : "") + rows[k][j].repr();
+        }
+        out += "]\n";
+    }
+    printLines(out);
+}
+
 void putInteger(yarp::os::Bottle& b, std::int64_t x, Wire wire)
 {
     switch (wire) {
@@ -480,6 +493,13 @@ void putRange(yarp::os::Bottle& b, const Mux& mux, std::size_t start, std::size_
 }
 
 /// Appends a time, `ns` nanoseconds since the epoch, as a nested list (sec nsec).
+void putRows(yarp::os::Bottle& b, const Rows& rows, Wire wire)
+{
+    for (const Mux& row : rows) {
+        putRange(b.addList(), row, 0, kToEnd, wire);
+    }
+}
+
 void putTime(yarp::os::Bottle& b, std::int64_t ns, Wire secWire, Wire nsecWire)
 {
     std::int64_t sec = ns / 1000000000;
@@ -496,6 +516,11 @@ void putTime(yarp::os::Bottle& b, std::int64_t ns, Wire secWire, Wire nsecWire)
 void append(Mux& mux, const Latest& input)
 {
     mux.insert(mux.end(), input.values.begin(), input.values.end());
+}
+
+void append(Rows& rows, const Latest& input)
+{
+    rows.insert(rows.end(), input.rows.begin(), input.rows.end());
 }
 
 bool isInteger(const yarp::os::Value& v)
@@ -694,6 +719,73 @@ bool parseBottle(const yarp::os::Bottle& b, const InputSpec& spec, bool dropNan,
         for (std::size_t k = 0; k < out.size(); ++k) {
             if (out[k].kind == Element::Kind::Real && std::isnan(out[k].real)) {
                 why = "element " + std::to_string(k) + " is NaN";
+                return false;
+            }
+        }
+    }
+    return true;
+}
+
+bool checkValues(Mux& values, const InputSpec& spec, bool dropNan, std::string& why)
+{
+    const auto at = [](std::size_t k) { return "element " + std::to_string(k); };
+    if (!spec.declared) {
+        for (std::size_t k = 0; k < values.size(); ++k) {
+            Element& e = values[k];
+            if (e.kind != Element::Kind::Real && e.kind != Element::Kind::Integer) {
+                why = at(k) + " is not a number";
+                return false;
+            }
+            e = Element::ofReal(e.asReal());
+        }
+    } else {
+        std::size_t width = 0;
+        for (const Group& g : spec.layout) {
+            width += static_cast<std::size_t>(g.count);
+        }
+        if (values.size() != width) {
+            why = std::to_string(values.size()) + " elements, expected " + std::to_string(width);
+            return false;
+        }
+        std::size_t k = 0;
+        for (const Group& g : spec.layout) {
+            const Expect expect = expectOf(g.type);
+            for (int n = 0; n < g.count; ++n, ++k) {
+                Element& e = values[k];
+                switch (expect) {
+                case Expect::Float:
+                case Expect::Float32:
+                    if (e.kind != Element::Kind::Real && e.kind != Element::Kind::Integer) {
+                        why = at(k) + " is not a number, expected " + g.type;
+                        return false;
+                    }
+                    e = Element::ofReal(e.asReal());
+                    break;
+                case Expect::Integer:
+                    if (e.kind != Element::Kind::Integer) {
+                        why = at(k) + " is not an integer, expected " + g.type;
+                        return false;
+                    }
+                    break;
+                case Expect::Bool:
+                    if (e.kind == Element::Kind::Integer && (e.integer == 0 || e.integer == 1)) {
+                        e = Element::ofBool(e.integer == 1);
+                    } else if (e.kind != Element::Kind::Boolean) {
+                        why = at(k) + " is not a bool (0 or 1)";
+                        return false;
+                    }
+                    break;
+                case Expect::Text:
+                    why = at(k) + " has the type " + g.type + ", not read from ROS 2";
+                    return false;
+                }
+            }
+        }
+    }
+    if (dropNan) {
+        for (std::size_t k = 0; k < values.size(); ++k) {
+            if (values[k].kind == Element::Kind::Real && std::isnan(values[k].real)) {
+                why = at(k) + " is NaN";
                 return false;
             }
         }
@@ -922,6 +1014,9 @@ public:
 
     bool open()
     {
+        if (spec.kind == InputKind::Ros2) {
+            return true;  // no port: the InputFeed delivers its values
+        }
         // queue > 1: every Bottle reaches onRead, in order (kBacklog bounds
         // it); 1: the newest only, as YARP reads by default
         port_.setStrict(shared_.queue > 1);
@@ -936,12 +1031,19 @@ public:
         return true;
     }
 
-    void interrupt() { port_.interrupt(); }
+    void interrupt()
+    {
+        if (spec.kind != InputKind::Ros2) {
+            port_.interrupt();
+        }
+    }
 
     void close()
     {
-        port_.disableCallback();
-        port_.close();
+        if (spec.kind != InputKind::Ros2) {
+            port_.disableCallback();
+            port_.close();
+        }
     }
 
     /// Connections coming into its port.
@@ -961,19 +1063,25 @@ public:
         const bool hasEnvelope = port_.getEnvelope(stamp) && stamp.isValid();
         std::string why;
         const bool ok = parseBottle(bottle, spec, shared_.dropNan, scratch_, why, items_);
-        {
-            std::lock_guard<std::mutex> lock(shared_.mutex);
-            ++received;
-            if (!ok) {
-                refuse(*this, why);
-                return;
-            }
-            const bool wasFresh = accept(*this, scratch_, hasEnvelope, hasEnvelope ? stamp.getTime() : 0.0, now,
-                                         shared_.queue);
-            if (shared_.listener != nullptr) {
-                shared_.listener->arrived(*this, wasFresh);
+        take(ok, scratch_, hasEnvelope, hasEnvelope ? stamp.getTime() : 0.0, why, now);
+    }
+
+    /// One message read by an InputFeed (its thread): checked against the
+    /// layout (each row of it: one that does not check drops it whole), then
+    /// as a Bottle.
+    void deliver(Reading& reading)
+    {
+        const SteadyClock::time_point now = SteadyClock::now();
+        std::string why;
+        bool ok = reading.isRows || checkValues(reading.values, spec, shared_.dropNan, why);
+        for (std::size_t k = 0; ok && reading.isRows && k < reading.rows.size(); ++k) {
+            if (!checkValues(reading.rows[k], spec, shared_.dropNan, why)) {
+                why = "element " + std::to_string(k) + ": " + why;
+                ok = false;
             }
         }
+        take(ok, reading.values, reading.hasEnvelope, reading.envelope, why, now,
+             reading.isRows ? &reading.rows : nullptr);
     }
 
     /// Its port's name and address, once open.
@@ -983,6 +1091,26 @@ public:
     std::string registered;   // its name in the name server (topic-@node for ROS)
 
 private:
+    /// A message read (accepted when `ok`, else refused for `why`), under
+    /// the lock; `rows`: its rows (moved out), for an array of messages.
+    void take(bool ok, Mux& values, bool hasEnvelope, double envelope, const std::string& why,
+              SteadyClock::time_point now, Rows* rows = nullptr)
+    {
+        std::lock_guard<std::mutex> lock(shared_.mutex);
+        ++received;
+        if (!ok) {
+            refuse(*this, why);
+            return;
+        }
+        const bool wasFresh = accept(*this, values, hasEnvelope, envelope, now, shared_.queue);
+        if (rows != nullptr) {
+            queue.back().data.rows.swap(*rows);
+        }
+        if (shared_.listener != nullptr) {
+            shared_.listener->arrived(*this, wasFresh);
+        }
+    }
+
     Shared& shared_;
     yarp::os::BufferedPort<yarp::os::Bottle> port_;
     Mux scratch_;  // only touched by the callback thread
@@ -1628,8 +1756,8 @@ std::string formatNumber(double x)
 class Bridge : public ArrivalListener
 {
 public:
-    Bridge(const BridgeSpec& spec, const Options& options, MessageSink& output) :
-            spec_(spec), options_(options), output_(output),
+    Bridge(const BridgeSpec& spec, const Options& options, MessageSink& output, InputFeed* feed) :
+            spec_(spec), options_(options), output_(output), feed_(feed),
             eventDriven_(!(options.rate > 0))
     {
         shared_.dropNan = spec.dropNan;
@@ -1640,6 +1768,7 @@ public:
             const std::string index = std::to_string(in.index);
             const std::string local = in.kind == InputKind::Ros1
                 ? std::string(in.source) + "@" + options.prefix + "/" + mux + "_in" + index
+                : in.kind == InputKind::Ros2 ? std::string(in.source)
                 : options.prefix + "/" + mux + "/in" + index + ":i";
             inputs_.push_back(std::make_unique<Input>(shared_, in, local,
                                                       options.hasTimeout ? options.timeout : in.timeout));
@@ -1695,6 +1824,14 @@ public:
                 status = 1;
             }
         }
+        bool feedOpen = false;
+        if (status == 0 && feed_ != nullptr) {
+            feedOpen = feed_->open([this](std::size_t k, Reading& reading) { inputs_[k]->deliver(reading); });
+            if (!feedOpen) {
+                feed_->close();
+                status = 1;
+            }
+        }
         RpcPort rpc(
             options_.prefix + "/rpc:i", [this] { return totals(); }, [this] { requestStop(); },
             eventDriven_ ? 0.0 : options_.rate);
@@ -1740,6 +1877,9 @@ public:
         // reader) would hold it: after a deadline the names are unregistered
         // and the process ends without waiting any longer.
         const bool watcherStopped = watcher.stop(std::chrono::milliseconds(300));
+        if (feedOpen) {
+            feed_->close();  // before the output, whose node it may share
+        }
         const bool closed = closeAll(opened, outputOpen, std::chrono::milliseconds(800));
         printTotals();
         if (!closed || !watcherStopped) {
@@ -1802,7 +1942,9 @@ private:
         lock.unlock();
         closer.detach();  // the process ends without it
         for (std::size_t k = 0; k < opened; ++k) {
-            yarp::os::Network::unregisterName(inputs_[k]->registered);
+            if (!inputs_[k]->registered.empty()) {
+                yarp::os::Network::unregisterName(inputs_[k]->registered);
+            }
         }
         if (outputOpen && !output_.registered().empty()) {
             yarp::os::Network::unregisterName(output_.registered());
@@ -1916,6 +2058,7 @@ private:
     std::vector<std::unique_ptr<Input>> inputs_;
     std::unique_ptr<Matcher> matcher_;  // which Bottles each message uses
     MessageSink& output_;
+    InputFeed* feed_;  // the inputs read outside YARP (nullptr: none)
     const bool eventDriven_;
     bool publishing_ = false;  // guarded by Shared::mutex
     std::atomic<std::uint64_t> published_{0};
@@ -2143,13 +2286,13 @@ bool ros1Available(std::string& why)
 }
 
 /// Parses the command line and runs the bridge until SIGINT or SIGTERM.
-int run(const BridgeSpec& spec, int argc, char* argv[], MakeMessage make)
+int run(const BridgeSpec& spec, int argc, char* argv[], MakeMessage make, InputFeed* feed)
 {
     Output output(spec.output, std::move(make));
-    return run(spec, argc, argv, output);
+    return run(spec, argc, argv, output, feed);
 }
 
-int run(const BridgeSpec& spec, int argc, char* argv[], MessageSink& output)
+int run(const BridgeSpec& spec, int argc, char* argv[], MessageSink& output, InputFeed* feed)
 {
     gModule = spec.module;
     Options options;
@@ -2177,7 +2320,7 @@ int run(const BridgeSpec& spec, int argc, char* argv[], MessageSink& output)
         say("cannot use ROS 1 topics: " + why);
         return 1;
     }
-    Bridge bridge(spec, options, output);
+    Bridge bridge(spec, options, output, feed);
     signals.start([&bridge] { bridge.requestStop(); });
     const int result = bridge.run();
     signals.finish();

@@ -157,6 +157,10 @@ struct Element
 /// A mux: the elements of its inputs, in input order, then converted.
 using Mux = std::vector<Element>;
 
+/// A mux of rows: one row for each element of an array of messages (a ROS 2
+/// input with `each`), each row converted alike.
+using Rows = std::vector<Mux>;
+
 /// "Up to the end" for a range of mux elements.
 constexpr std::size_t kToEnd = std::numeric_limits<std::size_t>::max();
 
@@ -167,6 +171,8 @@ void convert(Mux& mux, double scale, double offset, bool toFloat, std::size_t st
 
 /// Prints every element of a mux: "[<mux>] <index>: <value>".
 void printMux(const char* name, const Mux& mux);
+/// Prints every row of a mux of rows: "[<mux>] <index>: [<value>, ...]".
+void printMux(const char* name, const Rows& rows);
 
 // --- orientation and geometry converters, element-wise expressions ------------
 // The same operations in the same order as ybg/runtime/geometry.py, so that
@@ -226,6 +232,8 @@ void put(yarp::os::Bottle& b, const Element& e, Wire wire);
 void putRange(yarp::os::Bottle& b, const Mux& mux, std::size_t start, std::size_t stop, Wire wire);
 /// Appends a time as a nested list (sec, nsec) with the given tags.
 void putTime(yarp::os::Bottle& b, std::int64_t ns, Wire secWire, Wire nsecWire);
+/// Appends each row of a mux of rows as a nested list, each element with the given tag.
+void putRows(yarp::os::Bottle& b, const Rows& rows, Wire wire);
 
 // --- the bridge's description (filled in by namespace bridge) --------------------
 
@@ -245,14 +253,16 @@ struct FieldPath
     std::vector<int> at;
 };
 
-enum class InputKind { Yarp, Ros1 };
+/// Where an input is read: a YARP port, a ROS 1 topic through YARP, or a
+/// ROS 2 topic (its values delivered by an InputFeed: ybgc_ros2.hpp).
+enum class InputKind { Yarp, Ros1, Ros2 };
 
 /// One input of a mux.
 struct InputSpec
 {
     int mux;                        // index of its mux in BridgeSpec::muxes
     int index;                      // its position in the mux
-    const char* source;             // the YARP port, or the ROS 1 topic, read
+    const char* source;             // the YARP port, or the ROS topic, read
     InputKind kind;
     double timeout;                 // freshness timeout, seconds
     bool declared;                  // false: any number of numbers, each a float64
@@ -314,6 +324,7 @@ struct BridgeSpec
 struct Latest
 {
     Mux values;
+    Rows rows;  // an input read from an array of messages: its rows (values empty)
     bool hasEnvelope = false;
     double envelope = 0.0;  // envelope time stamp, seconds
 };
@@ -344,11 +355,21 @@ private:
 
 /// Appends the values of one input to a mux.
 void append(Mux& mux, const Latest& input);
+/// Appends the rows of one input to a mux of rows.
+void append(Rows& rows, const Latest& input);
 
 /// Checks an input Bottle against the input's layout. On success `out`
 /// holds its values; else `why` says what is wrong. `in` is scratch space.
 bool parseBottle(const yarp::os::Bottle& b, const InputSpec& spec, bool dropNan, Mux& out, std::string& why,
                  std::vector<const yarp::os::Value*>& in);
+
+/// Checks the values read from a message of another middleware (a ROS 2
+/// topic: numbers, a time as seconds) against the input's layout, as
+/// parseBottle checks a Bottle: undeclared, every value a number, each made
+/// a float64; declared, the declared number of values, a real for a float
+/// type, an integer for an integer type, a bool or 0/1 for a bool. The
+/// values are converted in place; else `why` says what is wrong.
+bool checkValues(Mux& values, const InputSpec& spec, bool dropNan, std::string& why);
 
 // --- what is kept of each input, and which Bottles a message uses --------------
 
@@ -498,12 +519,41 @@ public:
 /// mux's size, as the module's makeMessage() gives them).
 std::string tooShort(const std::string& sizes);
 
+/// What was read of one message of an input read outside YARP.
+struct Reading
+{
+    Mux values;
+    Rows rows;             // read from an array of messages: one row an element
+    bool isRows = false;
+    bool hasEnvelope = false;
+    double envelope = 0.0;  // seconds
+};
+
+/// Hands one message's Reading to the bridge (its contents are moved out):
+/// `input` its index in BridgeSpec::inputs.
+using Deliver = std::function<void(std::size_t input, Reading& reading)>;
+
+/// The inputs of a bridge that are read by another middleware
+/// (InputKind::Ros2: ybgc_ros2.hpp's Subscriptions): opened after the
+/// output, closed before it; each message read goes through `deliver`, from
+/// a thread of the feed's own, into the same checks, freshness and matching
+/// as a Bottle.
+class InputFeed
+{
+public:
+    virtual ~InputFeed() = default;
+    /// Opens it; false, said, when it cannot.
+    virtual bool open(Deliver deliver) = 0;
+    /// Stops delivering (returns once no delivery runs) and closes it.
+    virtual void close() = 0;
+};
+
 /// Parses the command line and runs the bridge until SIGINT or SIGTERM; the
-/// exit status.
-int run(const BridgeSpec& spec, int argc, char* argv[], MakeMessage make);
+/// exit status. `feed`: its inputs that are not YARP ports (none: nullptr).
+int run(const BridgeSpec& spec, int argc, char* argv[], MakeMessage make, InputFeed* feed = nullptr);
 
 /// The same with the messages published through `sink`.
-int run(const BridgeSpec& spec, int argc, char* argv[], MessageSink& sink);
+int run(const BridgeSpec& spec, int argc, char* argv[], MessageSink& sink, InputFeed* feed = nullptr);
 
 }  // namespace ybgc
 

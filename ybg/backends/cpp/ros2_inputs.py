@@ -1,0 +1,123 @@
+"""Lowering of the ROS 2 topic inputs (``[mux] topics = /t (pkg/Type
+field ...)``, ``via = ros2``) of the ``cpp`` backend: the module subscribes
+through the rcl C API with the runtime's ``ybgc::ros2::Subscriptions``
+(docs/ros2-native.md).
+
+Each topic gets a small reader in the module, one line a field the config
+lists: ``ybgc::ros2::read(out, msg.point.x);`` appends the field of the
+message's C struct (``<pkg>/msg/<name>.h``, ``pkg__msg__Name``) to the
+input's values, the runtime's overload deducing how from the field's C type
+(a number as it is, a time or duration as seconds, a sequence or a fixed
+array element by element), as the Python ROS 2 node reads the same fields
+(``ybg/runtime/ros2_io.py``). The values then go through the same checks,
+freshness and matching as a Bottle.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from ybg.backends import Line, LoweringError
+from ybg.backends.cpp.escape import cpp_identifier, cpp_string
+from ybg.backends.cpp.lower import comment
+from ybg.backends.cpp.ros2 import RUNTIME_PACKAGES, snake_case
+from ybg.backends.ros2.lower import node_name, split_type, used_packages
+from ybg.compiler import ir
+
+_ELEMENT = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)((?:\[[0-9]+\])*)\Z")
+
+
+@dataclass(frozen=True)
+class TopicReaderView:
+    """The reader of one ROS 2 topic input and its entry in ``kTopics``."""
+
+    function: str             # its C++ name
+    c_type: str               # the message's C struct
+    out: str                  # its output parameter: the input's values, or its rows
+    comment: str
+    lines: tuple[Line, ...]   # its body
+    entry: tuple[Line, ...]   # its ybgc::ros2::topic<...>(...) in kTopics
+
+
+@dataclass(frozen=True)
+class Ros2InputsView:
+    """What the module and its CMakeLists print of the ROS 2 inputs."""
+
+    node: str                          # string literal: the node that reads them (a YARP output)
+    includes: tuple[str, ...]          # <pkg>/msg/<name>.h of each input's message
+    readers: tuple[TopicReaderView, ...]
+    packages: tuple[str, ...]          # the message packages to link
+
+
+def _member_path(path: str) -> str:
+    """A dotted field path (``pose.covariance[3]``) as C member access."""
+    parts = []
+    for part in path.split("."):
+        match = _ELEMENT.match(part)
+        if match is None:
+            raise LoweringError(f"field {path!r} cannot be read from a C struct")
+        try:
+            name = cpp_identifier(match.group(1))
+        except ValueError as e:
+            raise LoweringError(f"field {path!r} cannot be read from a C struct ({e})") from None
+        parts.append(name + match.group(2))
+    return ".".join(parts)
+
+
+def _reader(program: ir.Program, m: ir.Mux, k: int, i: ir.Input, index: int, member: str) -> TopicReaderView:
+    where = ("input", m.name, i.name)
+    if not i.ros_type:
+        raise LoweringError(f"the ROS 2 input {i.name} has no message type", where)
+    if not i.fields:
+        raise LoweringError(f"the ROS 2 input {i.name} names no numeric field", where)
+    if i.each is not None and program.output.kind == "ros2":
+        raise LoweringError(f"the ROS 2 input {i.name} reads the elements of an array of messages "
+                            f"({i.each}), a row each, which a ROS 2 message is not filled from", where)
+    try:
+        pkg, name = split_type(i.ros_type)
+        if i.each is None:
+            out = "ybgc::Mux& out"
+            lines = tuple(Line(1, f"ybgc::ros2::read(out, msg.{_member_path(f)});") for f in i.fields)
+        else:  # one row for each element of the array of messages
+            out = "ybgc::Rows& rows"
+            lines = (Line(1, f"ybgc::ros2::forEach(msg.{_member_path(i.each)}, [&rows](const auto& element) {{"),
+                     Line(2, "ybgc::Mux& row = rows.emplace_back();"),
+                     *(Line(2, f"ybgc::ros2::read(row, element.{_member_path(f)});") for f in i.fields),
+                     Line(1, "});"))
+    except LoweringError as e:
+        raise e.at(*where)
+    c_type = f"{pkg}__msg__{name}"
+    function = f"read_{member}_{k}"
+    entry = (Line(2, f"ybgc::ros2::topic<{c_type}, &{c_type}__create, &{c_type}__destroy, &{function}>("),
+             Line(3, f"{index}, {cpp_string(i.name)}, {cpp_string(f'{pkg}/msg/{name}')}, "
+                     f"ROSIDL_GET_MSG_TYPE_SUPPORT({pkg}, msg, {name})),"))
+    what = f"{comment(i.name)} ({comment(f'{pkg}/msg/{name}')}): {comment(' '.join(i.fields))}"
+    if i.each is not None:
+        what = (f"{comment(i.name)} ({comment(f'{pkg}/msg/{name}')}): a row for each element of "
+                f"{comment(i.each)}, {comment(' '.join(i.fields))}")
+    return TopicReaderView(function, c_type, out, what, lines, entry)
+
+
+def lower(program: ir.Program, members: dict[str, str]) -> Ros2InputsView:
+    """The readers of ``program``'s ROS 2 inputs; ``members``: the C++ member of each mux."""
+    readers = []
+    includes = set()
+    index = 0
+    for m in program.muxes:
+        for k, i in enumerate(m.inputs):
+            if i.kind == "ros2":
+                reader = _reader(program, m, k, i, index, members[m.name])
+                readers.append(reader)
+                pkg, name = split_type(i.ros_type or "")
+                includes.add(f"{pkg}/msg/{snake_case(name)}.h")
+            index += 1
+    return Ros2InputsView(
+        node=cpp_string(node_name(program)),
+        includes=tuple(sorted(includes)),
+        readers=tuple(readers),
+        packages=tuple(sorted(set(used_packages(program)) | set(RUNTIME_PACKAGES))),
+    )
+
+
+__all__ = ["Ros2InputsView", "TopicReaderView", "lower"]
