@@ -7,20 +7,29 @@ module is the native one of `--backend cpp`; the same contract for YARP
 outputs is the behaviour harness's (tests/behaviour.py), for every backend.
 
 Built against the newest YARP of the matrix: what differs between YARP
-releases (reading Bottles) is covered on each of them by the harness."""
+releases (reading Bottles) is covered on each of them by the harness.
+
+And the other way to build it: the generated CMakeLists finds ROS 2 with
+find_package, as in a sourced ROS 2 install. There is no such install here;
+the wheels' ament CMake configs stand in for it, with what the wheels need
+beyond an install given from outside (scripts/msgpkg_wheels.cmake, linker
+flags for their bundled libraries and libpython), so that what is tested is
+the CMakeLists' own find_package path."""
 
 from __future__ import annotations
 
+import glob
 import os
 import signal
 import subprocess
+import sysconfig
 import time
 
 import pytest
 
 from behaviour import Module, totals
 from generated import generate
-from middleware import VENV, YarpProducer
+from middleware import ROOT, VENV, YarpProducer
 from test_backend_cpp import ros2_environment
 from test_backend_ros2 import QosSubscriber
 
@@ -59,6 +68,34 @@ def native(yarp, tmp_path_factory):
                  ["cmake", "--build", str(build), "-j2"]):
         r = subprocess.run(argv, capture_output=True, text=True, timeout=900)
         assert r.returncode == 0, (r.stdout + r.stderr)[-4000:]
+    return build / "contract_native"
+
+
+@pytest.fixture(scope="module")
+def native_ament(yarp, tmp_path_factory):
+    """The module of CONFIG built through its CMakeLists' find_package path
+    (no -DYBGC_ROS2_PYTHON_ENV): rcl and the message packages found by their
+    ament CMake configs, as in a sourced ROS 2 install."""
+    tmp = tmp_path_factory.mktemp("contract_ament")
+    src = generate(tmp, CONFIG, "contract_native", "cpp")
+    build = tmp / "build"
+    # the wheels' quirks, which a ROS 2 install has not: their bundled libraries, and libpython
+    bundled = sorted(glob.glob(str(VENV / "lib" / "python3*" / "site-packages" / "ros_*.libs")))
+    flags = [f"-Wl,-rpath-link,{d} -Wl,-rpath,{d}" for d in [str(VENV / "lib"), *bundled]]
+    flags += ["-Wl,--disable-new-dtags -Wl,--no-as-needed",
+              f"-L{sysconfig.get_config_var('LIBDIR')} -lpython{sysconfig.get_python_version()}"]
+    env = dict(os.environ, AMENT_PREFIX_PATH=str(VENV))
+    for argv in (["cmake", "-S", str(src), "-B", str(build),
+                  f"-DCMAKE_PREFIX_PATH={yarp.cmake_prefix_path()};{VENV}",
+                  f"-DPython3_EXECUTABLE={VENV / 'bin' / 'python'}",
+                  f"-DCMAKE_PROJECT_INCLUDE={ROOT / 'scripts' / 'msgpkg_wheels.cmake'}",
+                  f"-DCMAKE_EXE_LINKER_FLAGS={' '.join(flags)}"],
+                 ["cmake", "--build", str(build), "-j2"]):
+        r = subprocess.run(argv, capture_output=True, text=True, timeout=900, env=env)
+        assert r.returncode == 0, (r.stdout + r.stderr)[-4000:]
+    cache = (build / "CMakeCache.txt").read_text()
+    assert "YBGC_ROS2_PYTHON_ENV:PATH=\n" in cache  # the find_package branch, not the wheels' one
+    assert f"rcl_DIR:PATH={VENV}/share/rcl/cmake" in cache
     return build / "contract_native"
 
 
@@ -154,3 +191,28 @@ def test_a_stalled_subscriber_does_not_hold_the_module_up(native, yarp_server, r
     bs = [m.msg["position"][2] for m in got]
     assert bs == sorted(bs) and len(set(bs)) > 50  # new values kept coming
     assert totals(log)["published"] >= len(got)
+
+
+@pytest.mark.yarp_min((4, 0))
+def test_built_through_find_package_it_publishes_the_message(native_ament, yarp_server, ros2_domain):
+    """The module built by find_package (above) publishes what the producers
+    write: names, positions in input order, a stamp."""
+    env = ros2_environment(yarp_server.env, ros2_domain)
+    sub = QosSubscriber(env, "/contract/joints", "sensor_msgs/msg/JointState")
+    module = Module([native_ament], env=env, name="contract_ament")
+    a = YarpProducer(env, "/contract/a:o", bottles=[[0.25, -1.5]], rate=50)
+    b = YarpProducer(env, "/contract/b:o", bottles=[[7.0]], rate=50)
+    procs = [sub, module, a, b]
+    try:
+        for p in procs:
+            p.start()
+        module.wait_log("50 Hz")
+        got = sub.wait_for(5)
+        rc, elapsed = module.interrupt(signal.SIGINT)
+    finally:
+        for p in reversed(procs):
+            p.stop()
+    assert rc == 0 and elapsed < 2.0, module.log_text()[-2000:]
+    for m in got:
+        assert m.msg["name"] == ["a0", "a1", "b0"] and m.msg["position"] == [0.25, -1.5, 7.0]
+        assert stamp(m) > 1.7e9
