@@ -34,7 +34,7 @@ from ybg.backends.runtime import CPP_DIR, cpp_files, python_files, python_inline
 from ybg.compiler.pipeline import compile_path
 from ybg.runtime import core
 from ybg.runtime.core import (Array, BridgeSpec, ConverterSpec, Context, InputSpec, InputState, Msg,
-                              MuxSpec, Scalar, convert, take, time_msg)
+                              MuxSpec, Scalar, convert, seconds_to_ns, take, time_msg)
 
 ROOT = Path(__file__).resolve().parent.parent
 GOLDEN = Path(__file__).resolve().parent / "golden" / "runtime"
@@ -117,6 +117,25 @@ def test_envelope_time_of_a_mux_else_the_wall_clock():
     wall = [s.value for _, s in ctx.envelope_time("b", "ros2").fields]
     assert wall == [s.value for _, s in ctx.wall_time("ros2").fields]
     assert abs(wall[0] - ctx.seconds) <= 1
+    # an envelope of today's epoch keeps its nanoseconds (t * 1e9 alone: 249999872)
+    ctx = Context({}, 0, {"a": 1700000000.25, "n": math.nan})
+    assert [s.value for _, s in ctx.envelope_time("a", "ros2").fields] == [1700000000, 250_000_000]
+    assert [s.value for _, s in ctx.envelope_time("n", "ros2").fields] == [s.value for _, s in ctx.wall_time("ros2").fields]
+
+
+def test_seconds_to_ns_is_exact_to_the_nanosecond():
+    from fractions import Fraction
+    import random
+
+    assert seconds_to_ns(1700000000.25) == 1_700_000_000_250_000_000
+    assert seconds_to_ns(0.5) == 500_000_000 and seconds_to_ns(-0.25) == -250_000_000
+    assert seconds_to_ns(-1.0) == -1_000_000_000 and seconds_to_ns(0.0) == 0
+    assert seconds_to_ns(math.inf) is None and seconds_to_ns(math.nan) is None
+    rng = random.Random(7)
+    for _ in range(2000):
+        t = rng.uniform(-2e9, 2e9)
+        exact = Fraction(t) * 10**9  # the double's own value, in nanoseconds
+        assert abs(seconds_to_ns(t) - exact) <= Fraction(1, 2) + Fraction(1, 10**6), t
 
 
 # --------------------------------------------------------------------------

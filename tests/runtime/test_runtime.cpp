@@ -61,6 +61,16 @@ void testReprFloat()
     CHECK_EQ(ybgc::reprFloat(-std::numeric_limits<double>::infinity()), "-inf");
 }
 
+void testSecondsToNs()
+{
+    // the whole seconds apart from the fraction: exact where t * 1e9 alone gives 1700000000249999872
+    CHECK(ybgc::secondsToNs(1700000000.25) == 1700000000250000000LL);
+    CHECK(ybgc::secondsToNs(0.5) == 500000000LL);
+    CHECK(ybgc::secondsToNs(-0.25) == -250000000LL);
+    CHECK(ybgc::secondsToNs(-1.0) == -1000000000LL);
+    CHECK(ybgc::secondsToNs(12.000000001) == 12000000001LL);
+}
+
 void testElements()
 {
     CHECK(Element::ofReal(1e300).asInteger() == std::numeric_limits<std::int64_t>::max());
@@ -541,6 +551,7 @@ void testCutSaidOnce()
 int main()
 {
     testReprFloat();
+    testSecondsToNs();
     testElements();
     testConvert();
     testConvertGeometryAndEach();

@@ -75,6 +75,13 @@ void printLines(const std::string& text)
 
 /// A float written as Python's repr() writes it: the shortest digits that
 /// read back exactly, "1.0", "0.0001", "1e-05", "1e+16", "nan", "-inf".
+std::int64_t secondsToNs(double t)
+{
+    const double sec = std::floor(t);
+    return static_cast<std::int64_t>(sec) * 1000000000
+        + static_cast<std::int64_t>(std::nearbyint((t - sec) * 1e9));
+}
+
 std::string reprFloat(double x)
 {
     if (std::isnan(x)) {

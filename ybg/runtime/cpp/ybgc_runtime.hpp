@@ -57,6 +57,11 @@ void printLines(const std::string& text);
 /// read back exactly, "1.0", "0.0001", "1e-05", "1e+16", "nan", "-inf".
 std::string reprFloat(double x);
 
+/// A time of `t` seconds (finite) as integer nanoseconds, to the nanosecond:
+/// the whole seconds apart from the fraction (t * 1e9 alone is a double of
+/// today's epoch, whose step is 256 ns); as the Python runtime's seconds_to_ns.
+std::int64_t secondsToNs(double t);
+
 // --- mux elements -------------------------------------------------------------
 
 /// One element of a mux: a real number, an integer, a bool or a string.
@@ -483,7 +488,7 @@ struct Context
                 found = true;
             }
         }
-        return found ? static_cast<std::int64_t>(std::nearbyint(newest * 1e9)) : wallNs;
+        return found && std::isfinite(newest) ? secondsToNs(newest) : wallNs;
     }
 };
 

@@ -8,6 +8,7 @@ the totals (docs/runtime.md). ``yarp_io`` and ``ros2_io`` add the ports."""
 
 import argparse
 import collections
+import math
 import os
 import sys
 import threading
@@ -102,6 +103,16 @@ class Rows(Array):
         self.nested = nested
 
 
+def seconds_to_ns(t):
+    """A time of ``t`` seconds as integer nanoseconds, to the nanosecond: the
+    whole seconds apart from the fraction (``t * 1e9`` alone is a double of
+    today's epoch, whose step is 256 ns); None for NaN or an infinity."""
+    if not math.isfinite(t):
+        return None
+    sec = math.floor(t)
+    return sec * 1000000000 + round((t - sec) * 1e9)
+
+
 def time_msg(ns, style):
     """A time of ``ns`` nanoseconds since the epoch: ROS 1 (secs nsecs) or
     ROS 2 builtin_interfaces/Time (sec nanosec)."""
@@ -182,9 +193,8 @@ class Context:
     def envelope_time(self, mux, style):
         """The newest envelope stamp of ``mux``'s inputs (wall clock if none has one)."""
         t = self._envelopes.get(mux)
-        if t is None:
-            return time_msg(self._ns, style)
-        return time_msg(round(t * 1e9), style)
+        ns = None if t is None else seconds_to_ns(t)
+        return time_msg(self._ns if ns is None else ns, style)
 
 
 _LOG_LOCK = threading.Lock()

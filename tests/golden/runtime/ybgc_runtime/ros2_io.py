@@ -29,7 +29,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.qos_overriding_options import QoSOverridingOptions, QoSPolicyKind
 from rclpy.signals import SignalHandlerOptions
 
-from .core import _FLOAT_TYPES, _INT_TYPES, InputState  # ybgc:runtime-import
+from .core import _FLOAT_TYPES, _INT_TYPES, InputState, seconds_to_ns  # ybgc:runtime-import
 from .yarp_io import YarpBridge  # ybgc:runtime-import
 
 
@@ -106,9 +106,10 @@ class Stamps:
     def envelope(self, mux):
         """The newest envelope stamp of ``mux``'s inputs (the node's clock if none has one)."""
         t = self._envelopes.get(mux)
-        if t is None:
+        ns = None if t is None else seconds_to_ns(t)
+        if ns is None:
             return self._now.to_msg()
-        return rclpy.time.Time(nanoseconds=round(t * 1e9)).to_msg()
+        return rclpy.time.Time(nanoseconds=ns).to_msg()
 
 
 # --- ROS 2 topics as mux inputs ------------------------------------------------
