@@ -39,7 +39,7 @@ from behaviour import (DEG, PROGRAMS, ROS1_PROGRAMS, TIMED, BridgeBehaviour, Lau
 from generated import without_runtime
 from middleware import VENV, Ros2Publisher, YarpProducer
 from ybg.backends import check_result, get_backend
-from ybg.backends.cpp import CppBackend
+from ybg.backends.cpp import CppBackend, runtime_library
 from ybg.backends.cpp.escape import (CPP_KEYWORDS, cpp_comment, cpp_float, cpp_identifier, cpp_int,
                                      cpp_std_string, cpp_string, mangle)
 from ybg.backends.cpp.lower import WIRE_ROS1, WIRE_YARP, LoweringError
@@ -241,7 +241,9 @@ class Builds:
             "find_package(YARP REQUIRED COMPONENTS os)\nfind_package(Threads REQUIRED)\n"
             + "".join(f"add_subdirectory({k})\n" for k in subdirs)
             + "".join(f"target_compile_options({self.programs[k].module} PRIVATE -O2)\n"
-                      for k in sorted(self.optimized) if k in subdirs))
+                      for k in sorted(self.optimized) if k in subdirs)
+            # the runtime library all of them share (built once), optimized as theirs
+            + (f"target_compile_options({runtime_library()} PRIVATE -O2)\n" if self.optimized & set(subdirs) else ""))
         build = self.root / "build"
         env = dict(os.environ)
         # a build type of no flags at all (the modules default to Release only when none is given)

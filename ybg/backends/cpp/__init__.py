@@ -18,6 +18,7 @@ print.
 from __future__ import annotations
 
 import functools
+import re
 from pathlib import Path
 
 import jinja2
@@ -25,6 +26,7 @@ import jinja2
 from ybg.backends import Backend, RenderOptions, code_filter, indent_line_filter, template_environment, yarpmanager
 from ybg.backends.cpp.lower import LoweringError, lower
 from ybg.backends.runtime import CPP_ROS2_SOURCE, CPP_SOURCE, cpp_files, runtime_text_filter, runtime_view
+from ybg.runtime import VERSION
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
 
@@ -38,6 +40,13 @@ def environment() -> jinja2.Environment:
     })
 
 
+def runtime_library() -> str:
+    """The CMake target of the runtime library beside a module, named with
+    ybgc's version: the modules of one version in one CMake project build it
+    once, and those of another version do not take it for theirs."""
+    return "ybgc_runtime_" + re.sub(r"[^0-9A-Za-z]", "_", VERSION)
+
+
 class CppBackend(Backend):
     name = "cpp"
 
@@ -46,11 +55,13 @@ class CppBackend(Backend):
         ros2 = view.uses_ros2
         env = environment()
         rt = runtime_view("cpp", options.single_file, ros2=ros2)
-        sources = f"{CPP_SOURCE} {CPP_ROS2_SOURCE}" if ros2 else CPP_SOURCE
+        beside = not options.single_file
         files = {
             view.filename: env.get_template("module.cpp.j2").render(m=view, rt=rt),
             "CMakeLists.txt": env.get_template("CMakeLists.txt.j2").render(
-                m=view, runtime_source=None if options.single_file else sources),
+                m=view, runtime_source=CPP_SOURCE if beside else None,
+                runtime_library=runtime_library() if beside else None,
+                ros2_source=CPP_ROS2_SOURCE if beside and ros2 else None),
         }
         if not options.single_file:
             files.update(cpp_files(ros2))
