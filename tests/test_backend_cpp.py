@@ -561,6 +561,15 @@ def test_builds_with_werror(builds, key):
     assert os.access(exe, os.X_OK)
 
 
+def test_modules_of_one_project_build_the_runtime_once(builds):
+    """Every module of the session is a folder added to one CMake project: the
+    runtime library (ybgc_runtime.cpp beside each) is compiled once, for all."""
+    builds.exe("relay_bridge")
+    compiled = re.findall(r"Building CXX object \S*ybgc_runtime\.cpp\.o", builds.log)
+    assert len(compiled) == 1, compiled
+    assert f"{runtime_library()}.dir" in compiled[0] and len(builds.programs) > 10
+
+
 def test_install_rule(builds, tmp_path):
     builds.exe("relay_bridge")
     r = subprocess.run(["cmake", "--install", str(builds.root / "build" / "relay_bridge"), "--prefix", str(tmp_path)],
