@@ -1,9 +1,11 @@
-"""The ros2 node's /diagnostics (diagnostic_msgs/DiagnosticArray, the
-diagnostic_updater convention), read by a real rclpy subscriber while real
-YARP producers feed the node: an input that never delivered is an ERROR, a
-fresh one OK, a stalled one (its producer stopped with SIGSTOP) a WARN with
-its counts frozen; the output's rate achieved against the rate configured;
-the ``diagnostics`` parameter turns it off."""
+"""/diagnostics (diagnostic_msgs/DiagnosticArray, the diagnostic_updater
+convention) of the ros2 node and of the native C++ module built for ROS 2,
+read by a real rclpy subscriber while real YARP producers feed them: an input
+that never delivered is an ERROR, a fresh one OK, a stalled one (its producer
+stopped with SIGSTOP) a WARN with its counts frozen; the output's rate
+achieved against the rate configured; the ``diagnostics`` parameter turns it
+off, and a bad period stops the module with the reason. The C++ statuses'
+texts are unit-tested beside the Python ones (tests/runtime/ros2/)."""
 from __future__ import annotations
 
 import contextlib
@@ -15,8 +17,11 @@ import pytest
 
 import middleware
 from generated import generate
+from behaviour import Module
 from middleware import YarpProducer
+from test_backend_cpp import Builds
 from test_backend_ros2 import Node, QosSubscriber, stop_clean, totals
+from test_cpp_ros2_inputs import compiled
 
 
 @contextlib.contextmanager
@@ -91,16 +96,32 @@ def wait_status(sub: QosSubscriber, pred, what: str, timeout: float = 60.0) -> d
     return sub.wait(find, timeout, what)
 
 
-def start_node(mw, tmp_path, *args):
-    folder = generate(tmp_path, CONFIG, NODE, "ros2")
-    return Node(mw.env, folder / f"{NODE}_node.py", *args).start()
+@pytest.fixture(scope="module")
+def native(tmp_path_factory) -> Builds:
+    """CONFIG built with --backend cpp (against the name server's YARP)."""
+    b = Builds(tmp_path_factory.mktemp("cpp_diagnostics"), middleware.yarp_install("3.5"))
+    b.add("diag", compiled(CONFIG, f"{NODE}.ini"))
+    return b
 
 
-def test_inputs_and_output_on_diagnostics(mw, tmp_path):
+@pytest.fixture(params=["ros2", "cpp"])
+def start_node(request, tmp_path):
+    """Starts the Python node or the native module with ROS arguments."""
+    def start(mw, *args):
+        if request.param == "cpp":
+            native = request.getfixturevalue("native")
+            return Module([native.exe("diag"), *args], env=mw.env, name=NODE).start()
+        folder = generate(tmp_path, CONFIG, NODE, "ros2")
+        return Node(mw.env, folder / f"{NODE}_node.py", *args).start()
+    return start
+
+
+@pytest.mark.timeout(900)  # the first builds the native module
+def test_inputs_and_output_on_diagnostics(mw, start_node):
     diag = QosSubscriber(mw.env, "/diagnostics", "diagnostic_msgs/msg/DiagnosticArray").start()
     arm = YarpProducer(mw.env, "/diag/arm:o", bottles=[[0.5, -1.25]], rate=20).start()
     hand = YarpProducer(mw.env, "/diag/hand:o").start()
-    node = start_node(mw, tmp_path)
+    node = start_node(mw)
     try:
         node.wait_log("publishing")
         diag.wait_publishers(1)
@@ -152,12 +173,12 @@ def test_inputs_and_output_on_diagnostics(mw, tmp_path):
             p.stop()
 
 
-def test_the_parameter_turns_diagnostics_off(mw, tmp_path):
+def test_the_parameter_turns_diagnostics_off(mw, start_node):
     diag = QosSubscriber(mw.env, "/diagnostics", "diagnostic_msgs/msg/DiagnosticArray").start()
     out = QosSubscriber(mw.env, "/diag/point", "geometry_msgs/msg/Point").start()
     arm = YarpProducer(mw.env, "/diag/arm:o", bottles=[[0.5, -1.25]], rate=20).start()
     hand = YarpProducer(mw.env, "/diag/hand:o", bottles=[[3.0]], rate=20).start()
-    node = start_node(mw, tmp_path, "--ros-args", "-p", "diagnostics:=false")
+    node = start_node(mw, "--ros-args", "-p", "diagnostics:=false")
     try:
         node.wait_log("publishing")
         out.wait_for(3)  # the node's participant is discovered, its messages flow
@@ -166,6 +187,19 @@ def test_the_parameter_turns_diagnostics_off(mw, tmp_path):
     finally:
         for p in (node, arm, hand, out, diag):
             p.stop()
+
+
+@pytest.mark.parametrize("value", ["-1.0", "soon"])
+def test_a_bad_period_is_an_error(mw, start_node, value):
+    node = start_node(mw, "--ros-args", "-p", f"diagnostic_updater.period:={value}")
+    try:
+        node.wait_exit(60)
+        log = node.log_text()
+        assert node.returncode == 2, log  # as a bad option
+        assert "parameter diagnostic_updater.period must be " in log, log
+        assert "Traceback" not in log, log
+    finally:
+        node.stop()
 
 
 def test_status_levels():

@@ -123,6 +123,16 @@ def test_envelope_time_of_a_mux_else_the_wall_clock():
     assert [s.value for _, s in ctx.envelope_time("n", "ros2").fields] == [s.value for _, s in ctx.wall_time("ros2").fields]
 
 
+def test_a_context_at_a_given_time_is_that_time_everywhere():
+    """A ROS 2 node gives its clock's time (simulated with use_sim_time):
+    `time`, `timestamp` and an envelope's fallback are all that time."""
+    ctx = Context({}, 0, {"a": None}, now_ns=4242_500_000_001)
+    assert ctx.seconds == 4242.500000001
+    assert [s.value for _, s in ctx.wall_time("ros2").fields] == [4242, 500_000_001]
+    assert [s.value for _, s in ctx.envelope_time("a", "ros1").fields] == [4242, 500_000_001]
+    assert [s.value for _, s in Context({}, 0, {}, now_ns=0).wall_time("ros2").fields] == [0, 0]
+
+
 def test_seconds_to_ns_is_exact_to_the_nanosecond():
     from fractions import Fraction
     import random

@@ -168,11 +168,13 @@ class InputState:
 class Context:
     """What build_message() sees: converted mux values, counter, clocks."""
 
-    def __init__(self, values, counter, envelopes):
+    def __init__(self, values, counter, envelopes, now_ns=None):
         self.values = values
         self.counter = counter
         self._envelopes = envelopes
-        self._ns = time.time_ns()
+        # the time of this message: the wall clock, or a ROS 2 node's clock
+        # (simulated with use_sim_time) when the node gives it
+        self._ns = time.time_ns() if now_ns is None else now_ns
         self.seconds = self._ns / 1e9
 
     def count(self, type_):
@@ -392,7 +394,9 @@ class Bridge:
             envelopes[mux.name] = newest
         return raw, envelopes
 
-    def _publish(self, raw, envelopes):
+    def _publish(self, raw, envelopes, now_ns=None):
+        """Converts, builds and publishes one message; ``now_ns``: its time
+        (None: the wall clock)."""
         values = {}
         for mux in self.spec.muxes:
             if mux.rows:
@@ -406,7 +410,7 @@ class Bridge:
                 for k, x in enumerate(values[mux.name]):
                     print("[%s] %d: %r" % (mux.name, k, x))
                 sys.stdout.flush()
-        ctx = Context(values, self.published, envelopes)
+        ctx = Context(values, self.published, envelopes, now_ns)
         try:
             tree = self.build(ctx)
         except IndexError:

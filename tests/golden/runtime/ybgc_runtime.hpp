@@ -472,13 +472,13 @@ private:
 struct Context
 {
     std::uint64_t counter = 0;    // messages published before this one
-    std::int64_t wallNs = 0;      // wall clock, nanoseconds since the epoch
+    std::int64_t wallNs = 0;      // the clock, nanoseconds since the epoch (a ROS 2 node's: simulated with use_sim_time)
     double seconds = 0.0;         // the same, in seconds
     bool verbose = false;         // --verbose: print every mux
     const Inputs* inputs = nullptr;
 
     /// The newest envelope stamp of the given inputs, in nanoseconds (the
-    /// wall clock if none of them has one).
+    /// clock if none of them has one).
     std::int64_t envelopeNs(std::initializer_list<int> which) const
     {
         bool found = false;
@@ -493,6 +493,31 @@ struct Context
         return found && std::isfinite(newest) ? secondsToNs(newest) : wallNs;
     }
 };
+
+/// The totals as they stand, read under the bridge's lock: what `stats`
+/// answers on the RPC port and a ROS 2 node publishes on /diagnostics.
+struct Totals
+{
+    struct PerInput
+    {
+        std::string source;
+        std::uint64_t received, dropped, stale, unused;
+        Freshness state = Freshness::Waiting;
+        double age = -1.0;      // seconds since its newest accepted Bottle (< 0: none yet)
+        double timeout = 0.0;   // its freshness timeout, seconds
+    };
+    std::vector<PerInput> inputs;
+    std::string module;         // the module's name
+    std::string output;         // the output's topic or port
+    double rate = 0.0;          // the configured rate, Hz (0: event-driven)
+    std::uint64_t published = 0;
+    std::uint64_t skipped = 0;
+    std::uint64_t failures = 0;
+};
+
+/// The bridge's totals, read when called (under its lock: never call it
+/// holding the lock).
+using TotalsSource = std::function<Totals()>;
 
 /// Builds one message into `msg` from the newest input values; false (with
 /// the mux sizes in `failure`) when a mux is too short for the message.
@@ -520,6 +545,9 @@ public:
     /// Its YARP port's contact, to register again with a restarted name
     /// server (an invalid Contact for none).
     virtual yarp::os::Contact where() const { return yarp::os::Contact(); }
+    /// Called once it is open and the bridge runs, with the bridge's totals:
+    /// a sink with a ROS 2 node publishes them on /diagnostics until closed.
+    virtual void watch(TotalsSource /*totals*/) {}
 };
 
 /// Why a message cannot be built when a mux is shorter than it (`sizes`: each
@@ -553,6 +581,13 @@ public:
     virtual bool open(Deliver deliver) = 0;
     /// Stops delivering (returns once no delivery runs) and closes it.
     virtual void close() = 0;
+    /// Its clock, nanoseconds since the epoch, when the messages are stamped
+    /// by it rather than by the output's (a ROS 2 node's, which keeps the
+    /// simulated time with use_sim_time); false when they are not.
+    virtual bool nowNs(std::int64_t& /*ns*/) { return false; }
+    /// As MessageSink::watch: a feed with a ROS 2 node of its own publishes
+    /// the totals on /diagnostics until closed.
+    virtual void watch(TotalsSource /*totals*/) {}
 };
 
 /// Parses the command line and runs the bridge until SIGINT or SIGTERM; the

@@ -3,18 +3,25 @@
 // wheels by tests/test_runtime_cpp.py and run with no name server and no ROS
 // 2 graph: how a mux element becomes a field of each C type (as the Python
 // ROS 2 node converts it), strings filled again for each publish, stamps,
-// sequences and fixed arrays sized from a range of a mux, and the ROS
-// arguments of a command line. Each failed check prints its line; the exit
+// sequences and fixed arrays sized from a range of a mux, the ROS
+// arguments of a command line, the node names of parameters, and the QoS
+// that qos_overrides parameters give (parsed by rcl from a command line and
+// a parameter file), and the statuses of /diagnostics. Each failed check prints its line; the exit
 // status is the number of failures.
 #include "ybgc_ros2.hpp"
 
 #include <builtin_interfaces/msg/time.h>
+#include <rcl/arguments.h>
+#include <rcl/error_handling.h>
+#include <rcl_yaml_param_parser/parser.h>
+#include <rmw/qos_profiles.h>
 #include <sensor_msgs/msg/imu.h>
 #include <sensor_msgs/msg/joint_state.h>
 
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <fstream>
 #include <limits>
 #include <string>
 #include <vector>
@@ -166,16 +173,251 @@ void testRosArgs()
     CHECK(argv[5] == nullptr);
 }
 
+void testNodeNames()
+{
+    using ybgc::ros2::nodeMatches;
+    CHECK(nodeMatches("/**", "/bridge"));
+    CHECK(nodeMatches("/**", "/robot/left/bridge"));
+    CHECK(nodeMatches("/*", "/bridge"));
+    CHECK(!nodeMatches("/*", "/robot/bridge"));
+    CHECK(nodeMatches("/robot/*", "/robot/bridge"));
+    CHECK(!nodeMatches("/robot/*", "/robot/left/bridge"));
+    CHECK(nodeMatches("/**/bridge", "/robot/left/bridge"));
+    CHECK(nodeMatches("bridge", "/bridge"));  // a parameter file's name without its slash
+    CHECK(nodeMatches("/bri*", "/bridge"));
+    CHECK(!nodeMatches("/bridge", "/bridge2"));
+    CHECK(!nodeMatches("/other", "/bridge"));
+}
+
+/// The parameters of a command line's ROS arguments, as rcl parses them.
+struct Params
+{
+    rcl_arguments_t args = rcl_get_zero_initialized_arguments();
+    rcl_params_t* params = nullptr;
+
+    explicit Params(std::vector<std::string> words)
+    {
+        std::vector<const char*> argv{"module"};
+        for (const std::string& w : words) {
+            argv.push_back(w.c_str());
+        }
+        if (rcl_parse_arguments(static_cast<int>(argv.size()), argv.data(), rcl_get_default_allocator(), &args)
+                != RCL_RET_OK
+            || rcl_arguments_get_param_overrides(&args, &params) != RCL_RET_OK) {
+            std::printf("rcl refused the arguments: %s\n", rcl_get_error_string().str);
+            rcl_reset_error();
+        }
+    }
+    ~Params()
+    {
+        if (params != nullptr) {
+            rcl_yaml_node_struct_fini(params);
+        }
+        if (rcl_arguments_fini(&args) != RCL_RET_OK) {
+            rcl_reset_error();
+        }
+    }
+};
+
+rmw_qos_profile_t configQos()
+{
+    rmw_qos_profile_t qos = rmw_qos_profile_default;
+    qos.history = RMW_QOS_POLICY_HISTORY_KEEP_LAST;
+    qos.depth = 10;
+    qos.reliability = RMW_QOS_POLICY_RELIABILITY_RELIABLE;
+    qos.durability = RMW_QOS_POLICY_DURABILITY_VOLATILE;
+    return qos;
+}
+
+void testQosOverrides()
+{
+    using ybgc::ros2::overrideQos;
+    std::string error;
+    {
+        Params p({"--ros-args", "-p", "qos_overrides./joint_states.publisher.durability:=transient_local", "-p",
+                  "qos_overrides./joint_states.publisher.depth:=3", "-p",
+                  "qos_overrides./joint_states.publisher.reliability:=best_effort", "-p",
+                  "qos_overrides./goal.subscription.history:=keep_all"});
+        CHECK(p.params != nullptr);
+        rmw_qos_profile_t qos = configQos();
+        CHECK(overrideQos(p.params, "/bridge", "/joint_states", "publisher", qos, error));
+        CHECK(qos.durability == RMW_QOS_POLICY_DURABILITY_TRANSIENT_LOCAL);
+        CHECK(qos.reliability == RMW_QOS_POLICY_RELIABILITY_BEST_EFFORT);
+        CHECK(qos.depth == 3 && qos.history == RMW_QOS_POLICY_HISTORY_KEEP_LAST);
+        CHECK(ybgc::ros2::describeQos(qos) == "best_effort, transient_local, depth 3");
+        // a subscription's overrides are not a publisher's, nor another topic's
+        rmw_qos_profile_t other = configQos();
+        CHECK(overrideQos(p.params, "/bridge", "/goal", "publisher", other, error));
+        CHECK(overrideQos(p.params, "/bridge", "/joint_states", "subscription", other, error));
+        CHECK(ybgc::ros2::describeQos(other) == "reliable, volatile, depth 10");
+        CHECK(overrideQos(p.params, "/bridge", "/goal", "subscription", other, error));
+        CHECK(other.history == RMW_QOS_POLICY_HISTORY_KEEP_ALL && other.depth == 10);
+        CHECK(ybgc::ros2::describeQos(other) == "reliable, volatile, keep_all");
+    }
+    {
+        // no parameters at all: the config's QoS
+        rmw_qos_profile_t qos = configQos();
+        CHECK(overrideQos(nullptr, "/bridge", "/joint_states", "publisher", qos, error));
+        CHECK(ybgc::ros2::describeQos(qos) == "reliable, volatile, depth 10");
+    }
+    // what ROS 2 refuses: the parameter, the value and what it accepts
+    const std::vector<std::pair<std::string, std::string>> refused{
+        {"reliability:=sometimes", "qos_overrides./t.publisher.reliability: 'sometimes' is not one of reliable, "
+                                   "best_effort"},
+        {"durability:=3", "qos_overrides./t.publisher.durability: 3 is not one of volatile, transient_local"},
+        {"history:=keep_some", "qos_overrides./t.publisher.history: 'keep_some' is not one of keep_last, keep_all"},
+        {"depth:=-1", "qos_overrides./t.publisher.depth: -1 is not an integer of at least 0"},
+        {"depth:=three", "qos_overrides./t.publisher.depth: 'three' is not an integer of at least 0"},
+    };
+    for (const auto& [arg, said] : refused) {
+        Params p({"--ros-args", "-p", "qos_overrides./t.publisher." + arg});
+        rmw_qos_profile_t qos = configQos();
+        error.clear();
+        CHECK(!overrideQos(p.params, "/bridge", "/t", "publisher", qos, error));
+        CHECK(error == said);
+        if (error != said) {
+            std::printf("  said: %s\n", error.c_str());
+        }
+        CHECK(ybgc::ros2::describeQos(qos) == "reliable, volatile, depth 10");  // left as it was
+    }
+}
+
+void testParameterFile(const std::string& folder)
+{
+    // a parameter file names nodes: the node's own entry wins over /** when it comes later,
+    // and another node's entry does not apply
+    const std::string path = folder + "/params.yaml";
+    std::ofstream(path) << "/**:\n"
+                           "  ros__parameters:\n"
+                           "    use_sim_time: true\n"
+                           "    qos_overrides:\n"
+                           "      /t:\n"
+                           "        publisher:\n"
+                           "          depth: 5\n"
+                           "bridge:\n"
+                           "  ros__parameters:\n"
+                           "    qos_overrides:\n"
+                           "      /t:\n"
+                           "        publisher:\n"
+                           "          depth: 7\n"
+                           "/other:\n"
+                           "  ros__parameters:\n"
+                           "    use_sim_time: false\n";
+    Params p({"--ros-args", "--params-file", path});
+    CHECK(p.params != nullptr);
+    const rcl_variant_t* sim = ybgc::ros2::parameter(p.params, "/bridge", "use_sim_time");
+    CHECK(sim != nullptr && sim->bool_value != nullptr && *sim->bool_value);
+    std::string error;
+    rmw_qos_profile_t qos = configQos();
+    CHECK(ybgc::ros2::overrideQos(p.params, "/bridge", "/t", "publisher", qos, error) && qos.depth == 7);
+    qos = configQos();
+    CHECK(ybgc::ros2::overrideQos(p.params, "/robot/bridge", "/t", "publisher", qos, error) && qos.depth == 5);
+    const rcl_variant_t* other = ybgc::ros2::parameter(p.params, "/other", "use_sim_time");
+    CHECK(other != nullptr && other->bool_value != nullptr && !*other->bool_value);
+    CHECK(ybgc::ros2::parameter(p.params, "/bridge", "no_such_parameter") == nullptr);
+}
+
+using ybgc::ros2::Status;
+
+/// {key: value} of a status.
+std::string value(const Status& s, const std::string& key)
+{
+    for (const auto& [k, v] : s.values) {
+        if (k == key) {
+            return v;
+        }
+    }
+    return "<none>";
+}
+
+void testDiagnostics()
+{
+    // the levels and texts of the statuses, as the Python node's (tests/test_diagnostics.py)
+    ybgc::Totals t;
+    t.module = "diag_bridge";
+    t.output = "/diag/point";
+    t.published = 7;
+    t.failures = 2;
+    std::vector<Status> all = ybgc::ros2::statuses(t, "diag", 2.5);
+    CHECK(all.size() == 1 && all[0].name == "diag: output /diag/point");
+    CHECK(all[0].level == Status::Ok && all[0].message == "event-driven: 2.50 Hz");
+    CHECK(value(all[0], "rate configured (Hz)") == "event-driven" && value(all[0], "build failures") == "2");
+    CHECK(value(all[0], "published") == "7" && value(all[0], "rate achieved (Hz)") == "2.500");
+    t.rate = 20.0;
+    all = ybgc::ros2::statuses(t, "diag", 18.0);
+    CHECK(all[0].level == Status::Ok && all[0].message == "18.00 Hz of 20 Hz");
+    all = ybgc::ros2::statuses(t, "diag", 17.99);
+    CHECK(all[0].level == Status::Warn && all[0].message == "rate too low: 17.99 Hz of 20 Hz");
+    CHECK(value(all[0], "rate configured (Hz)") == "20");
+
+    ybgc::Totals::PerInput in{"/diag/arm:o", 0, 0, 0, 0};
+    in.timeout = 0.5;
+    t.inputs = {in};
+    all = ybgc::ros2::statuses(t, "diag", 0.0);
+    CHECK(all.size() == 2 && all[0].name == "diag: input /diag/arm:o");
+    CHECK(all[0].level == Status::Error && all[0].message == "no data received yet");
+    CHECK(value(all[0], "age (s)") == "" && value(all[0], "timeout (s)") == "0.5");
+    t.inputs[0].state = ybgc::Freshness::Stale;
+    t.inputs[0].age = 2.25;
+    t.inputs[0].received = 12;
+    t.inputs[0].dropped = 3;
+    all = ybgc::ros2::statuses(t, "diag", 0.0);
+    CHECK(all[0].level == Status::Warn && all[0].message == "stale: no data for 2.2 s");
+    CHECK((all[0].values == std::vector<std::pair<std::string, std::string>>{
+        {"received", "12"}, {"dropped", "3"}, {"stale periods", "0"}, {"unused", "0"}, {"age (s)", "2.250"},
+        {"timeout (s)", "0.5"}}));
+    t.inputs[0].state = ybgc::Freshness::Fresh;
+    all = ybgc::ros2::statuses(t, "diag", 0.0);
+    CHECK(all[0].level == Status::Ok && all[0].message == "fresh");
+
+    // the parameters of /diagnostics, checked before anything opens (exit status 2, as the Python node's)
+    using ybgc::ros2::checkRosArgs;
+    CHECK(checkRosArgs({}, "diag") == 0);
+    CHECK(checkRosArgs({"--ros-args", "-p", "diagnostics:=false", "-p", "diagnostic_updater.period:=2"}, "diag")
+          == 0);
+    CHECK(checkRosArgs({"--ros-args", "-p", "diagnostic_updater.period:=soon"}, "diag") == 2);
+    CHECK(checkRosArgs({"--ros-args", "-p", "diagnostic_updater.period:=0.0"}, "diag") == 2);
+    CHECK(checkRosArgs({"--ros-args", "-p", "diagnostics:=1"}, "diag") == 2);
+    CHECK(checkRosArgs({"--ros-args", "--no-such-flag"}, "diag") == 2);
+    CHECK(checkRosArgs({"--ros-args", "-p", "other:diagnostic_updater.period:=-1"}, "diag") == 0);  // another node's
+    {
+        Params p({"--ros-args", "-p", "diagnostics:=false", "-p", "diagnostic_updater.period:=3"});
+        bool on = true;
+        double period = 1.0;
+        std::string error;
+        CHECK(ybgc::ros2::diagnosticsOptions(p.params, "/diag", on, period, error) && !on && period == 3.0);
+        Params q({"--ros-args", "-p", "diagnostic_updater.period:=true"});
+        CHECK(!ybgc::ros2::diagnosticsOptions(q.params, "/diag", on, period, error));
+        CHECK(error == "parameter diagnostic_updater.period must be a number, got true");
+        CHECK(period == 3.0);
+    }
+
+    // the rate over the last 5 periods: the oldest of the last 6 samples to the newest
+    ybgc::ros2::RateWindow window;
+    CHECK(window.add(0.0, 0) == 0.0);
+    CHECK(window.add(1.0, 10) == 10.0);
+    for (int k = 2; k <= 5; ++k) {
+        window.add(k, 10 * static_cast<std::uint64_t>(k));
+    }
+    CHECK(window.add(6.0, 160) == 30.0);  // (160 - 10) / (6 - 1): the sample at 0 s has left
+    CHECK(window.add(7.0, 160) == 28.0);  // (160 - 20) / (7 - 2)
+}
+
 }  // namespace
 
-int main()
+int main(int argc, char* argv[])
 {
+    const std::string folder = argc > 1 ? argv[1] : ".";
     testScalars();
     testStrings();
     testTime();
     testSequences();
     testFixedArrays();
     testRosArgs();
+    testNodeNames();
+    testQosOverrides();
+    testParameterFile(folder);
+    testDiagnostics();
     std::printf("%d checks, %d failed\n", gChecks, gFailures);
     return gFailures;
 }

@@ -31,7 +31,7 @@ from ybg.compiler import ir
 
 _TIME_TYPES = ("builtin_interfaces/Time", "time")
 #: the message packages the runtime's ROS 2 side uses itself
-RUNTIME_PACKAGES = ("builtin_interfaces", "rosgraph_msgs")
+RUNTIME_PACKAGES = ("builtin_interfaces", "diagnostic_msgs", "rosgraph_msgs", "std_msgs")
 
 
 @dataclass(frozen=True)
@@ -288,7 +288,8 @@ def ros2_view(program: ir.Program) -> Ros2View:
         pkg, name = split_type(msg_type)
         # the packages of the elements of its arrays of messages (the module calls their functions)
         elements = array_element_types(program.message)
-        # and those of the runtime: builtin_interfaces (stamps), rosgraph_msgs (/clock, use_sim_time)
+        # and those of the runtime: builtin_interfaces (stamps), rosgraph_msgs (/clock, use_sim_time),
+        # diagnostic_msgs and std_msgs (/diagnostics)
         packages = tuple(sorted(set(used_packages(program)) | {split_type(t)[0] for t in elements}
                                 | set(RUNTIME_PACKAGES)))
     except LoweringError as e:

@@ -6,8 +6,13 @@
 #include <rcl/rcl.h>
 #include <rcl/time.h>
 #include <rcl_yaml_param_parser/parser.h>
+#include <diagnostic_msgs/msg/diagnostic_array.h>
+#include <diagnostic_msgs/msg/diagnostic_status.h>
+#include <diagnostic_msgs/msg/key_value.h>
 #include <rosgraph_msgs/msg/clock.h>
 
+#include <condition_variable>
+#include <cstdio>
 #include <cstring>
 
 namespace ybgc {
@@ -54,7 +59,7 @@ void setStrings(rosidl_runtime_c__String__Sequence& seq, std::initializer_list<s
     }
 }
 
-// --- the publisher --------------------------------------------------------------------
+// --- the node's parameters and QoS -------------------------------------------------------
 
 namespace {
 
@@ -73,14 +78,278 @@ void finished(rcl_ret_t ret)
     }
 }
 
+/// Does `pattern` from `p` match `name` from `n` (`**` any run, `*` any run
+/// without a `/`)?
+bool globMatches(const std::string& pattern, std::size_t p, const std::string& name, std::size_t n)
+{
+    while (p < pattern.size()) {
+        if (pattern[p] == '*') {
+            const bool any = p + 1 < pattern.size() && pattern[p + 1] == '*';
+            const std::size_t rest = p + (any ? 2 : 1);
+            for (std::size_t k = n; k <= name.size(); ++k) {
+                if (globMatches(pattern, rest, name, k)) {
+                    return true;
+                }
+                if (k < name.size() && !any && name[k] == '/') {
+                    return false;
+                }
+            }
+            return false;
+        }
+        if (n >= name.size() || pattern[p] != name[n]) {
+            return false;
+        }
+        ++p;
+        ++n;
+    }
+    return n == name.size();
+}
+
+/// The text of a parameter's value, to say it.
+std::string valueText(const rcl_variant_t& v)
+{
+    if (v.string_value != nullptr) {
+        return std::string("'") + v.string_value + "'";
+    }
+    if (v.integer_value != nullptr) {
+        return std::to_string(*v.integer_value);
+    }
+    if (v.double_value != nullptr) {
+        return std::to_string(*v.double_value);
+    }
+    if (v.bool_value != nullptr) {
+        return *v.bool_value ? "true" : "false";
+    }
+    return "an array";
+}
+
 }  // namespace
 
-struct Publisher::Rcl
+bool nodeMatches(const std::string& pattern, const std::string& fqn)
+{
+    const std::string full = !pattern.empty() && pattern[0] == '/' ? pattern : "/" + pattern;
+    return globMatches(full, 0, fqn, 0);
+}
+
+const rcl_variant_t* parameter(const rcl_params_t* params, const std::string& fqn, const std::string& name)
+{
+    if (params == nullptr) {
+        return nullptr;
+    }
+    const rcl_variant_t* found = nullptr;
+    for (std::size_t k = 0; k < params->num_nodes; ++k) {
+        if (params->node_names[k] == nullptr || !nodeMatches(params->node_names[k], fqn)) {
+            continue;
+        }
+        const rcl_node_params_t& node = params->params[k];
+        for (std::size_t j = 0; j < node.num_params; ++j) {
+            if (node.parameter_names[j] != nullptr && name == node.parameter_names[j]) {
+                found = &node.parameter_values[j];
+            }
+        }
+    }
+    return found;
+}
+
+bool overrideQos(const rcl_params_t* params, const std::string& fqn, const std::string& topic, const char* entity,
+                 rmw_qos_profile_t& qos, std::string& error)
+{
+    const std::string prefix = "qos_overrides." + topic + "." + entity + ".";
+    struct Word
+    {
+        const char* text;
+        int value;
+    };
+    // one of the words a policy accepts, or the error that says them
+    auto choose = [&](const char* policy, std::initializer_list<Word> words, int& out) {
+        const rcl_variant_t* v = parameter(params, fqn, prefix + policy);
+        if (v == nullptr) {
+            return true;
+        }
+        std::string accepted;
+        for (const Word& w : words) {
+            if (v->string_value != nullptr && std::strcmp(v->string_value, w.text) == 0) {
+                out = w.value;
+                return true;
+            }
+            accepted += (accepted.empty() ? "" : ", ") + std::string(w.text);
+        }
+        error = prefix + policy + ": " + valueText(*v) + " is not one of " + accepted;
+        return false;
+    };
+    int history = qos.history;
+    int reliability = qos.reliability;
+    int durability = qos.durability;
+    if (!choose("history", {{"keep_last", RMW_QOS_POLICY_HISTORY_KEEP_LAST},
+                            {"keep_all", RMW_QOS_POLICY_HISTORY_KEEP_ALL}}, history)
+        || !choose("reliability", {{"reliable", RMW_QOS_POLICY_RELIABILITY_RELIABLE},
+                                   {"best_effort", RMW_QOS_POLICY_RELIABILITY_BEST_EFFORT}}, reliability)
+        || !choose("durability", {{"volatile", RMW_QOS_POLICY_DURABILITY_VOLATILE},
+                                  {"transient_local", RMW_QOS_POLICY_DURABILITY_TRANSIENT_LOCAL}}, durability)) {
+        return false;
+    }
+    std::size_t depth = qos.depth;
+    if (const rcl_variant_t* v = parameter(params, fqn, prefix + "depth")) {
+        if (v->integer_value == nullptr || *v->integer_value < 0) {
+            error = prefix + "depth: " + valueText(*v) + " is not an integer of at least 0";
+            return false;
+        }
+        depth = static_cast<std::size_t>(*v->integer_value);
+    }
+    qos.history = static_cast<rmw_qos_history_policy_t>(history);
+    qos.reliability = static_cast<rmw_qos_reliability_policy_t>(reliability);
+    qos.durability = static_cast<rmw_qos_durability_policy_t>(durability);
+    qos.depth = depth;
+    return true;
+}
+
+std::string describeQos(const rmw_qos_profile_t& qos)
+{
+    std::string text = qos.reliability == RMW_QOS_POLICY_RELIABILITY_RELIABLE ? "reliable" : "best_effort";
+    text += qos.durability == RMW_QOS_POLICY_DURABILITY_TRANSIENT_LOCAL ? ", transient_local" : ", volatile";
+    text += qos.history == RMW_QOS_POLICY_HISTORY_KEEP_ALL ? ", keep_all" : ", depth " + std::to_string(qos.depth);
+    return text;
+}
+
+bool diagnosticsOptions(const rcl_params_t* params, const std::string& fqn, bool& on, double& period,
+                        std::string& error)
+{
+    if (const rcl_variant_t* v = parameter(params, fqn, "diagnostics")) {
+        if (v->bool_value == nullptr) {
+            error = "parameter diagnostics must be true or false, got " + valueText(*v);
+            return false;
+        }
+        on = *v->bool_value;
+    }
+    if (const rcl_variant_t* v = parameter(params, fqn, "diagnostic_updater.period")) {
+        if (v->double_value == nullptr && v->integer_value == nullptr) {
+            error = "parameter diagnostic_updater.period must be a number, got " + valueText(*v);
+            return false;
+        }
+        const double p = v->double_value != nullptr ? *v->double_value : static_cast<double>(*v->integer_value);
+        if (!(p > 0)) {
+            error = "parameter diagnostic_updater.period must be positive";
+            return false;
+        }
+        period = p;
+    }
+    return true;
+}
+
+int checkRosArgs(const std::vector<std::string>& rosArgs, const char* node)
+{
+    std::vector<const char*> argv{node};
+    for (const std::string& arg : rosArgs) {
+        argv.push_back(arg.c_str());
+    }
+    rcl_arguments_t args = rcl_get_zero_initialized_arguments();
+    const rcl_allocator_t allocator = rcl_get_default_allocator();
+    if (rcl_parse_arguments(static_cast<int>(argv.size()), argv.data(), allocator, &args) != RCL_RET_OK) {
+        say("bad ROS arguments: " + rclError());
+        return 2;
+    }
+    int status = 0;
+    if (rcl_arguments_get_count_unparsed_ros(&args) > 0) {
+        say("bad ROS arguments: rcl does not know some of them (see `--ros-args --help` of any ROS 2 program)");
+        status = 2;
+    }
+    rcl_params_t* params = nullptr;
+    if (status == 0 && rcl_arguments_get_param_overrides(&args, &params) == RCL_RET_OK) {
+        bool on = true;
+        double period = 1.0;
+        std::string error;
+        if (!diagnosticsOptions(params, std::string("/") + node, on, period, error)) {
+            say(error);
+            status = 2;
+        }
+    }
+    rcl_reset_error();
+    if (params != nullptr) {
+        rcl_yaml_node_struct_fini(params);
+    }
+    finished(rcl_arguments_fini(&args));
+    return status;
+}
+
+// --- /diagnostics ------------------------------------------------------------------------
+
+namespace {
+
+/// printf's text of one number (the Python node's % formats are C's).
+std::string printed(const char* format, double x)
+{
+    char text[64];
+    std::snprintf(text, sizeof text, format, x);
+    return text;
+}
+
+/// diagnostic_updater's FrequencyStatus tolerance: below (1 - it) x the configured rate is a warning
+constexpr double kRateTolerance = 0.1;
+
+}  // namespace
+
+std::vector<Status> statuses(const Totals& totals, const std::string& node, double achieved)
+{
+    std::vector<Status> out;
+    for (const Totals::PerInput& in : totals.inputs) {
+        Status s;
+        s.name = node + ": input " + in.source;
+        if (in.state == Freshness::Waiting) {
+            s.level = Status::Error;
+            s.message = "no data received yet";
+        } else if (in.state == Freshness::Stale) {
+            s.level = Status::Warn;
+            s.message = "stale: no data for " + printed("%.1f", in.age) + " s";
+        } else {
+            s.message = "fresh";
+        }
+        s.values = {{"received", std::to_string(in.received)},
+                    {"dropped", std::to_string(in.dropped)},
+                    {"stale periods", std::to_string(in.stale)},
+                    {"unused", std::to_string(in.unused)},
+                    {"age (s)", in.age < 0 ? "" : printed("%.3f", in.age)},
+                    {"timeout (s)", printed("%g", in.timeout)}};
+        out.push_back(std::move(s));
+    }
+    Status s;
+    s.name = node + ": output " + totals.output;
+    if (totals.rate <= 0) {
+        s.message = "event-driven: " + printed("%.2f", achieved) + " Hz";
+    } else if (achieved < totals.rate * (1.0 - kRateTolerance)) {
+        s.level = Status::Warn;
+        s.message = "rate too low: " + printed("%.2f", achieved) + " Hz of " + printed("%g", totals.rate) + " Hz";
+    } else {
+        s.message = printed("%.2f", achieved) + " Hz of " + printed("%g", totals.rate) + " Hz";
+    }
+    s.values = {{"published", std::to_string(totals.published)},
+                {"rate achieved (Hz)", printed("%.3f", achieved)},
+                {"rate configured (Hz)", totals.rate <= 0 ? "event-driven" : printed("%g", totals.rate)},
+                {"skipped cycles", std::to_string(totals.skipped)},
+                {"build failures", std::to_string(totals.failures)}};
+    out.push_back(std::move(s));
+    return out;
+}
+
+double RateWindow::add(double seconds, std::uint64_t published)
+{
+    samples_.emplace_back(seconds, published);
+    while (samples_.size() > window_ + 1) {
+        samples_.pop_front();
+    }
+    const auto& [t0, n0] = samples_.front();
+    const auto& [t1, n1] = samples_.back();
+    return t1 > t0 ? static_cast<double>(n1 - n0) / (t1 - t0) : 0.0;
+}
+
+// --- the node ---------------------------------------------------------------------------
+
+struct Node::Rcl
 {
     rcl_allocator_t allocator = rcl_get_default_allocator();
     rcl_context_t context = rcl_get_zero_initialized_context();
     rcl_node_t node = rcl_get_zero_initialized_node();
-    rcl_publisher_t publisher = rcl_get_zero_initialized_publisher();
+    rcl_params_t* params = nullptr;  // the command line's parameters (nullptr: none)
+    std::string fqn;                 // the node's fully qualified name
     rcl_clock_t clock{};
     rcl_subscription_t clockSubscription = rcl_get_zero_initialized_subscription();
     bool clockSubscribed = false;
@@ -88,8 +357,16 @@ struct Publisher::Rcl
     std::atomic<bool> stopping{false};
     bool contextOk = false;
     bool nodeOk = false;
-    bool publisherOk = false;
     bool clockOk = false;
+    // /diagnostics
+    bool diagnostics = true;   // the parameter `diagnostics`
+    double period = 1.0;       // the parameter `diagnostic_updater.period`, seconds
+    rcl_publisher_t diagnosticsPublisher = rcl_get_zero_initialized_publisher();
+    bool diagnosticsOk = false;
+    std::thread diagnosticsThread;
+    std::mutex diagnosticsMutex;
+    std::condition_variable diagnosticsWake;
+    bool diagnosticsStop = false;
 };
 
 std::vector<std::string> takeRosArgs(int& argc, char* argv[])
@@ -114,19 +391,17 @@ std::vector<std::string> takeRosArgs(int& argc, char* argv[])
     return rosArgs;
 }
 
-Publisher::Publisher(const Ros2Spec& spec, const MessageType& type, FillMessage fill,
-                     std::vector<std::string> rosArgs) :
-        spec_(spec), rosArgs_(std::move(rosArgs)), type_(type), fill_(std::move(fill)),
-        rcl_(std::make_unique<Rcl>())
+Node::Node(const char* name, std::vector<std::string> rosArgs) :
+        name_(name), rosArgs_(std::move(rosArgs)), rcl_(std::make_unique<Rcl>())
 {
 }
 
-Publisher::~Publisher()
+Node::~Node()
 {
     close();
 }
 
-bool Publisher::open()
+bool Node::open()
 {
     Rcl& r = *rcl_;
     rcl_init_options_t options = rcl_get_zero_initialized_init_options();
@@ -135,7 +410,7 @@ bool Publisher::open()
         return false;
     }
     // the domain (ROS_DOMAIN_ID) and discovery range come from the environment, as for every ROS 2 process
-    std::vector<const char*> argv{spec_.node};
+    std::vector<const char*> argv{name_.c_str()};
     for (const std::string& arg : rosArgs_) {
         argv.push_back(arg.c_str());
     }
@@ -147,65 +422,147 @@ bool Publisher::open()
     }
     r.contextOk = true;
     rcl_node_options_t nodeOptions = rcl_node_get_default_options();
-    if (rcl_node_init(&r.node, spec_.node, "", &r.context, &nodeOptions) != RCL_RET_OK) {
-        say(std::string("cannot create the ROS 2 node ") + spec_.node + ": " + rclError());
+    if (rcl_node_init(&r.node, name_.c_str(), "", &r.context, &nodeOptions) != RCL_RET_OK) {
+        say("cannot create the ROS 2 node " + name_ + ": " + rclError());
         return false;
     }
     r.nodeOk = true;
+    r.fqn = rcl_node_get_fully_qualified_name(&r.node);
+    if (rcl_arguments_get_param_overrides(&r.context.global_arguments, &r.params) != RCL_RET_OK) {
+        rcl_reset_error();
+        r.params = nullptr;
+    }
     if (rcl_clock_init(RCL_ROS_TIME, &r.clock, &r.allocator) != RCL_RET_OK) {
         say("cannot create the node's clock: " + rclError());
         return false;
     }
     r.clockOk = true;
-    if (useSimTime() && !startClock()) {
-        return false;
-    }
-    rcl_publisher_options_t pubOptions = rcl_publisher_get_default_options();
-    pubOptions.qos.history = RMW_QOS_POLICY_HISTORY_KEEP_LAST;
-    pubOptions.qos.depth = spec_.depth;
-    pubOptions.qos.reliability = spec_.reliable ? RMW_QOS_POLICY_RELIABILITY_RELIABLE
-                                                : RMW_QOS_POLICY_RELIABILITY_BEST_EFFORT;
-    pubOptions.qos.durability = spec_.transientLocal ? RMW_QOS_POLICY_DURABILITY_TRANSIENT_LOCAL
-                                                     : RMW_QOS_POLICY_DURABILITY_VOLATILE;
-    if (rcl_publisher_init(&r.publisher, &r.node, type_.typeSupport, spec_.topic, &pubOptions) != RCL_RET_OK) {
-        say(std::string("cannot publish ") + type_.name + " on " + spec_.topic + ": " + rclError());
-        return false;
-    }
-    r.publisherOk = true;
-    msg_ = type_.create();
-    if (msg_ == nullptr) {
-        say(std::string("cannot allocate a message ") + type_.name);
+    return diagnosticsParameters() && (!useSimTime() || startClock());
+}
+
+/// The parameters of /diagnostics, as the Python node checks them.
+bool Node::diagnosticsParameters()
+{
+    std::string error;
+    if (!diagnosticsOptions(rcl_->params, rcl_->fqn, rcl_->diagnostics, rcl_->period, error)) {
+        say(error);
         return false;
     }
     return true;
 }
 
-/// The parameter use_sim_time of the command line (`-p use_sim_time:=true`,
-/// for every node or this one).
-bool Publisher::useSimTime()
+void Node::publishDiagnostics(TotalsSource totals)
 {
-    rcl_params_t* params = nullptr;
-    if (rcl_arguments_get_param_overrides(&rcl_->context.global_arguments, &params) != RCL_RET_OK
-        || params == nullptr) {
-        rcl_reset_error();
-        return false;
+    Rcl& r = *rcl_;
+    if (!r.diagnostics || r.diagnosticsOk) {
+        return;
     }
-    bool on = false;
-    const std::string node = std::string("/") + spec_.node;
-    for (const char* name : {"/**", node.c_str()}) {
-        const rcl_variant_t* value = rcl_yaml_node_struct_get(name, "use_sim_time", params);
-        if (value != nullptr && value->bool_value != nullptr) {
-            on = *value->bool_value;
-        }
+    rcl_publisher_options_t options = rcl_publisher_get_default_options();
+    options.qos.history = RMW_QOS_POLICY_HISTORY_KEEP_LAST;
+    options.qos.depth = 1;
+    options.qos.reliability = RMW_QOS_POLICY_RELIABILITY_RELIABLE;
+    options.qos.durability = RMW_QOS_POLICY_DURABILITY_VOLATILE;
+    if (rcl_publisher_init(&r.diagnosticsPublisher, &r.node,
+                           ROSIDL_GET_MSG_TYPE_SUPPORT(diagnostic_msgs, msg, DiagnosticArray), "/diagnostics",
+                           &options) != RCL_RET_OK) {
+        say("cannot publish /diagnostics: " + rclError() + "; the module runs without it");
+        return;
     }
-    rcl_yaml_node_struct_fini(params);
-    return on;
+    r.diagnosticsOk = true;
+    r.diagnosticsThread = std::thread([this, totals = std::move(totals)] { diagnose(totals); });
 }
 
-/// Simulated time: the node's clock follows /clock (best effort, the last
-/// one kept, as rclpy's and rclcpp's clocks subscribe), read by a thread of
-/// its own; it reads 0 until the first /clock message.
-bool Publisher::startClock()
+namespace {
+
+/// A sequence of messages sized to n, its package's functions given.
+template <class Seq>
+bool sized(Seq& seq, std::size_t n, bool (*init)(Seq*, std::size_t), void (*fini)(Seq*))
+{
+    if (seq.size == n && (n == 0 || seq.data != nullptr)) {
+        return true;
+    }
+    fini(&seq);
+    return init(&seq, n);
+}
+
+/// The DiagnosticArray of `all`: its statuses refilled in place.
+bool fill(diagnostic_msgs__msg__DiagnosticArray& msg, const std::vector<Status>& all, const std::string& hardwareId)
+{
+    if (!sized(msg.status, all.size(), diagnostic_msgs__msg__DiagnosticStatus__Sequence__init,
+               diagnostic_msgs__msg__DiagnosticStatus__Sequence__fini)) {
+        return false;
+    }
+    for (std::size_t k = 0; k < all.size(); ++k) {
+        diagnostic_msgs__msg__DiagnosticStatus& out = msg.status.data[k];
+        out.level = all[k].level;
+        setString(out.name, all[k].name);
+        setString(out.message, all[k].message);
+        setString(out.hardware_id, hardwareId);
+        if (!sized(out.values, all[k].values.size(), diagnostic_msgs__msg__KeyValue__Sequence__init,
+                   diagnostic_msgs__msg__KeyValue__Sequence__fini)) {
+            return false;
+        }
+        for (std::size_t j = 0; j < all[k].values.size(); ++j) {
+            setString(out.values.data[j].key, all[k].values[j].first);
+            setString(out.values.data[j].value, all[k].values[j].second);
+        }
+    }
+    return true;
+}
+
+}  // namespace
+
+/// Every period: the totals, read under the bridge's lock, published.
+void Node::diagnose(TotalsSource totals)
+{
+    Rcl& r = *rcl_;
+    diagnostic_msgs__msg__DiagnosticArray msg;
+    if (!diagnostic_msgs__msg__DiagnosticArray__init(&msg)) {
+        say("cannot allocate a diagnostic_msgs/DiagnosticArray; no /diagnostics");
+        return;
+    }
+    RateWindow window;
+    const auto start = SteadyClock::now();
+    auto seconds = [start] { return std::chrono::duration<double>(SteadyClock::now() - start).count(); };
+    window.add(seconds(), totals().published);
+    const auto period = std::chrono::duration_cast<SteadyClock::duration>(std::chrono::duration<double>(r.period));
+    auto next = start + period;
+    bool reported = false;
+    const std::string node = rcl_node_get_name(&r.node);
+    for (;;) {
+        {
+            std::unique_lock<std::mutex> lock(r.diagnosticsMutex);
+            if (r.diagnosticsWake.wait_until(lock, next, [&r] { return r.diagnosticsStop; })) {
+                break;
+            }
+        }
+        next += period;
+        const Totals now = totals();
+        const double achieved = window.add(seconds(), now.published);
+        setTime(msg.header.stamp, nowNs());
+        if (!fill(msg, statuses(now, node, achieved), now.module)
+            || rcl_publish(&r.diagnosticsPublisher, &msg, nullptr) != RCL_RET_OK) {
+            if (!reported) {
+                reported = true;
+                say("cannot publish /diagnostics: " + rclError() + "; further errors are not said");
+            } else {
+                rcl_reset_error();
+            }
+        }
+    }
+    diagnostic_msgs__msg__DiagnosticArray__fini(&msg);
+}
+
+/// The parameter use_sim_time of the command line (`-p use_sim_time:=true`,
+/// for every node or this one).
+bool Node::useSimTime()
+{
+    const rcl_variant_t* value = parameter(rcl_->params, rcl_->fqn, "use_sim_time");
+    return value != nullptr && value->bool_value != nullptr && *value->bool_value;
+}
+
+/// Simulated time: the clock follows /clock, read by a thread of its own.
+bool Node::startClock()
 {
     Rcl& r = *rcl_;
     rcl_subscription_options_t options = rcl_subscription_get_default_options();
@@ -227,7 +584,7 @@ bool Publisher::startClock()
     return true;
 }
 
-void Publisher::followClock()
+void Node::followClock()
 {
     Rcl& r = *rcl_;
     rcl_wait_set_t waitSet = rcl_get_zero_initialized_wait_set();
@@ -258,14 +615,7 @@ void Publisher::followClock()
     finished(rcl_wait_set_fini(&waitSet));
 }
 
-std::string Publisher::describe() const
-{
-    return std::string(type_.name) + " on the ROS 2 topic " + spec_.topic + " (node " + spec_.node + ", "
-        + (spec_.reliable ? "reliable" : "best_effort") + ", "
-        + (spec_.transientLocal ? "transient_local" : "volatile") + ", depth " + std::to_string(spec_.depth) + ")";
-}
-
-std::int64_t Publisher::nowNs()
+std::int64_t Node::nowNs()
 {
     rcl_time_point_value_t now = 0;
     if (rcl_->clockOk && rcl_clock_get_now(&rcl_->clock, &now) == RCL_RET_OK) {
@@ -273,6 +623,151 @@ std::int64_t Publisher::nowNs()
     }
     return std::chrono::duration_cast<std::chrono::nanoseconds>(
                std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+bool Node::qos(const char* topic, const char* entity, rmw_qos_profile_t& qos, std::string& resolved,
+               std::string& error)
+{
+    // the overrides name the topic as the node resolves it (remapped, expanded), as rclpy's do
+    char* name = nullptr;
+    if (rcl_node_resolve_name(&rcl_->node, topic, rcl_->allocator, false, false, &name) != RCL_RET_OK) {
+        error = "cannot resolve the topic name: " + rclError();
+        return false;
+    }
+    resolved = name;
+    rcl_->allocator.deallocate(name, rcl_->allocator.state);
+    return overrideQos(rcl_->params, rcl_->fqn, resolved, entity, qos, error);
+}
+
+rcl_context_t* Node::context()
+{
+    return &rcl_->context;
+}
+
+rcl_node_t* Node::node()
+{
+    return &rcl_->node;
+}
+
+std::string Node::name() const
+{
+    const char* name = rcl_->nodeOk ? rcl_node_get_name(&rcl_->node) : nullptr;
+    return name != nullptr ? name : name_;
+}
+
+void Node::close()
+{
+    Rcl& r = *rcl_;
+    {
+        std::lock_guard<std::mutex> lock(r.diagnosticsMutex);
+        r.diagnosticsStop = true;
+    }
+    r.diagnosticsWake.notify_all();
+    if (r.diagnosticsThread.joinable()) {
+        r.diagnosticsThread.join();
+    }
+    if (r.diagnosticsOk) {
+        finished(rcl_publisher_fini(&r.diagnosticsPublisher, &r.node));
+        r.diagnosticsOk = false;
+    }
+    r.stopping = true;
+    if (r.clockThread.joinable()) {
+        r.clockThread.join();
+    }
+    if (r.clockSubscribed) {
+        finished(rcl_subscription_fini(&r.clockSubscription, &r.node));
+        r.clockSubscribed = false;
+    }
+    if (r.clockOk) {
+        finished(rcl_clock_fini(&r.clock));
+        r.clockOk = false;
+    }
+    if (r.params != nullptr) {
+        rcl_yaml_node_struct_fini(r.params);
+        r.params = nullptr;
+    }
+    if (r.nodeOk) {
+        finished(rcl_node_fini(&r.node));
+        r.nodeOk = false;
+    }
+    if (r.contextOk) {
+        finished(rcl_shutdown(&r.context));
+        finished(rcl_context_fini(&r.context));
+        r.contextOk = false;
+    }
+    rcl_reset_error();
+}
+
+// --- the publisher --------------------------------------------------------------------
+
+struct Publisher::Rcl
+{
+    rcl_publisher_t publisher = rcl_get_zero_initialized_publisher();
+    bool publisherOk = false;
+};
+
+Publisher::Publisher(const Ros2Spec& spec, const MessageType& type, FillMessage fill,
+                     std::vector<std::string> rosArgs) :
+        spec_(spec), type_(type), fill_(std::move(fill)), node_(spec.node, std::move(rosArgs)),
+        rcl_(std::make_unique<Rcl>())
+{
+    rmw_qos_profile_t qos = rmw_qos_profile_default;
+    qos.history = RMW_QOS_POLICY_HISTORY_KEEP_LAST;
+    qos.depth = spec_.depth;
+    qos.reliability = spec_.reliable ? RMW_QOS_POLICY_RELIABILITY_RELIABLE : RMW_QOS_POLICY_RELIABILITY_BEST_EFFORT;
+    qos.durability = spec_.transientLocal ? RMW_QOS_POLICY_DURABILITY_TRANSIENT_LOCAL
+                                          : RMW_QOS_POLICY_DURABILITY_VOLATILE;
+    describe_ = std::string(type_.name) + " on the ROS 2 topic " + spec_.topic + " (node " + spec_.node + ", "
+        + describeQos(qos) + ")";
+}
+
+Publisher::~Publisher()
+{
+    close();
+}
+
+bool Publisher::open()
+{
+    Rcl& r = *rcl_;
+    if (!node_.open()) {
+        return false;
+    }
+    rcl_publisher_options_t options = rcl_publisher_get_default_options();
+    options.qos.history = RMW_QOS_POLICY_HISTORY_KEEP_LAST;
+    options.qos.depth = spec_.depth;
+    options.qos.reliability = spec_.reliable ? RMW_QOS_POLICY_RELIABILITY_RELIABLE
+                                             : RMW_QOS_POLICY_RELIABILITY_BEST_EFFORT;
+    options.qos.durability = spec_.transientLocal ? RMW_QOS_POLICY_DURABILITY_TRANSIENT_LOCAL
+                                                  : RMW_QOS_POLICY_DURABILITY_VOLATILE;
+    std::string topic;
+    std::string error;
+    if (!node_.qos(spec_.topic, "publisher", options.qos, topic, error)) {
+        say(std::string("cannot publish ") + type_.name + " on " + spec_.topic + ": " + error);
+        return false;
+    }
+    if (rcl_publisher_init(&r.publisher, node_.node(), type_.typeSupport, spec_.topic, &options) != RCL_RET_OK) {
+        say(std::string("cannot publish ") + type_.name + " on " + spec_.topic + ": " + rclError());
+        return false;
+    }
+    r.publisherOk = true;
+    describe_ = std::string(type_.name) + " on the ROS 2 topic " + topic + " (node " + node_.name() + ", "
+        + describeQos(options.qos) + ")";
+    msg_ = type_.create();
+    if (msg_ == nullptr) {
+        say(std::string("cannot allocate a message ") + type_.name);
+        return false;
+    }
+    return true;
+}
+
+std::string Publisher::describe() const
+{
+    return describe_;
+}
+
+std::int64_t Publisher::nowNs()
+{
+    return node_.nowNs();
 }
 
 bool Publisher::publish(const Inputs& in, const Context& ctx, std::string& failure)
@@ -292,39 +787,23 @@ bool Publisher::publish(const Inputs& in, const Context& ctx, std::string& failu
     return true;
 }
 
+void Publisher::watch(TotalsSource totals)
+{
+    node_.publishDiagnostics(std::move(totals));
+}
+
 void Publisher::close()
 {
     Rcl& r = *rcl_;
-    r.stopping = true;
-    if (r.clockThread.joinable()) {
-        r.clockThread.join();
-    }
-    if (r.clockSubscribed) {
-        finished(rcl_subscription_fini(&r.clockSubscription, &r.node));
-        r.clockSubscribed = false;
-    }
     if (msg_ != nullptr) {
         type_.destroy(msg_);
         msg_ = nullptr;
     }
     if (r.publisherOk) {
-        finished(rcl_publisher_fini(&r.publisher, &r.node));
+        finished(rcl_publisher_fini(&r.publisher, node_.node()));
         r.publisherOk = false;
     }
-    if (r.clockOk) {
-        finished(rcl_clock_fini(&r.clock));
-        r.clockOk = false;
-    }
-    if (r.nodeOk) {
-        finished(rcl_node_fini(&r.node));
-        r.nodeOk = false;
-    }
-    if (r.contextOk) {
-        finished(rcl_shutdown(&r.context));
-        finished(rcl_context_fini(&r.context));
-        r.contextOk = false;
-    }
-    rcl_reset_error();
+    node_.close();
 }
 
 // --- ROS 2 topics as inputs -------------------------------------------------------------
@@ -342,21 +821,17 @@ void read(Mux& out, const builtin_interfaces__msg__Duration& field)
 struct Subscriptions::Rcl
 {
     rcl_allocator_t allocator = rcl_get_default_allocator();
-    rcl_context_t ownContext = rcl_get_zero_initialized_context();
-    rcl_node_t ownNode = rcl_get_zero_initialized_node();
-    rcl_context_t* context = nullptr;  // its own, or the publisher's
-    rcl_node_t* node = nullptr;
     std::vector<rcl_subscription_t> subscriptions;  // one a topic, in Topics order
     std::vector<void*> messages;                    // one taken message a topic
     std::size_t subscribed = 0;
     std::thread thread;
     std::atomic<bool> stopping{false};
-    bool contextOk = false;
-    bool nodeOk = false;
 };
 
 Subscriptions::Subscriptions(const Topics& topics, std::vector<std::string> rosArgs, Publisher* publisher) :
-        topics_(topics), rosArgs_(std::move(rosArgs)), publisher_(publisher), rcl_(std::make_unique<Rcl>())
+        topics_(topics),
+        ownNode_(publisher == nullptr ? std::make_unique<Node>(topics.node, std::move(rosArgs)) : nullptr),
+        node_(publisher == nullptr ? ownNode_.get() : &publisher->node()), rcl_(std::make_unique<Rcl>())
 {
 }
 
@@ -369,44 +844,25 @@ bool Subscriptions::open(Deliver deliver)
 {
     Rcl& r = *rcl_;
     deliver_ = std::move(deliver);
-    if (publisher_ != nullptr) {
-        r.context = &publisher_->rcl_->context;
-        r.node = &publisher_->rcl_->node;
-    } else {
-        rcl_init_options_t options = rcl_get_zero_initialized_init_options();
-        if (rcl_init_options_init(&options, r.allocator) != RCL_RET_OK) {
-            say("cannot start ROS 2: " + rclError());
-            return false;
-        }
-        std::vector<const char*> argv{topics_.node};
-        for (const std::string& arg : rosArgs_) {
-            argv.push_back(arg.c_str());
-        }
-        const rcl_ret_t init = rcl_init(static_cast<int>(argv.size()), argv.data(), &options, &r.ownContext);
-        finished(rcl_init_options_fini(&options));
-        if (init != RCL_RET_OK) {
-            say("cannot start ROS 2: " + rclError());
-            return false;
-        }
-        r.contextOk = true;
-        rcl_node_options_t nodeOptions = rcl_node_get_default_options();
-        if (rcl_node_init(&r.ownNode, topics_.node, "", &r.ownContext, &nodeOptions) != RCL_RET_OK) {
-            say(std::string("cannot create the ROS 2 node ") + topics_.node + ": " + rclError());
-            return false;
-        }
-        r.nodeOk = true;
-        r.context = &r.ownContext;
-        r.node = &r.ownNode;
+    if (ownNode_ != nullptr && !ownNode_->open()) {
+        return false;
     }
     r.subscriptions.assign(topics_.topics.size(), rcl_get_zero_initialized_subscription());
+    std::string names;
     for (const Topic& t : topics_.topics) {
         rcl_subscription_options_t options = rcl_subscription_get_default_options();
         options.qos.history = RMW_QOS_POLICY_HISTORY_KEEP_LAST;
         options.qos.depth = 1;
         options.qos.reliability = RMW_QOS_POLICY_RELIABILITY_BEST_EFFORT;
         options.qos.durability = RMW_QOS_POLICY_DURABILITY_VOLATILE;
+        std::string resolved;
+        std::string error;
+        if (!node_->qos(t.name, "subscription", options.qos, resolved, error)) {
+            say(std::string("cannot subscribe to ") + t.name + " (" + t.type.name + "): " + error);
+            return false;
+        }
         const std::size_t k = r.subscribed;
-        if (rcl_subscription_init(&r.subscriptions[k], r.node, t.type.typeSupport, t.name, &options)
+        if (rcl_subscription_init(&r.subscriptions[k], node_->node(), t.type.typeSupport, t.name, &options)
             != RCL_RET_OK) {
             say(std::string("cannot subscribe to ") + t.name + " (" + t.type.name + "): " + rclError());
             return false;
@@ -417,14 +873,26 @@ bool Subscriptions::open(Deliver deliver)
             say(std::string("cannot allocate a message ") + t.type.name);
             return false;
         }
+        names += (names.empty() ? "" : ", ") + resolved + " (" + t.type.name + "; " + describeQos(options.qos) + ")";
     }
-    std::string names;
-    for (const Topic& t : topics_.topics) {
-        names += (names.empty() ? "" : ", ") + std::string(t.name) + " (" + t.type.name + ")";
-    }
-    say("reading the ROS 2 topics " + names + " on the node " + rcl_node_get_name(r.node)
-        + " (best_effort, volatile, depth 1)");
+    say("reading the ROS 2 topics " + names + " on the node " + node_->name());
     r.thread = std::thread([this] { follow(); });
+    return true;
+}
+
+void Subscriptions::watch(TotalsSource totals)
+{
+    if (ownNode_ != nullptr) {
+        ownNode_->publishDiagnostics(std::move(totals));  // else the publisher's node does
+    }
+}
+
+bool Subscriptions::nowNs(std::int64_t& ns)
+{
+    if (ownNode_ == nullptr) {
+        return false;  // the publisher's node stamps the messages
+    }
+    ns = ownNode_->nowNs();
     return true;
 }
 
@@ -434,7 +902,7 @@ void Subscriptions::follow()
 {
     Rcl& r = *rcl_;
     rcl_wait_set_t waitSet = rcl_get_zero_initialized_wait_set();
-    if (rcl_wait_set_init(&waitSet, r.subscribed, 0, 0, 0, 0, 0, r.context, r.allocator) != RCL_RET_OK) {
+    if (rcl_wait_set_init(&waitSet, r.subscribed, 0, 0, 0, 0, 0, node_->context(), r.allocator) != RCL_RET_OK) {
         say("cannot wait for the ROS 2 topics: " + rclError());
         return;
     }
@@ -478,7 +946,7 @@ void Subscriptions::close()
         r.thread.join();
     }
     for (std::size_t k = 0; k < r.subscribed; ++k) {
-        finished(rcl_subscription_fini(&r.subscriptions[k], r.node));
+        finished(rcl_subscription_fini(&r.subscriptions[k], node_->node()));
     }
     r.subscribed = 0;
     for (std::size_t k = 0; k < r.messages.size(); ++k) {
@@ -487,14 +955,8 @@ void Subscriptions::close()
         }
     }
     r.messages.clear();
-    if (r.nodeOk) {
-        finished(rcl_node_fini(&r.ownNode));
-        r.nodeOk = false;
-    }
-    if (r.contextOk) {
-        finished(rcl_shutdown(&r.ownContext));
-        finished(rcl_context_fini(&r.ownContext));
-        r.contextOk = false;
+    if (ownNode_ != nullptr) {
+        ownNode_->close();
     }
     rcl_reset_error();
 }
@@ -502,6 +964,9 @@ void Subscriptions::close()
 int run(const BridgeSpec& spec, const Topics& topics, int argc, char* argv[], MakeMessage make)
 {
     std::vector<std::string> rosArgs = takeRosArgs(argc, argv);
+    if (const int status = checkRosArgs(rosArgs, topics.node)) {
+        return status;
+    }
     Subscriptions subscriptions(topics, std::move(rosArgs));
     return ybgc::run(spec, argc, argv, std::move(make), &subscriptions);
 }

@@ -3,8 +3,10 @@
 // no Python in the process. Publisher is the bridge's MessageSink: it opens
 // an rcl node and a publisher with the config's QoS, stamps messages with
 // the node's ROS clock, and publishes the message the module's builder fills
-// through the message package's C structs (<pkg>/msg/<name>.h). The helpers
-// below are what a builder's lines call: they convert a mux element to the
+// through the message package's C structs (<pkg>/msg/<name>.h); Subscriptions
+// read ROS 2 topics as inputs. Both honour the ROS arguments of the command
+// line as an rclcpp or rclpy node does: remappings, use_sim_time and the
+// qos_overrides.* parameters. The helpers below are what a builder's lines call: they convert a mux element to the
 // field's C type as the Python ROS 2 node does, and size strings and
 // sequences with rosidl_runtime_c's functions. ybgc writes this file and
 // ybgc_ros2.cpp beside a module that publishes to ROS 2.
@@ -15,14 +17,19 @@
 
 #include <builtin_interfaces/msg/duration.h>
 #include <builtin_interfaces/msg/time.h>
+#include <rcl/node.h>
+#include <rcl_yaml_param_parser/types.h>
+#include <rmw/types.h>
 #include <rosidl_runtime_c/message_type_support_struct.h>
 #include <rosidl_runtime_c/primitives_sequence.h>
 #include <rosidl_runtime_c/primitives_sequence_functions.h>
 #include <rosidl_runtime_c/string.h>
 #include <rosidl_runtime_c/string_functions.h>
 
+#include <deque>
 #include <new>
 #include <type_traits>
+#include <utility>
 
 namespace ybgc {
 namespace ros2 {
@@ -175,9 +182,129 @@ void setStrings(rosidl_runtime_c__String (&array)[N], std::initializer_list<std:
     }
 }
 
+// --- the node's parameters and QoS -------------------------------------------------------
+
+/// Does the node name of a parameter file or of `-p` (`/**`, `/*`,
+/// `/robot/*`, `bridge`) name the node whose fully qualified name is `fqn`?
+/// As rclcpp matches them: `**` any run of characters, `*` any run without
+/// a `/`, and a name without a leading `/` is taken from the root.
+bool nodeMatches(const std::string& pattern, const std::string& fqn);
+
+/// The value of parameter `name` for the node `fqn` among the parameters of
+/// the command line (`--ros-args -p NAME:=VALUE`, `--params-file F`), the
+/// last given that names the node; nullptr when none does.
+const rcl_variant_t* parameter(const rcl_params_t* params, const std::string& fqn, const std::string& name);
+
+/// The QoS of a publisher ("publisher") or a subscription ("subscription")
+/// of `topic` (its resolved name) with the read-only parameters
+/// qos_overrides.<topic>.<entity>.<policy> of the node `fqn` applied, as
+/// rclcpp's and rclpy's QoSOverridingOptions apply them: `history`
+/// (keep_last, keep_all), `depth` (an integer), `reliability` (reliable,
+/// best_effort), `durability` (volatile, transient_local). False, with the
+/// parameter and what it accepts in `error`, for a value ROS 2 refuses.
+bool overrideQos(const rcl_params_t* params, const std::string& fqn, const std::string& topic, const char* entity,
+                 rmw_qos_profile_t& qos, std::string& error);
+
+/// A QoS as the start-up lines say it: "reliable, volatile, depth 10".
+std::string describeQos(const rmw_qos_profile_t& qos);
+
+/// The parameters of /diagnostics for the node `fqn`: `diagnostics` (true or
+/// false) into `on`, `diagnostic_updater.period` (a positive number of
+/// seconds) into `period`, each left as it is when not given; false, with
+/// the reason in `error`, for a value the Python node refuses too.
+bool diagnosticsOptions(const rcl_params_t* params, const std::string& fqn, bool& on, double& period,
+                        std::string& error);
+
+/// Checks the command line's ROS arguments before anything opens, as the
+/// Python node checks its parameters: 0, or 2 (said) when rcl refuses them
+/// or a parameter of the module has a value it refuses.
+int checkRosArgs(const std::vector<std::string>& rosArgs, const char* node);
+
+// --- /diagnostics ------------------------------------------------------------------------
+
+/// One status of a diagnostic_msgs/DiagnosticArray, as plain data.
+struct Status
+{
+    enum Level : std::uint8_t { Ok = 0, Warn = 1, Error = 2 };
+    std::uint8_t level = Ok;
+    std::string name;
+    std::string message;
+    std::vector<std::pair<std::string, std::string>> values;
+};
+
+/// The statuses of the bridge's totals, as the Python node writes them
+/// (docs/runtime.md, "Diagnostics"): one a input, `<node>: input <source>`,
+/// OK while fresh, WARN once stale, ERROR before its first message; then the
+/// output, `<node>: output <topic or port>`, the rate `achieved` against the
+/// configured one (WARN below 90 % of it, diagnostic_updater's tolerance).
+std::vector<Status> statuses(const Totals& totals, const std::string& node, double achieved);
+
+/// The rate achieved over the last `window` periods: messages published a
+/// second between the oldest and the newest of the last window + 1 samples.
+class RateWindow
+{
+public:
+    explicit RateWindow(std::size_t window = 5) : window_(window) {}
+    /// Adds the sample (`seconds` of a steady clock, `published` so far); the rate.
+    double add(double seconds, std::uint64_t published);
+
+private:
+    std::size_t window_;
+    std::deque<std::pair<double, std::uint64_t>> samples_;
+};
+
+/// One rcl context and node opened with the command line's ROS arguments
+/// (`--ros-args ...`: remappings, parameters), the node's parameters, and
+/// its ROS clock: with the parameter use_sim_time true, the simulated time
+/// of /clock (subscribed best effort, the last one kept, as rclcpp's and
+/// rclpy's clocks subscribe, by a thread of its own; 0 until the first
+/// /clock message), else the system clock.
+class Node
+{
+public:
+    Node(const char* name, std::vector<std::string> rosArgs);
+    ~Node();
+    Node(const Node&) = delete;
+    Node& operator=(const Node&) = delete;
+
+    /// Opens it; false, said, when it cannot.
+    bool open();
+    void close();
+    /// The node's clock, nanoseconds since the epoch.
+    std::int64_t nowNs();
+    /// The QoS of a publisher or subscription of `topic` (as the config
+    /// names it) with the node's qos_overrides; false, with the reason in
+    /// `error`, for an override ROS 2 refuses. `resolved`: the topic's
+    /// name after the remappings, which the overrides name.
+    bool qos(const char* topic, const char* entity, rmw_qos_profile_t& qos, std::string& resolved,
+             std::string& error);
+    rcl_context_t* context();
+    rcl_node_t* node();
+    std::string name() const;
+    /// Publishes `totals` on /diagnostics (a diagnostic_msgs/DiagnosticArray,
+    /// depth 1, reliable, as diagnostic_updater does) every
+    /// `diagnostic_updater.period` seconds (parameter, default 1) of the
+    /// steady clock, stamped with the node's clock, `hardware_id` the
+    /// module's name, until closed; nothing with the parameter
+    /// `diagnostics:=false`. The parameters were checked by open().
+    void publishDiagnostics(TotalsSource totals);
+
+private:
+    struct Rcl;
+    bool useSimTime();
+    bool startClock();
+    void followClock();
+    bool diagnosticsParameters();
+    void diagnose(TotalsSource totals);
+    std::string name_;
+    std::vector<std::string> rosArgs_;
+    std::unique_ptr<Rcl> rcl_;
+};
+
 // --- the publisher --------------------------------------------------------------------
 
-/// The ROS 2 output of a bridge: its topic, node and QoS.
+/// The ROS 2 output of a bridge: its topic, node and the config's QoS
+/// (the qos_overrides parameters of the command line apply on top of it).
 struct Ros2Spec
 {
     const char* topic;
@@ -209,13 +336,11 @@ MessageType messageType(const char* name, const rosidl_message_type_support_t* t
 /// sizes in `failure`) when a mux does not fit the message.
 using FillMessage = std::function<bool(void* msg, const Inputs&, const Context&, std::string& failure)>;
 
-/// Publishes through rcl: one context, node, ROS clock and publisher, opened
-/// by the bridge once its inputs are open. One message is kept and filled
-/// again for each publish (the fields the config leaves unset keep the
-/// defaults of the message's definition). `rosArgs`: the command line's ROS
-/// arguments (`--ros-args ...`), given to rcl; with the parameter
-/// use_sim_time true (`--ros-args -p use_sim_time:=true`), the node's clock
-/// is the simulated time of /clock, as for every ROS 2 node.
+/// Publishes through rcl: a Node and a publisher, opened by the bridge once
+/// its inputs are open; messages are stamped with the node's clock. One
+/// message is kept and filled again for each publish (the fields the config
+/// leaves unset keep the defaults of the message's definition). `rosArgs`:
+/// the command line's ROS arguments (`--ros-args ...`), given to rcl.
 class Publisher : public MessageSink
 {
 public:
@@ -228,20 +353,19 @@ public:
     std::int64_t nowNs() override;
     bool publish(const Inputs& in, const Context& ctx, std::string& failure) override;
     void close() override;
+    void watch(TotalsSource totals) override;
+    Node& node() { return node_; }
 
 private:
     struct Rcl;
-    bool useSimTime();
-    bool startClock();
-    void followClock();
     const Ros2Spec& spec_;
-    std::vector<std::string> rosArgs_;
     const MessageType& type_;
     FillMessage fill_;
+    Node node_;
     std::unique_ptr<Rcl> rcl_;
+    std::string describe_;
     void* msg_ = nullptr;
     bool reportedPublishError_ = false;
-    friend class Subscriptions;  // which share its node
 };
 
 /// Moves the ROS arguments of a command line (from `--ros-args` to `--` or
@@ -256,6 +380,9 @@ int run(const BridgeSpec& spec, const Ros2Spec& ros2, const MessageType& type, i
         bool (*fill)(const Inputs&, const Context&, Msg&, std::string&))
 {
     std::vector<std::string> rosArgs = takeRosArgs(argc, argv);
+    if (const int status = checkRosArgs(rosArgs, ros2.node)) {
+        return status;
+    }
     Publisher publisher(ros2, type, [fill](void* msg, const Inputs& in, const Context& ctx, std::string& failure) {
         return fill(in, ctx, *static_cast<Msg*>(msg), failure);
     }, std::move(rosArgs));
@@ -385,10 +512,12 @@ struct Topics
 
 /// The bridge's ROS 2 inputs: one rcl subscription a topic, with the QoS of
 /// the Python node's inputs (keep the last 1, best effort, which matches
-/// reliable and best-effort publishers alike, volatile), all taken through
-/// one rcl wait set by a thread of their own; each message's values go to
-/// the bridge as a Bottle's do. On a node of their own (a YARP output:
-/// `rosArgs` given to rcl), or on the node of `publisher` (a ROS 2 output).
+/// reliable and best-effort publishers alike, volatile) and the node's
+/// qos_overrides.<topic>.subscription.* on top, all taken through one rcl
+/// wait set by a thread of their own; each message's values go to the
+/// bridge as a Bottle's do. On a Node of their own (a YARP output: `rosArgs`
+/// given to rcl, and the node's clock stamps the messages, the simulated
+/// time with use_sim_time), or on the node of `publisher` (a ROS 2 output).
 class Subscriptions : public InputFeed
 {
 public:
@@ -397,13 +526,15 @@ public:
 
     bool open(Deliver deliver) override;
     void close() override;
+    bool nowNs(std::int64_t& ns) override;
+    void watch(TotalsSource totals) override;
 
 private:
     struct Rcl;
     void follow();
     const Topics& topics_;
-    std::vector<std::string> rosArgs_;
-    Publisher* publisher_;
+    std::unique_ptr<Node> ownNode_;  // with a YARP output
+    Node* node_;
     std::unique_ptr<Rcl> rcl_;
     Deliver deliver_;
 };
@@ -419,6 +550,9 @@ int run(const BridgeSpec& spec, const Ros2Spec& ros2, const MessageType& type, c
         char* argv[], bool (*fill)(const Inputs&, const Context&, Msg&, std::string&))
 {
     std::vector<std::string> rosArgs = takeRosArgs(argc, argv);
+    if (const int status = checkRosArgs(rosArgs, ros2.node)) {
+        return status;
+    }
     Publisher publisher(ros2, type, [fill](void* msg, const Inputs& in, const Context& ctx, std::string& failure) {
         return fill(in, ctx, *static_cast<Msg*>(msg), failure);
     }, std::move(rosArgs));

@@ -340,9 +340,12 @@ class NodeBridge(YarpBridge):
         return self.make_message(ctx, self.stamps)
 
     def _publish(self, raw, envelopes):
-        self.stamps = Stamps(self.node.get_clock().now(), envelopes)
+        # one reading of the node's clock (simulated with use_sim_time) for
+        # the ROS 2 message's stamps and a YARP Bottle's `time` and `timestamp`
+        now = self.node.get_clock().now()
+        self.stamps = Stamps(now, envelopes)
         try:
-            YarpBridge._publish(self, raw, envelopes)
+            YarpBridge._publish(self, raw, envelopes, now.nanoseconds)
         except (FillError, AssertionError, TypeError, ValueError, OverflowError) as e:
             # a value that the message's field refuses: count it, never crash
             self.build_errors += 1
