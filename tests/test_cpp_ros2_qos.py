@@ -7,7 +7,8 @@ effort while a BEST_EFFORT one does; a subscription made transient_local is
 incompatible with a volatile publisher); a value ROS 2 refuses stops the
 module with the parameter and what it accepts; the overrides name a topic as
 remapped. And ``use_sim_time`` for a module whose output is a YARP port: the
-times it writes are the simulated time of /clock, as the Python node's are.
+times it writes are the simulated time of /clock, as the Python node's are;
+the Python node's options as ROS parameters (``-p rate:=25``); ``--help``.
 
 The unit tests of the parameters and overrides themselves (node names,
 parameter files, each refused value) are in tests/runtime/ros2/.
@@ -251,3 +252,32 @@ def test_help_lists_the_ros_arguments(built):
         for word in ("--ros-args", "use_sim_time", "diagnostic_updater.period", "qos_overrides./TOPIC.publisher"):
             assert word in r.stdout, (key, r.stdout)
         assert r.stdout.rstrip().endswith(".ini.")  # the config it came from, last
+
+
+def test_options_as_ros_parameters(built, env):
+    """The options the Python node takes as parameters (a launch file's
+    `parameters`), the command line's own winning; a refused value exits 2
+    before anything opens."""
+    producer = YarpProducer(env, "/qos/p:o").start()
+    module = Module([built.exe("point"), "--ros-args", "-p", "rate:=25", "-p", "prefix:=/qos_params"], env=env,
+                    name="qos_params").start()
+    try:
+        module.wait_log(", 25 Hz")
+        module.wait_log("connected /qos/p:o -> /qos_params/")  # its own ports under the prefix
+        stop_clean(module)
+    finally:
+        module.stop()
+        producer.stop()
+    module = Module([built.exe("point"), "--rate", "10", "--ros-args", "-p", "rate:=25"], env=env,
+                    name="qos_params_line").start()
+    try:
+        module.wait_log(", 10 Hz")
+        stop_clean(module)
+    finally:
+        module.stop()
+    module = Module([built.exe("point"), "--ros-args", "-p", "rate:=-3"], env=env, name="qos_params_bad").start()
+    try:
+        assert module.wait_exit(60) == 2
+        assert "parameter rate must be 0 (event-driven) or positive" in module.log_text()
+    finally:
+        module.stop()

@@ -392,6 +392,55 @@ void testDiagnostics()
         CHECK(period == 3.0);
     }
 
+    // the module's options as the Python node's parameters
+    {
+        Params p({"--ros-args", "-p", "rate:=25", "-p", "timeout:=0.25", "-p", "prefix:=/robot/bridge", "-p",
+                  "verbose:=true"});
+        std::vector<std::string> options;
+        std::string error;
+        CHECK(ybgc::ros2::parameterOptions(p.params, "/diag", options, error));
+        CHECK((options == std::vector<std::string>{"--rate=25", "--timeout=0.25", "--prefix=/robot/bridge",
+                                                   "--verbose"}));
+        Params q({"--ros-args", "-p", "rate:=0.1", "-p", "timeout:=0.0", "-p", "verbose:=false"});
+        options.clear();
+        CHECK(ybgc::ros2::parameterOptions(q.params, "/diag", options, error));
+        CHECK((options == std::vector<std::string>{"--rate=0.10000000000000001"}));  // parsed back: 0.1
+        options.clear();
+        CHECK(ybgc::ros2::parameterOptions(nullptr, "/diag", options, error) && options.empty());
+        const std::vector<std::pair<std::string, std::string>> refused{
+            {"rate:=-1", "parameter rate must be 0 (event-driven) or positive"},
+            {"rate:=fast", "parameter rate must be a number, got 'fast'"},
+            {"timeout:=-0.5", "parameter timeout must be positive (or 0: the config's)"},
+            {"prefix:=robot", "parameter prefix must be a string starting with /"},
+            {"verbose:=3", "parameter verbose must be true or false"},
+        };
+        for (const auto& [arg, said] : refused) {
+            Params r({"--ros-args", "-p", arg});
+            error.clear();
+            CHECK(!ybgc::ros2::parameterOptions(r.params, "/diag", options, error) && error == said);
+            if (error != said) {
+                std::printf("  said: %s\n", error.c_str());
+            }
+        }
+        std::vector<std::string> given;
+        CHECK(ybgc::ros2::checkRosArgs({"--ros-args", "-p", "rate:=-1"}, "diag", &given) == 2);
+        CHECK(ybgc::ros2::checkRosArgs({"--ros-args", "-p", "rate:=40"}, "diag", &given) == 0);
+        CHECK((given == std::vector<std::string>{"--rate=40"}));
+    }
+    {
+        // the command line's own options follow those of the parameters: they win
+        std::vector<std::string> words{"module", "--rate", "10"};
+        std::vector<char*> argv;
+        for (std::string& w : words) {
+            argv.push_back(w.data());
+        }
+        argv.push_back(nullptr);
+        ybgc::ros2::CommandLine line(3, argv.data(), {"--rate=25", "--verbose"});
+        CHECK(line.argc() == 5 && line.argv()[5] == nullptr);
+        CHECK(std::string(line.argv()[0]) == "module" && std::string(line.argv()[1]) == "--rate=25");
+        CHECK(std::string(line.argv()[3]) == "--rate" && std::string(line.argv()[4]) == "10");
+    }
+
     // the rate over the last 5 periods: the oldest of the last 6 samples to the newest
     ybgc::ros2::RateWindow window;
     CHECK(window.add(0.0, 0) == 0.0);

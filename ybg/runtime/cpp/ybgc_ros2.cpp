@@ -11,6 +11,7 @@
 #include <diagnostic_msgs/msg/key_value.h>
 #include <rosgraph_msgs/msg/clock.h>
 
+#include <cmath>
 #include <condition_variable>
 #include <cstdio>
 #include <cstring>
@@ -236,7 +237,68 @@ bool diagnosticsOptions(const rcl_params_t* params, const std::string& fqn, bool
     return true;
 }
 
-int checkRosArgs(const std::vector<std::string>& rosArgs, const char* node)
+bool parameterOptions(const rcl_params_t* params, const std::string& fqn, std::vector<std::string>& options,
+                      std::string& error)
+{
+    auto exact = [](double x) {  // every digit: the option is parsed back
+        char text[64];
+        std::snprintf(text, sizeof text, "%.17g", x);
+        return std::string(text);
+    };
+    auto number = [&](const char* name, double& out) {
+        const rcl_variant_t* v = parameter(params, fqn, name);
+        if (v == nullptr) {
+            return true;
+        }
+        if (v->double_value == nullptr && v->integer_value == nullptr) {
+            error = std::string("parameter ") + name + " must be a number, got " + valueText(*v);
+            return false;
+        }
+        out = v->double_value != nullptr ? *v->double_value : static_cast<double>(*v->integer_value);
+        return true;
+    };
+    double rate = -1.0;
+    if (!number("rate", rate)) {
+        return false;
+    }
+    if (parameter(params, fqn, "rate") != nullptr) {
+        if (!(rate >= 0) || !std::isfinite(rate)) {
+            error = "parameter rate must be 0 (event-driven) or positive";
+            return false;
+        }
+        options.push_back("--rate=" + exact(rate));
+    }
+    double timeout = 0.0;
+    if (!number("timeout", timeout)) {
+        return false;
+    }
+    if (!(timeout >= 0) || !std::isfinite(timeout)) {
+        error = "parameter timeout must be positive (or 0: the config's)";
+        return false;
+    }
+    if (timeout > 0) {
+        options.push_back("--timeout=" + exact(timeout));
+    }
+    if (const rcl_variant_t* v = parameter(params, fqn, "prefix")) {
+        if (v->string_value == nullptr || v->string_value[0] != '/') {
+            error = "parameter prefix must be a string starting with /";
+            return false;
+        }
+        options.push_back(std::string("--prefix=") + v->string_value);
+    }
+    if (const rcl_variant_t* v = parameter(params, fqn, "verbose")) {
+        if (v->bool_value == nullptr) {
+            error = "parameter verbose must be true or false";
+            return false;
+        }
+        if (*v->bool_value) {
+            options.push_back("--verbose");
+        }
+    }
+    return true;
+}
+
+int checkRosArgs(const std::vector<std::string>& rosArgs, const char* node, std::vector<std::string>* options)
 {
     std::vector<const char*> argv{node};
     for (const std::string& arg : rosArgs) {
@@ -258,7 +320,8 @@ int checkRosArgs(const std::vector<std::string>& rosArgs, const char* node)
         bool on = true;
         double period = 1.0;
         std::string error;
-        if (!diagnosticsOptions(params, std::string("/") + node, on, period, error)) {
+        if (!diagnosticsOptions(params, std::string("/") + node, on, period, error)
+            || (options != nullptr && !parameterOptions(params, std::string("/") + node, *options, error))) {
             say(error);
             status = 2;
         }
@@ -961,14 +1024,29 @@ void Subscriptions::close()
     rcl_reset_error();
 }
 
+CommandLine::CommandLine(int argc, char* argv[], const std::vector<std::string>& before)
+{
+    words_.emplace_back(argc > 0 ? argv[0] : "");
+    words_.insert(words_.end(), before.begin(), before.end());
+    for (int k = 1; k < argc; ++k) {
+        words_.emplace_back(argv[k]);
+    }
+    for (std::string& w : words_) {
+        argv_.push_back(w.data());
+    }
+    argv_.push_back(nullptr);
+}
+
 int run(const BridgeSpec& spec, const Topics& topics, int argc, char* argv[], MakeMessage make)
 {
     std::vector<std::string> rosArgs = takeRosArgs(argc, argv);
-    if (const int status = checkRosArgs(rosArgs, topics.node)) {
+    std::vector<std::string> options;
+    if (const int status = checkRosArgs(rosArgs, topics.node, &options)) {
         return status;
     }
+    CommandLine line(argc, argv, options);
     Subscriptions subscriptions(topics, std::move(rosArgs));
-    return ybgc::run(spec, argc, argv, std::move(make), &subscriptions);
+    return ybgc::run(spec, line.argc(), line.argv(), std::move(make), &subscriptions);
 }
 
 }  // namespace ros2

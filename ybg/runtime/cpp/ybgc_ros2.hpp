@@ -215,10 +215,35 @@ std::string describeQos(const rmw_qos_profile_t& qos);
 bool diagnosticsOptions(const rcl_params_t* params, const std::string& fqn, bool& on, double& period,
                         std::string& error);
 
+/// The module's options given as the Python node takes them, as ROS
+/// parameters (`-p rate:=50`, a launch file's `parameters`): `rate`,
+/// `timeout` (0: the config's), `prefix`, `verbose`, appended to `options`
+/// as the command-line options they stand for (`--rate=50`); false, with
+/// the reason in `error`, for a value the Python node refuses too.
+bool parameterOptions(const rcl_params_t* params, const std::string& fqn, std::vector<std::string>& options,
+                      std::string& error);
+
 /// Checks the command line's ROS arguments before anything opens, as the
 /// Python node checks its parameters: 0, or 2 (said) when rcl refuses them
-/// or a parameter of the module has a value it refuses.
-int checkRosArgs(const std::vector<std::string>& rosArgs, const char* node);
+/// or a parameter of the module has a value it refuses. `options`: the
+/// options its parameters give (parameterOptions).
+int checkRosArgs(const std::vector<std::string>& rosArgs, const char* node,
+                 std::vector<std::string>* options = nullptr);
+
+/// A command line with `before` inserted after the program's name: the
+/// options the ROS parameters give, which the command line's own follow
+/// (and so win over).
+class CommandLine
+{
+public:
+    CommandLine(int argc, char* argv[], const std::vector<std::string>& before);
+    int argc() const { return static_cast<int>(words_.size()); }
+    char** argv() { return argv_.data(); }
+
+private:
+    std::vector<std::string> words_;
+    std::vector<char*> argv_;
+};
 
 // --- /diagnostics ------------------------------------------------------------------------
 
@@ -380,13 +405,15 @@ int run(const BridgeSpec& spec, const Ros2Spec& ros2, const MessageType& type, i
         bool (*fill)(const Inputs&, const Context&, Msg&, std::string&))
 {
     std::vector<std::string> rosArgs = takeRosArgs(argc, argv);
-    if (const int status = checkRosArgs(rosArgs, ros2.node)) {
+    std::vector<std::string> options;
+    if (const int status = checkRosArgs(rosArgs, ros2.node, &options)) {
         return status;
     }
+    CommandLine line(argc, argv, options);
     Publisher publisher(ros2, type, [fill](void* msg, const Inputs& in, const Context& ctx, std::string& failure) {
         return fill(in, ctx, *static_cast<Msg*>(msg), failure);
     }, std::move(rosArgs));
-    return ybgc::run(spec, argc, argv, publisher);
+    return ybgc::run(spec, line.argc(), line.argv(), publisher);
 }
 
 // --- ROS 2 topics as inputs -------------------------------------------------------------
@@ -550,14 +577,16 @@ int run(const BridgeSpec& spec, const Ros2Spec& ros2, const MessageType& type, c
         char* argv[], bool (*fill)(const Inputs&, const Context&, Msg&, std::string&))
 {
     std::vector<std::string> rosArgs = takeRosArgs(argc, argv);
-    if (const int status = checkRosArgs(rosArgs, ros2.node)) {
+    std::vector<std::string> options;
+    if (const int status = checkRosArgs(rosArgs, ros2.node, &options)) {
         return status;
     }
+    CommandLine line(argc, argv, options);
     Publisher publisher(ros2, type, [fill](void* msg, const Inputs& in, const Context& ctx, std::string& failure) {
         return fill(in, ctx, *static_cast<Msg*>(msg), failure);
     }, std::move(rosArgs));
     Subscriptions subscriptions(topics, {}, &publisher);
-    return ybgc::run(spec, argc, argv, publisher, &subscriptions);
+    return ybgc::run(spec, line.argc(), line.argv(), publisher, &subscriptions);
 }
 
 }  // namespace ros2

@@ -2109,6 +2109,8 @@ void usage(const BridgeSpec& spec, const std::string& prog, std::FILE* out, bool
         std::fprintf(out,
                      "\nROS arguments (--ros-args ... [--], as for every ROS 2 program): remappings\n"
                      "(-r FROM:=TO), parameters (-p NAME:=VALUE, --params-file FILE), --log-level. Parameters:\n"
+                     "  rate, timeout, prefix, verbose\n"
+                     "                as the options above (timeout 0: the config's); the options win\n"
                      "  use_sim_time  the node's clock is the simulated time of /clock (default: false)\n"
                      "  diagnostics   publish the bridge's state on /diagnostics (default: true)\n"
                      "  diagnostic_updater.period\n"
