@@ -4,16 +4,20 @@ with ``ybgc fmt --to named --ros2``, generated as an ament_python package
 into a colcon workspace, built by ``colcon build``, its installed entry point
 run from the workspace's setup.bash between real YARP producers and a real
 rclpy subscriber of ``ybg_demo_msgs/MotorsInertial`` (the tutorial's message,
-built from its definition with rosidl from the ROS 2 wheels by the setup)."""
+built from its definition with rosidl from the ROS 2 wheels by the setup);
+and the same config as the native C++ module in a ROS 2 package (``--backend
+cpp --package``), an ament_cmake package built by colcon."""
 from __future__ import annotations
 
 import math
 import shutil
 import subprocess
+import time
 from pathlib import Path
 
 import pytest
 
+import middleware
 from generated import ybgc
 from middleware import VENV_PYTHON, Proc, YarpProducer
 from test_backend_ros2 import Node, QosSubscriber, stop_clean, totals
@@ -138,3 +142,80 @@ def test_message_package_and_node_in_one_workspace(mw, tmp_path):
                        "-DBUILD_TESTING=OFF", f"-DPython3_EXECUTABLE={VENV_PYTHON}")
     assert out.index("Finished <<< my_robot_msgs") < out.index(f"Starting >>> {PACKAGE}")
     run_tutorial(mw, ws, "my_robot_msgs/msg/MotorsInertial", workspace_env(mw.env, ws))
+
+
+@pytest.mark.timeout(900)  # a C++ build
+def test_native_module_package_built_by_colcon(mw, tmp_path):
+    """The tutorial as the native C++ module in a ROS 2 package (``--backend
+    cpp --package``): colcon builds it as an ament_cmake package (YARP and
+    the ROS 2 wheels given through its cmake-args), the ament index finds it as ``ros2
+    run`` does, its executable is in ``lib/<package>``, and run from the
+    workspace's setup.bash it publishes the tutorial's message."""
+    named = tutorial_config(tmp_path)
+    ws = tmp_path / "ws"
+    src = ws / "src" / PACKAGE
+    r = ybgc(named, "--backend", "cpp", "--package", "--msg-path", ROOT / "msgpkgs", "-o", src)
+    assert r.returncode == 0, r.stderr
+    xml = (src / "package.xml").read_text()
+    assert "<depend>ybg_demo_msgs</depend>" in xml and "<build_type>ament_cmake</build_type>" in xml
+    yarp = middleware.yarp_install("3.5")
+    venv = Path(VENV_PYTHON).parent.parent
+    # ament_cmake from the wheels (found through the venv, with its Python), as in a sourced ROS 2
+    env = dict(mw.env, AMENT_PREFIX_PATH=str(venv))
+    colcon_build(env, ws, "--cmake-args", f"-DCMAKE_PREFIX_PATH={yarp.cmake_prefix_path()};{venv}",
+                 f"-DYBGC_ROS2_PYTHON_ENV={venv}", f"-DPython3_EXECUTABLE={VENV_PYTHON}", "-DBUILD_TESTING=OFF")
+    env = workspace_env(mw.env, ws)
+    assert str(ws / "install" / PACKAGE) in env["AMENT_PREFIX_PATH"].split(":")
+    found = subprocess.run([VENV_PYTHON, "-c", "from ament_index_python.packages import get_package_prefix as p; "
+                            f"print(p('{PACKAGE}'))"], env=env, capture_output=True, text=True, timeout=60)
+    assert found.returncode == 0 and Path(found.stdout.strip()) == ws / "install" / PACKAGE, found
+    sub = QosSubscriber(mw.env, "/motors_inertial_port", "ybg_demo_msgs/msg/MotorsInertial").start()
+    head = YarpProducer(mw.env, "/dummy_head/state:o").start()
+    inertial = YarpProducer(mw.env, "/inertial").start()
+    module = EntryPoint(mw.env, ws, PACKAGE).start()
+    try:
+        module.wait_log("publishing")
+        head.wait_outputs(1)
+        inertial.wait_outputs(1)
+        sub.wait_publishers(1)
+        degrees = [10.0, -20.5, 90.0]
+        imu = [0.5, -1.25, 9.81, 1, 2, 3, 0.125, 0.0, -0.5, 30.0, 45.0, 60.0]
+        want = {"inertial": [float(x) for x in imu], "motors": [d * math.pi / 180.0 for d in degrees]}
+
+        def exact(m):
+            got = m.msg
+            return (sorted(got) == ["inertial", "motors"] and got["inertial"] == want["inertial"]
+                    and len(got["motors"]) == 3
+                    and all(abs(a - b) <= 1e-12 for a, b in zip(got["motors"], want["motors"])))
+        # the native module says no subscriber match: the Bottles again until the message arrives
+        end = time.monotonic() + 60
+        while not any(exact(m) for m in sub.messages):
+            assert time.monotonic() < end, sub.messages[-3:]
+            head.write(degrees)
+            inertial.write(imu)
+            time.sleep(0.3)
+        log = stop_clean(module)
+        assert totals(log)["/dummy_head/state:o"][0] >= 1 and totals(log)["published"] >= 1
+    finally:
+        for p in (module, head, inertial, sub):
+            p.stop()
+        shutil.rmtree(ws / "build", ignore_errors=True)
+
+
+def test_native_package_refusals(tmp_path):
+    """`--backend cpp --package` of a module without a ROS 2 side, or named
+    as no ROS package can be: E318 at the module's name, nothing written."""
+    yarp_only = ROOT / "examples" / "yarp_to_yarp_end_effector.ini"
+    r = ybgc(yarp_only, "--backend", "cpp", "--package", "-o", tmp_path / "a")
+    out = r.stdout + r.stderr
+    assert r.returncode == 1 and "E318" in out and "needs a module with a ROS 2 side" in out, out
+    assert not (tmp_path / "a").exists()
+    text = (ROOT / "examples" / "vizzy_rviz_joint_states.ini").read_text()
+    assert "[module]" not in text  # named after its file
+    cfg = tmp_path / "Vizzy.ini"
+    cfg.write_text("[module]\nname = VizzyArm\n\n" + text)
+    r = ybgc(cfg, "--backend", "cpp", "--package", "-o", tmp_path / "b")
+    out = r.stdout + r.stderr
+    assert r.returncode == 1 and "E318" in out and "name the module `vizzyarm`" in out, out
+    assert f"{cfg}:" in out and "Traceback" not in out
+    assert not (tmp_path / "b").exists()

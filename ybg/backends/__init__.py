@@ -67,6 +67,20 @@ def nest_fields(leaves: list) -> list:
     return [(name, nest_fields(sub) if isinstance(sub, list) else sub) for name, sub in out]
 
 
+def xml_filter(text) -> str:
+    """Text for an XML element or attribute value (a package.xml)."""
+    from xml.sax.saxutils import escape
+
+    if not isinstance(text, str):
+        raise TypeError(f"expected a str, got {type(text).__name__}")
+    return escape(text, {'"': "&quot;", "'": "&apos;"})
+
+
+def xml_comment_filter(text) -> str:
+    """Text for inside an XML comment (which cannot hold ``--``)."""
+    return xml_filter(text).replace("--", "- -")
+
+
 def code_filter(text) -> str:
     """Template filter: a one-line fragment of code that lowering already built
     from escaped parts (anything else is a bug, not something to print)."""

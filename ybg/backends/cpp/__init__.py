@@ -10,7 +10,8 @@ library (``ybg/runtime/cpp/``: inputs, layout checks, freshness, matching,
 converters, timing, connections, the RPC port, shutdown), written beside it as
 ``ybgc_runtime.hpp`` and ``ybgc_runtime.cpp`` or inlined with
 ``--single-file`` (:mod:`ybg.backends.runtime`); its yarpmanager
-application ``<module>.xml`` beside it (:mod:`ybg.backends.yarpmanager`). :mod:`.lower` makes every
+application ``<module>.xml`` beside it (:mod:`ybg.backends.yarpmanager`);
+with ``--package``, a ROS 2 package around it (:mod:`.package`). :mod:`.lower` makes every
 decision and escapes every value with :mod:`.escape`; the templates only
 print.
 """
@@ -23,8 +24,10 @@ from pathlib import Path
 
 import jinja2
 
-from ybg.backends import Backend, RenderOptions, code_filter, indent_line_filter, template_environment, yarpmanager
+from ybg.backends import (Backend, RenderOptions, code_filter, indent_line_filter, template_environment,
+                          xml_comment_filter, xml_filter, yarpmanager)
 from ybg.backends.cpp.lower import LoweringError, lower
+from ybg.backends.cpp.package import lower_package
 from ybg.backends.runtime import CPP_ROS2_SOURCE, CPP_SOURCE, cpp_files, runtime_text_filter, runtime_view
 from ybg.runtime import VERSION
 
@@ -37,6 +40,8 @@ def environment() -> jinja2.Environment:
         "code": code_filter,
         "indent_line": indent_line_filter,
         "runtime_text": runtime_text_filter,
+        "xml": xml_filter,
+        "xml_comment": xml_comment_filter,
     })
 
 
@@ -56,13 +61,16 @@ class CppBackend(Backend):
         env = environment()
         rt = runtime_view("cpp", options.single_file, ros2=ros2)
         beside = not options.single_file
+        pkg = lower_package(program, view.target, view.ros2_packages) if options.package else None
         files = {
             view.filename: env.get_template("module.cpp.j2").render(m=view, rt=rt),
             "CMakeLists.txt": env.get_template("CMakeLists.txt.j2").render(
                 m=view, runtime_source=CPP_SOURCE if beside else None,
                 runtime_library=runtime_library() if beside else None,
-                ros2_source=CPP_ROS2_SOURCE if beside and ros2 else None),
+                ros2_source=CPP_ROS2_SOURCE if beside and ros2 else None, package=pkg),
         }
+        if pkg is not None:
+            files["package.xml"] = env.get_template("package.xml.j2").render(p=pkg)
         if not options.single_file:
             files.update(cpp_files(ros2))
         # run from the folder it was generated into, built as its header says

@@ -15,29 +15,16 @@ from __future__ import annotations
 import functools
 import re
 from pathlib import Path
-from xml.sax.saxutils import escape as _xml_escape
 
 import jinja2
 
-from ybg.backends import Backend, RenderOptions, template_environment
+from ybg.backends import Backend, RenderOptions, template_environment, xml_comment_filter, xml_filter
 from ybg.backends.py import FILTERS as PY_FILTERS
 from ybg.backends.py.lower import LoweringError
 from ybg.backends.ros2.lower import lower, lower_package
 from ybg.backends.runtime import PY_PACKAGE, python_files, runtime_view
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
-
-
-def _xml(text) -> str:
-    """Text for an XML element or attribute value."""
-    if not isinstance(text, str):
-        raise TypeError(f"expected a str, got {type(text).__name__}")
-    return _xml_escape(text, {'"': "&quot;", "'": "&apos;"})
-
-
-def _xml_comment(text) -> str:
-    """Text for inside an XML comment (which cannot hold ``--``)."""
-    return _xml(text).replace("--", "- -")
 
 
 def _package_name(text) -> str:
@@ -59,8 +46,8 @@ def environment() -> jinja2.Environment:
     """The templates of this backend, with the ``py`` backend's filters."""
     return template_environment([TEMPLATE_DIR], {
         **PY_FILTERS,
-        "xml": _xml,
-        "xml_comment": _xml_comment,
+        "xml": xml_filter,
+        "xml_comment": xml_comment_filter,
         "py_comment": _py_comment,
         "package_name": _package_name,
     })
