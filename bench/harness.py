@@ -278,6 +278,30 @@ def memory_kb(pid: int) -> dict:
     return out
 
 
+def mapped_rss_kb(pid: int, prefixes: tuple) -> dict:
+    """The RSS (kB) of the file mappings of a process whose file name starts
+    with each of ``prefixes`` (/proc/<pid>/smaps), and "total": what the
+    process's pages of one library cost it."""
+    out = {p: 0 for p in prefixes}
+    out["total"] = 0
+    name = None
+    try:
+        with open(f"/proc/{pid}/smaps") as f:
+            for line in f:
+                head = line.split(None, 6)
+                if len(head) >= 5 and "-" in head[0] and ":" not in head[0]:
+                    name = head[5].strip().rsplit("/", 1)[-1] if len(head) > 5 else ""
+                elif line.startswith("Rss:"):
+                    kb = int(line.split()[1])
+                    out["total"] += kb
+                    for p in prefixes:
+                        if name and name.startswith(p):
+                            out[p] += kb
+    except OSError:
+        return {}
+    return out
+
+
 class CpuWindow:
     """CPU % of a process over a window (100 % = one core)."""
 

@@ -192,6 +192,11 @@ def targets(data: dict) -> list:
             peak = e["rss_peak_kb"] / 1024
             note = (f"hand-written rcl relay: peak {mb(floor_mem['rss_peak_kb'])} MB"
                     if floor_mem and "error" not in floor_mem else "")
+            if e.get("rss_libpython_kb") and e.get("rss_mapped_total_kb"):
+                # the wheels' quirk: librcl loads libpython; a ROS 2 install does not
+                note += (f"{'; ' if note else ''}at the end {mb(e['rss_mapped_total_kb'])} MB, of which "
+                         f"libpython {mb(e['rss_libpython_kb'])} MB (loaded by the wheels' librcl only): "
+                         f"{mb(e['rss_mapped_total_kb'] - e['rss_libpython_kb'])} MB without it")
             row("native ROS 2 RSS <= 30 MB", f"joints 1 kHz, {e.get('duration_s', 0):.0f} s",
                 f"peak {mb(e['rss_peak_kb'])} MB", "30 MB", peak, peak <= 30, note)
         name = f"RSS growth < 10 MB, stalling consumer ({e['subject']})"
@@ -475,18 +480,21 @@ def write(data: dict, docs: Path, json_path: Path) -> Path:
             f"its consumer stopping reading for {st.get('for_s')} s every {st.get('every_s')} s "
             f"(the YARP consumer's reader sleeps in the connection thread, so the socket fills "
             f"and the module's writes back up; the rclpy one sleeps in its callback). RSS sampled "
-            f"every second; growth = last sample − the sample at 2 s.")
+            f"every second; growth = last sample − the sample at 2 s. libpython's pages: the RSS "
+            f"of its mappings at the end (/proc/PID/smaps); the ROS 2 wheels' librcl loads it into "
+            f"the native modules too, which a ROS 2 install from its own packages does not.")
         add("")
         add("| subject | duration s | RSS at 2 s MB | RSS at end MB | peak MB | growth MB | "
-            "delivered / sent |")
-        add("|---|---|---|---|---|---|---|")
+            "delivered / sent | libpython's pages at end MB |")
+        add("|---|---|---|---|---|---|---|---|")
         for e in data["memory"]:
             if "error" in e:
-                add(f"| `{e['subject']}` | {short_err(e['error'])} | | | | | |")
+                add(f"| `{e['subject']}` | {short_err(e['error'])} | | | | | | |")
                 continue
             add(f"| `{e['subject']}` | {e['duration_s']:.0f} | {mb(e['rss_start_kb'])} | "
                 f"{mb(e['rss_end_kb'])} | {mb(e['rss_peak_kb'])} | {e['growth_kb'] / 1024:+.2f} | "
-                f"{e['received']} / {e['sent']} |")
+                f"{e['received']} / {e['sent']} | "
+                f"{mb(e['rss_libpython_kb']) if e.get('rss_libpython_kb') is not None else '–'} |")
         png = docs / "bench_memory.png"
         if plot_memory(data, png):
             add("")

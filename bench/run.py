@@ -684,6 +684,10 @@ def memory_stage(ctx: dict, mode: Mode, progress: Progress) -> list:
                     f"{s} {samples[s][-1][1] / 1024:.1f} MB" if samples[s] else f"{s} -"
                     for s in rigs))
             time.sleep(1.0)
+        # what libpython's pages cost each module at the end: the ROS 2 wheels' librcl
+        # loads it (a ROS 2 install from its own packages does not)
+        mapped = {s: h.mapped_rss_kb(rig.module.pid, ("libpython",)) for s, rig in rigs.items()
+                  if rig.module.alive}
         for s, rig in rigs.items():
             series = [(t, kb) for t, kb in samples[s] if kb]
             entry = {"subject": s, "duration_s": mode.memory_s, "rate": rate,
@@ -701,6 +705,8 @@ def memory_stage(ctx: dict, mode: Mode, progress: Progress) -> list:
                     peak_growth_kb=max(kb for _, kb in series) - warm,
                     samples=downsample(series, 300),
                     sent=done[s]["ticks"],
+                    rss_mapped_total_kb=mapped.get(s, {}).get("total"),
+                    rss_libpython_kb=mapped.get(s, {}).get("libpython"),
                     received=rig.sink.count()[0],
                     alive=rig.module.alive)
             results.append(entry)
