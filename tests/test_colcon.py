@@ -9,6 +9,8 @@ and the same config as the native C++ module in a ROS 2 package (``--backend
 cpp --package``), an ament_cmake package built by colcon."""
 from __future__ import annotations
 
+import importlib.util
+import json
 import math
 import shutil
 import subprocess
@@ -39,10 +41,10 @@ class EntryPoint(Node):
     """The package's installed executable, run as ``ros2 run`` would, in the
     environment of the workspace's install/setup.bash."""
 
-    def __init__(self, env, workspace: Path, executable: str):
+    def __init__(self, env, workspace: Path, executable: str, *args: str):
         self.path = workspace / "install" / PACKAGE / "lib" / PACKAGE / executable
-        Proc.__init__(self, ["bash", "-c", 'source "$1/install/setup.bash" && exec "$2"',
-                             "bash", workspace, self.path], env=env, name=executable)
+        Proc.__init__(self, ["bash", "-c", 'source "$1/install/setup.bash" && exec "$2" "${@:3}"',
+                             "bash", workspace, self.path, *args], env=env, name=executable)
 
 
 def tutorial_config(tmp_path, msg_package="ybg_demo_msgs") -> Path:
@@ -150,7 +152,8 @@ def test_native_module_package_built_by_colcon(mw, tmp_path):
     cpp --package``): colcon builds it as an ament_cmake package (YARP and
     the ROS 2 wheels given through its cmake-args), the ament index finds it as ``ros2
     run`` does, its executable is in ``lib/<package>``, and run from the
-    workspace's setup.bash it publishes the tutorial's message."""
+    workspace's setup.bash it publishes the tutorial's message; its launch
+    file's parameters, given as launch_ros gives them, set its rate."""
     named = tutorial_config(tmp_path)
     ws = tmp_path / "ws"
     src = ws / "src" / PACKAGE
@@ -196,6 +199,20 @@ def test_native_module_package_built_by_colcon(mw, tmp_path):
             time.sleep(0.3)
         log = stop_clean(module)
         assert totals(log)["/dummy_head/state:o"][0] >= 1 and totals(log)["published"] >= 1
+
+        # its launch file (installed where `ros2 launch` looks) starts it as
+        # launch_ros does: the node's name remapped, the parameters in a file under /**
+        path = ws / "install" / PACKAGE / "share" / PACKAGE / "launch" / f"{PACKAGE}.launch.py"
+        spec = importlib.util.spec_from_file_location("launch_file", path)
+        launch = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(launch)
+        assert (launch.PACKAGE, launch.EXECUTABLE, launch.NODE_NAME) == (PACKAGE, PACKAGE, PACKAGE)
+        params = tmp_path / "params.yaml"
+        params.write_text(json.dumps({"/**": {"ros__parameters": dict(launch.PARAMETERS, rate=25.0)}}))
+        module = EntryPoint(mw.env, ws, PACKAGE, "--ros-args", "-r", f"__node:={launch.NODE_NAME}",
+                            "--params-file", str(params)).start()
+        module.wait_log(", 25 Hz")
+        stop_clean(module)
     finally:
         for p in (module, head, inertial, sub):
             p.stop()

@@ -3,7 +3,9 @@
 install it where ROS 2's tools look: the executable in ``lib/<package>``
 (``ros2 run <package> <executable>``), and ament_package() for the rest
 (the ament index, ``share/<package>/package.xml``, the environment hooks
-of AMENT_PREFIX_PATH)."""
+of AMENT_PREFIX_PATH); and the launch file of the ros2 backend's package,
+``launch/<module>.launch.py``, since the module takes the rclpy node's
+parameters."""
 
 from __future__ import annotations
 
@@ -11,7 +13,8 @@ import os
 from dataclasses import dataclass
 
 from ybg.backends import LoweringError
-from ybg.backends.ros2.lower import package_name
+from ybg.backends.ros2.lower import PackageView as LaunchView
+from ybg.backends.ros2.lower import node_name, node_parameters, package_name
 from ybg.compiler import ir
 
 
@@ -47,3 +50,12 @@ def lower_package(program: ir.Program, target: str, packages: tuple[str, ...]) -
                     f"ybgc from {config_name}.",
         depends=("rcl", "rosidl_runtime_c") + tuple(packages),
     )
+
+
+def lower_launch(program: ir.Program, package: PackageView, executable: str) -> LaunchView:
+    """The view-model of the launch file (the ros2 backend's template): the
+    module started by launch_ros with the node's parameters."""
+    return LaunchView(config=package.config, package=package.package, node_module=executable,
+                      executable=executable, node_name=node_name(program), description=package.description,
+                      depends=package.depends, launch_file=f"{program.module}.launch.py",
+                      parameters=node_parameters(program))

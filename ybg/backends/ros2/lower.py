@@ -611,6 +611,19 @@ def lower(program: ir.Program) -> NodeView:
     )
 
 
+def node_parameters(program: ir.Program) -> tuple[tuple[str, object], ...]:
+    """The node's parameters a launch file gives, with their defaults from the
+    config (the rclpy node's and the native C++ module's alike)."""
+    rate = program.timing.rate
+    return (
+        ("rate", 0.0 if rate is None else float(rate)),
+        ("timeout", 0.0),
+        ("prefix", "/" + program.module),
+        ("verbose", False),
+        ("diagnostics", True),
+    )
+
+
 def lower_package(program: ir.Program, view: NodeView) -> PackageView:
     """The view-model of the ament_python package around the node."""
     pkg = package_name(program.module)
@@ -620,7 +633,6 @@ def lower_package(program: ir.Program, view: NodeView) -> PackageView:
         what = f"{ros2_type_name(out.msg_type or program.message.msg_type or '')} on {out.name}"
     else:
         what = f"the YARP port {out.name}"
-    rate = program.timing.rate
     return PackageView(
         config=config_name,
         package=pkg,
@@ -631,11 +643,5 @@ def lower_package(program: ir.Program, view: NodeView) -> PackageView:
         depends=("rclpy", "diagnostic_msgs") + tuple(p for p in used_packages(program)
                                                      if p not in ("rclpy", "diagnostic_msgs")),
         launch_file=f"{program.module}.launch.py",
-        parameters=(
-            ("rate", 0.0 if rate is None else float(rate)),
-            ("timeout", 0.0),
-            ("prefix", "/" + program.module),
-            ("verbose", False),
-            ("diagnostics", True),
-        ),
+        parameters=node_parameters(program),
     )
