@@ -219,20 +219,31 @@ def test_native_module_package_built_by_colcon(mw, tmp_path):
         shutil.rmtree(ws / "build", ignore_errors=True)
 
 
-def test_native_package_refusals(tmp_path):
-    """`--backend cpp --package` of a module without a ROS 2 side, or named
-    as no ROS package can be: E318 at the module's name, nothing written."""
+def test_native_packages_of_any_module(tmp_path):
+    """`--backend cpp --package` of a module of YARP ports alone is a package
+    too (a robot's colcon workspace holds its YARP modules), with no ROS 2
+    dependency and no launch file (it takes no ROS arguments); a module named
+    as no ROS package can be is packaged under the ROS package name of its
+    name (its CMake project named so, as ament_package() wants), its
+    executable keeping the module's name."""
     yarp_only = ROOT / "examples" / "yarp_to_yarp_end_effector.ini"
     r = ybgc(yarp_only, "--backend", "cpp", "--package", "-o", tmp_path / "a")
-    out = r.stdout + r.stderr
-    assert r.returncode == 1 and "E318" in out and "needs a module with a ROS 2 side" in out, out
-    assert not (tmp_path / "a").exists()
+    assert r.returncode == 0, r.stdout + r.stderr
+    xml = (tmp_path / "a" / "package.xml").read_text()
+    assert "<depend>" not in xml and "<build_type>ament_cmake</build_type>" in xml
+    assert not (tmp_path / "a" / "launch").exists()
+    cmake = (tmp_path / "a" / "CMakeLists.txt").read_text()
+    assert "ament_package()" in cmake and "launch" not in cmake.split("find_package(ament_cmake")[1]
+
     text = (ROOT / "examples" / "vizzy_rviz_joint_states.ini").read_text()
     assert "[module]" not in text  # named after its file
     cfg = tmp_path / "Vizzy.ini"
     cfg.write_text("[module]\nname = VizzyArm\n\n" + text)
     r = ybgc(cfg, "--backend", "cpp", "--package", "-o", tmp_path / "b")
-    out = r.stdout + r.stderr
-    assert r.returncode == 1 and "E318" in out and "name the module `vizzyarm`" in out, out
-    assert f"{cfg}:" in out and "Traceback" not in out
-    assert not (tmp_path / "b").exists()
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "<name>vizzyarm</name>" in (tmp_path / "b" / "package.xml").read_text()
+    cmake = (tmp_path / "b" / "CMakeLists.txt").read_text()
+    assert "project(vizzyarm LANGUAGES CXX)" in cmake
+    assert "install(TARGETS VizzyArm RUNTIME DESTINATION lib/${PROJECT_NAME})" in cmake
+    launch = (tmp_path / "b" / "launch" / "VizzyArm.launch.py").read_text()
+    assert "PACKAGE = 'vizzyarm'" in launch and "EXECUTABLE = 'VizzyArm'" in launch

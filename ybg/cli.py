@@ -100,8 +100,8 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("-o", "--output", metavar="DIR", help="output folder (default: ./<module name>)")
     g.add_argument("--force", action="store_true", help="overwrite files that ybgc did not generate")
     g.add_argument("--package", action="store_true",
-                   help="ros2: also an ament_python package around the node; cpp: a ROS 2 package (package.xml, "
-                        "built by colcon) around a module with a ROS 2 side")
+                   help="ros2: also an ament_python package around the node; cpp: an ament_cmake package "
+                        "around the module (package.xml, a launch file; built by colcon)")
     g.add_argument("--single-file", action="store_true",
                    help="write the runtime inside the module: one file, nothing beside it; by default the "
                         "runtime files are written beside the module")

@@ -61,14 +61,15 @@ class CppBackend(Backend):
         env = environment()
         rt = runtime_view("cpp", options.single_file, ros2=ros2)
         beside = not options.single_file
-        pkg = lower_package(program, view.target, view.ros2_packages) if options.package else None
-        launch = lower_launch(program, pkg, view.executable) if pkg is not None else None
+        pkg = lower_package(program, view.ros2_packages) if options.package else None
+        launch = lower_launch(program, pkg, view.executable) if pkg is not None and ros2 else None
         files = {
             view.filename: env.get_template("module.cpp.j2").render(m=view, rt=rt),
             "CMakeLists.txt": env.get_template("CMakeLists.txt.j2").render(
                 m=view, runtime_source=CPP_SOURCE if beside else None,
                 runtime_library=runtime_library() if beside else None,
                 ros2_source=CPP_ROS2_SOURCE if beside and ros2 else None, package=pkg,
+                project=pkg.package if pkg is not None else view.target,
                 launch_file=f"launch/{launch.launch_file}" if launch else None,
                 launch_file_name=launch.launch_file if launch else None),
         }
@@ -76,8 +77,9 @@ class CppBackend(Backend):
             from ybg.backends import ros2 as ros2_backend  # its launch file's template
 
             files["package.xml"] = env.get_template("package.xml.j2").render(p=pkg)
-            files[f"launch/{launch.launch_file}"] = ros2_backend.environment().get_template(
-                "launch.py.j2").render(p=launch)
+            if launch is not None:
+                files[f"launch/{launch.launch_file}"] = ros2_backend.environment().get_template(
+                    "launch.py.j2").render(p=launch)
         if not options.single_file:
             files.update(cpp_files(ros2))
         # run from the folder it was generated into, built as its header says
