@@ -115,14 +115,20 @@ def distinct(bottles) -> list:
 
 def publish_until(pub, msg, readers, want=None, timeout=60.0):
     """Publishes ``msg`` (best effort, as the inputs subscribe) again every
-    0.3 s until every reader has a Bottle after it (``want``: that Bottle)."""
+    0.3 s until every reader has a Bottle after it that is ``want``, or by
+    default one whose values differ from the reader's newest before it: a
+    module at a fixed rate writes the previous message again meanwhile."""
     counts = [len(r.bottles) for r in readers]
+    before = [r.bottles[-1].data if r.bottles else None for r in readers]
+
+    def fits(bottle, previous):
+        return bottle.data != previous if want is None else bottle.data == want
     end = time.monotonic() + timeout
     while True:
         pub.publish(msg)
         deadline = time.monotonic() + 0.3
         while time.monotonic() < deadline:
-            if all(any(want is None or b.data == want for b in r.bottles[n:]) for r, n in zip(readers, counts)):
+            if all(any(fits(b, prev) for b in r.bottles[n:]) for r, n, prev in zip(readers, counts, before)):
                 return
             time.sleep(0.02)
         if time.monotonic() > end:
