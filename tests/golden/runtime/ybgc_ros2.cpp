@@ -108,6 +108,28 @@ bool globMatches(const std::string& pattern, std::size_t p, const std::string& n
     return n == name.size();
 }
 
+/// printf's text of one number (the Python node's % formats are C's).
+std::string printed(const char* format, double x)
+{
+    char text[64];
+    std::snprintf(text, sizeof text, format, x);
+    return text;
+}
+
+/// A parameter's value as a number (a double, or an integer); false for another value.
+bool asNumber(const rcl_variant_t& v, double& out)
+{
+    if (v.double_value != nullptr) {
+        out = *v.double_value;
+        return true;
+    }
+    if (v.integer_value != nullptr) {
+        out = static_cast<double>(*v.integer_value);
+        return true;
+    }
+    return false;
+}
+
 /// The text of a parameter's value, to say it.
 std::string valueText(const rcl_variant_t& v)
 {
@@ -225,11 +247,11 @@ bool diagnosticsOptions(const rcl_params_t* params, const std::string& fqn, bool
         on = *v->bool_value;
     }
     if (const rcl_variant_t* v = parameter(params, fqn, "diagnostic_updater.period")) {
-        if (v->double_value == nullptr && v->integer_value == nullptr) {
+        double p = 0.0;
+        if (!asNumber(*v, p)) {
             error = "parameter diagnostic_updater.period must be a number, got " + valueText(*v);
             return false;
         }
-        const double p = v->double_value != nullptr ? *v->double_value : static_cast<double>(*v->integer_value);
         if (!(p > 0)) {
             error = "parameter diagnostic_updater.period must be positive";
             return false;
@@ -242,44 +264,32 @@ bool diagnosticsOptions(const rcl_params_t* params, const std::string& fqn, bool
 bool parameterOptions(const rcl_params_t* params, const std::string& fqn, std::vector<std::string>& options,
                       std::string& error)
 {
-    auto exact = [](double x) {  // every digit: the option is parsed back
-        char text[64];
-        std::snprintf(text, sizeof text, "%.17g", x);
-        return std::string(text);
-    };
-    auto number = [&](const char* name, double& out) {
-        const rcl_variant_t* v = parameter(params, fqn, name);
-        if (v == nullptr) {
-            return true;
-        }
-        if (v->double_value == nullptr && v->integer_value == nullptr) {
-            error = std::string("parameter ") + name + " must be a number, got " + valueText(*v);
+    // each number with every digit: the option is parsed back
+    if (const rcl_variant_t* v = parameter(params, fqn, "rate")) {
+        double rate = 0.0;
+        if (!asNumber(*v, rate)) {
+            error = "parameter rate must be a number, got " + valueText(*v);
             return false;
         }
-        out = v->double_value != nullptr ? *v->double_value : static_cast<double>(*v->integer_value);
-        return true;
-    };
-    double rate = -1.0;
-    if (!number("rate", rate)) {
-        return false;
-    }
-    if (parameter(params, fqn, "rate") != nullptr) {
         if (!(rate >= 0) || !std::isfinite(rate)) {
             error = "parameter rate must be 0 (event-driven) or positive";
             return false;
         }
-        options.push_back("--rate=" + exact(rate));
+        options.push_back("--rate=" + printed("%.17g", rate));
     }
-    double timeout = 0.0;
-    if (!number("timeout", timeout)) {
-        return false;
-    }
-    if (!(timeout >= 0) || !std::isfinite(timeout)) {
-        error = "parameter timeout must be positive (or 0: the config's)";
-        return false;
-    }
-    if (timeout > 0) {
-        options.push_back("--timeout=" + exact(timeout));
+    if (const rcl_variant_t* v = parameter(params, fqn, "timeout")) {
+        double timeout = 0.0;
+        if (!asNumber(*v, timeout)) {
+            error = "parameter timeout must be a number, got " + valueText(*v);
+            return false;
+        }
+        if (!(timeout >= 0) || !std::isfinite(timeout)) {
+            error = "parameter timeout must be positive (or 0: the config's)";
+            return false;
+        }
+        if (timeout > 0) {
+            options.push_back("--timeout=" + printed("%.17g", timeout));
+        }
     }
     if (const rcl_variant_t* v = parameter(params, fqn, "prefix")) {
         if (v->string_value == nullptr || v->string_value[0] != '/') {
@@ -339,14 +349,6 @@ int checkRosArgs(const std::vector<std::string>& rosArgs, const char* node, std:
 // --- /diagnostics ------------------------------------------------------------------------
 
 namespace {
-
-/// printf's text of one number (the Python node's % formats are C's).
-std::string printed(const char* format, double x)
-{
-    char text[64];
-    std::snprintf(text, sizeof text, format, x);
-    return text;
-}
 
 /// diagnostic_updater's FrequencyStatus tolerance: below (1 - it) x the configured rate is a warning
 constexpr double kRateTolerance = 0.1;
@@ -539,40 +541,29 @@ void Node::publishDiagnostics(TotalsSource totals)
 
 namespace {
 
-/// A sequence of messages sized to n, its package's functions given.
-template <class Seq>
-bool sized(Seq& seq, std::size_t n, bool (*init)(Seq*, std::size_t), void (*fini)(Seq*))
-{
-    if (seq.size == n && (n == 0 || seq.data != nullptr)) {
-        return true;
-    }
-    fini(&seq);
-    return init(&seq, n);
-}
-
-/// The DiagnosticArray of `all`: its statuses refilled in place.
-bool fill(diagnostic_msgs__msg__DiagnosticArray& msg, const std::vector<Status>& all, const std::string& hardwareId)
-{
-    if (!sized(msg.status, all.size(), diagnostic_msgs__msg__DiagnosticStatus__Sequence__init,
-               diagnostic_msgs__msg__DiagnosticStatus__Sequence__fini)) {
-        return false;
-    }
+/// The DiagnosticArray of `all`: its statuses refilled in place; false when
+/// it cannot allocate them.
+bool fill(diagnostic_msgs__msg__DiagnosticArray& msg, const std::vector<Status>& all,
+          const std::string& hardwareId) noexcept
+try {
+    resize(msg.status, all.size(), diagnostic_msgs__msg__DiagnosticStatus__Sequence__init,
+           diagnostic_msgs__msg__DiagnosticStatus__Sequence__fini);
     for (std::size_t k = 0; k < all.size(); ++k) {
         diagnostic_msgs__msg__DiagnosticStatus& out = msg.status.data[k];
         out.level = all[k].level;
         setString(out.name, all[k].name);
         setString(out.message, all[k].message);
         setString(out.hardware_id, hardwareId);
-        if (!sized(out.values, all[k].values.size(), diagnostic_msgs__msg__KeyValue__Sequence__init,
-                   diagnostic_msgs__msg__KeyValue__Sequence__fini)) {
-            return false;
-        }
+        resize(out.values, all[k].values.size(), diagnostic_msgs__msg__KeyValue__Sequence__init,
+               diagnostic_msgs__msg__KeyValue__Sequence__fini);
         for (std::size_t j = 0; j < all[k].values.size(); ++j) {
             setString(out.values.data[j].key, all[k].values[j].first);
             setString(out.values.data[j].value, all[k].values[j].second);
         }
     }
     return true;
+} catch (const std::bad_alloc&) {
+    return false;
 }
 
 }  // namespace
@@ -765,6 +756,22 @@ void Node::close()
 
 // --- the publisher --------------------------------------------------------------------
 
+namespace {
+
+/// The QoS the config gives a publisher.
+rmw_qos_profile_t configQos(const Ros2Spec& spec)
+{
+    rmw_qos_profile_t qos = rmw_qos_profile_default;
+    qos.history = RMW_QOS_POLICY_HISTORY_KEEP_LAST;
+    qos.depth = spec.depth;
+    qos.reliability = spec.reliable ? RMW_QOS_POLICY_RELIABILITY_RELIABLE : RMW_QOS_POLICY_RELIABILITY_BEST_EFFORT;
+    qos.durability = spec.transientLocal ? RMW_QOS_POLICY_DURABILITY_TRANSIENT_LOCAL
+                                         : RMW_QOS_POLICY_DURABILITY_VOLATILE;
+    return qos;
+}
+
+}  // namespace
+
 struct Publisher::Rcl
 {
     rcl_publisher_t publisher = rcl_get_zero_initialized_publisher();
@@ -776,14 +783,8 @@ Publisher::Publisher(const Ros2Spec& spec, const MessageType& type, FillMessage 
         spec_(spec), type_(type), fill_(std::move(fill)), node_(spec.node, std::move(rosArgs)),
         rcl_(std::make_unique<Rcl>())
 {
-    rmw_qos_profile_t qos = rmw_qos_profile_default;
-    qos.history = RMW_QOS_POLICY_HISTORY_KEEP_LAST;
-    qos.depth = spec_.depth;
-    qos.reliability = spec_.reliable ? RMW_QOS_POLICY_RELIABILITY_RELIABLE : RMW_QOS_POLICY_RELIABILITY_BEST_EFFORT;
-    qos.durability = spec_.transientLocal ? RMW_QOS_POLICY_DURABILITY_TRANSIENT_LOCAL
-                                          : RMW_QOS_POLICY_DURABILITY_VOLATILE;
     describe_ = std::string(type_.name) + " on the ROS 2 topic " + spec_.topic + " (node " + spec_.node + ", "
-        + describeQos(qos) + ")";
+        + describeQos(configQos(spec_)) + ")";
 }
 
 Publisher::~Publisher()
@@ -798,12 +799,7 @@ bool Publisher::open()
         return false;
     }
     rcl_publisher_options_t options = rcl_publisher_get_default_options();
-    options.qos.history = RMW_QOS_POLICY_HISTORY_KEEP_LAST;
-    options.qos.depth = spec_.depth;
-    options.qos.reliability = spec_.reliable ? RMW_QOS_POLICY_RELIABILITY_RELIABLE
-                                             : RMW_QOS_POLICY_RELIABILITY_BEST_EFFORT;
-    options.qos.durability = spec_.transientLocal ? RMW_QOS_POLICY_DURABILITY_TRANSIENT_LOCAL
-                                                  : RMW_QOS_POLICY_DURABILITY_VOLATILE;
+    options.qos = configQos(spec_);
     std::string topic;
     std::string error;
     if (!node_.qos(spec_.topic, "publisher", options.qos, topic, error)) {
