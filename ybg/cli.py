@@ -83,7 +83,10 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--diff", action="store_true", help="print the changes instead of writing")
     f.add_argument("--to", choices=("named",), help="convert a legacy config to the named form")
     f.add_argument("--ros2", action="store_true", help="with --to named: publish to ROS 2 (drops header.seq)")
-    f.add_argument("-o", "--output", metavar="FILE", help="write here instead of in place (one input file)")
+    f.add_argument("-o", "--output", metavar="FILE",
+                   help="write here instead of in place (one input file); an existing FILE is replaced only "
+                        "with --force, and never when it is the input (that is in place)")
+    f.add_argument("--force", action="store_true", help="with -o: replace FILE even though ybgc did not generate it")
     f.add_argument("--stdout", action="store_true", help="print instead of writing")
     f.add_argument("--skip-foreign", action="store_true", help="skip files that are not ybgc configs")
     _common(f)
@@ -98,7 +101,8 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("file", nargs="?", metavar="CONFIG", help=_FOLDER_HELP)
     g.add_argument("--backend", "-b", required=True, choices=backend_names(), help="what to make (backends below)")
     g.add_argument("-o", "--output", metavar="DIR", help="output folder (default: ./<module name>)")
-    g.add_argument("--force", action="store_true", help="overwrite files that ybgc did not generate")
+    g.add_argument("--force", action="store_true",
+                   help="replace files that ybgc did not generate (never the config itself)")
     g.add_argument("--package", action="store_true",
                    help="ros2: also an ament_python package around the node; cpp: an ament_cmake package "
                         "around the module (package.xml, a launch file; built by colcon)")
@@ -113,6 +117,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="default: from the -o file's ending (.svg, .dot or .gv, .mmd or .mermaid), else svg")
     d.add_argument("-o", "--output", metavar="FILE",
                    help="write here ('-': print); default: svg to ./<module>.svg, dot and mermaid printed")
+    d.add_argument("--force", action="store_true",
+                   help="replace the file even though ybgc did not generate it (never the config itself)")
     _common(d)
     return p
 
@@ -169,6 +175,13 @@ def folder_configs(folder: Path = Path(".")) -> list[str]:
 def _usage_error(message: str, hint: str) -> None:
     sys.stderr.write(f"ybgc: error: {message}\n    hint: {hint}\n")
     sys.exit(EXIT_USAGE)
+
+
+def _write_error(e) -> int:
+    """A refused or failed write (:class:`ybg.writer.WriteError`): nothing
+    was written; exit 2."""
+    sys.stderr.write(f"ybgc: error: {e}\n" + (f"    hint: {e.hint}\n" if e.hint else ""))
+    return EXIT_USAGE
 
 
 def folder_config(command: str) -> str:
@@ -265,7 +278,7 @@ def _formatted(path: str, args, options) -> tuple[str | None, object]:
 
 
 def cmd_fmt(args) -> int:
-    from ybg.writer import write_text_atomic
+    from ybg.writer import WriteError, same_file, write_output, write_text_atomic
 
     options = _options(args)
     if args.output and len(args.files) > 1:
@@ -292,13 +305,22 @@ def cmd_fmt(args) -> int:
                     sys.stderr.write(f"{path}: would be reformatted\n")
             continue
         target = Path(args.output) if args.output else Path(path)
-        if target.exists() and target.read_text(encoding="utf-8", errors="replace") == new:
-            continue
-        try:
-            write_text_atomic(target, new)
-        except OSError as e:
-            sys.stderr.write(f"ybgc fmt: cannot write {target}: {e.strerror or e}\n")
-            return EXIT_USAGE
+        if not args.output or same_file(target, Path(path)):  # in place: fmt's purpose, the one write over an input
+            if old == new:
+                continue
+            try:
+                write_text_atomic(Path(path), new)
+            except OSError as e:
+                return _write_error(WriteError(f"cannot write {path}: {e.strerror or e}",
+                                               "check that the file can be written, or write the result "
+                                               "elsewhere with -o FILE"))
+        else:
+            try:
+                if not write_output(target, new, force=args.force, inputs=(Path(path),),
+                                    elsewhere="name a new file with -o FILE (--stdout prints it)"):
+                    continue
+            except WriteError as e:
+                return _write_error(e)
         sys.stderr.write(f"{path}: {'converted' if args.to else 'reformatted'}"
                          f"{' -> ' + str(target) if args.output else ''}\n")
     if failed:
@@ -337,10 +359,9 @@ def cmd_generate(args) -> int:
         _print([result], "text")
         return EXIT_PROBLEMS
     try:
-        rep = write_files(outdir, files, force=args.force)
+        rep = write_files(outdir, files, force=args.force, inputs=(Path(result.path),))
     except WriteError as e:
-        sys.stderr.write(f"ybgc: {e}\n")
-        return EXIT_USAGE
+        return _write_error(e)
     for path, region in rep.lost_regions:
         sys.stderr.write(f"ybgc: warning: {path}: user code of region `{region}` has no place in the "
                          "new file; it was not kept\n")
@@ -352,7 +373,7 @@ def cmd_generate(args) -> int:
 
 def cmd_graph(args) -> int:
     from ybg.graph import render
-    from ybg.writer import write_text_atomic
+    from ybg.writer import WriteError, write_output
 
     fmt = args.format or SUFFIXES.get(Path(args.output or "").suffix.lower(), "svg")
     result = _compile(args.file or folder_config("graph"), args, _options(args))
@@ -365,11 +386,12 @@ def cmd_graph(args) -> int:
         sys.stdout.write(text)
         return EXIT_OK
     try:
-        write_text_atomic(Path(output), text)
-    except OSError as e:
-        sys.stderr.write(f"ybgc graph: cannot write {output}: {e.strerror or e}\n")
-        return EXIT_USAGE
-    sys.stderr.write(f"ybgc: {fmt} graph of `{result.program.module}` in {output}\n")
+        written = write_output(Path(output), text, force=args.force, inputs=(Path(result.path),),
+                               elsewhere="write the graph to another file with -o FILE (-o - prints it)")
+    except WriteError as e:
+        return _write_error(e)
+    sys.stderr.write(f"ybgc: {fmt} graph of `{result.program.module}` in {output}"
+                     f"{'' if written else ' (unchanged)'}\n")
     return EXIT_OK
 
 
