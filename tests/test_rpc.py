@@ -72,10 +72,19 @@ def module_proc(env, tmp_path_factory, backend: str, *args: str) -> Proc:
 
 
 def rpc(server, port: str, *commands: str) -> str:
-    """What the real `yarp rpc PORT` prints for ``commands`` typed in it."""
-    r = subprocess.run([str(server.install.bin / "yarp"), "rpc", port], input="".join(c + "\n" for c in commands),
-                       env=server.env, capture_output=True, text=True, timeout=30)
-    return r.stdout + r.stderr
+    """What the real `yarp rpc PORT` prints for ``commands`` typed in it.
+    `yarp rpc` that could not connect ("Cannot make connection": on a busy
+    machine its connection can time out) sent nothing: it is run again, up
+    to 5 times; what the module answers is never retried."""
+    for _ in range(5):
+        r = subprocess.run([str(server.install.bin / "yarp"), "rpc", port],
+                           input="".join(c + "\n" for c in commands),
+                           env=server.env, capture_output=True, text=True, timeout=30)
+        text = r.stdout + r.stderr
+        if "Cannot make connection" not in text:
+            return text
+        time.sleep(0.5)
+    return text
 
 
 def stats(server, port: str) -> dict:
