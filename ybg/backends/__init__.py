@@ -224,8 +224,8 @@ def check(program: "Program", backend: str, sink: Sink, legacy: bool = False,
     span = output_span(doc) if doc is not None else None
     if program.output.kind not in info.output_kinds:
         if program.output.kind == "ros1" and "ros2" in info.output_kinds:
-            hint = ("convert it for ROS 2 in one command: `ybgc fmt --to named --ros2 FILE -o new.ini`"
-                    if legacy else "set `via = ros2` in [output] (and drop `header.seq`, which ROS 2 has not)")
+            hint = _legacy_to_ros2_hint(program, sink.file) if legacy else \
+                "set `via = ros2` in [output] (and drop `header.seq`, which ROS 2 has not)"
             sink.error("E318", "this config publishes to ROS 1 through YARP (`to_ros = true` / `via = ros1`); "
                        f"the {backend} backend publishes to ROS 2", span, hint)
         else:
@@ -242,9 +242,7 @@ def check(program: "Program", backend: str, sink: Sink, legacy: bool = False,
         for i in m.inputs:
             if i.kind not in info.input_kinds:
                 if i.kind == "ros1" and "ros2" in info.input_kinds:
-                    hint = ("a ROS 2 topic needs its message type, which the legacy form does not give: "
-                            "convert with `ybgc fmt --to named FILE -o new.ini`, then in new.ini declare each "
-                            "topic's type, `/topic (pkg/Name)`, and set `via = ros2`" if legacy else
+                    hint = (_legacy_inputs_to_ros2_hint(program, i.name, sink.file) if legacy else
                             "set `via = ros2` in the mux, with each topic's type: `/topic (pkg/Name)`")
                 else:
                     hint = (f"ROS 2 topics are read by {_options(_readers('ros2'))}; "
@@ -260,6 +258,41 @@ def check(program: "Program", backend: str, sink: Sink, legacy: bool = False,
         sink.error("E321", f"the {backend} backend builds a ROS 2 message field by field from its definition, "
                    f"and the definition of `{name}` was not found", type_span(doc) if doc is not None else None,
                    hint)
+
+
+def _converted_name(path: str) -> str:
+    from ybg.compiler.legacy import converted_name
+
+    return converted_name(path)
+
+
+def _legacy_to_ros2_hint(program: "Program", path: str) -> str:
+    """E318's hint for a config in the legacy form that publishes to ROS 1:
+    the command that converts it for ROS 2, or, when the conversion needs
+    what the file does not say (the message type, or its definition), that
+    first."""
+    command = f"ybgc fmt --to named --ros2 FILE -o {_converted_name(path)}"
+    if program.output.msg_type is None:
+        return ("ROS 2 needs the message type, which this file neither gives nor lets ybgc infer: add "
+                f"`ros_msg_name = pkg/Name` to [general]; then {command} converts it for ROS 2")
+    if not _typed(program.message):
+        return (f"a ROS 2 message is built field by field from its definition, and that of "
+                f"`{program.output.msg_type}` was not found: give the folder of its .msg files to the "
+                f"conversion, {command.replace(' FILE', ' --msg-path DIR FILE')}")
+    return f"convert it for ROS 2 in one command: `{command}`"
+
+
+def _legacy_inputs_to_ros2_hint(program: "Program", topic: str, path: str) -> str:
+    """E318's hint for a config in the legacy form that reads ROS 1 topics,
+    for a backend that reads ROS 2 ones: the one command that converts it,
+    when the file declares the type of every topic it reads; else the
+    conversion, then the types to declare in the file it writes."""
+    new = _converted_name(path)
+    if all(i.ros_type is not None for m in program.muxes for i in m.inputs if i.kind == "ros1"):
+        return f"convert it for ROS 2 in one command: `ybgc fmt --to named --ros2 FILE -o {new}`"
+    return (f"a ROS 2 topic needs its message type, which the legacy form does not give: convert with "
+            f"`ybgc fmt --to named FILE -o {new}`, then in {new} declare each topic's type, "
+            f"`{topic} (pkg/Name)`, and set `via = ros2`")
 
 
 def _typed(struct: "Struct") -> bool:

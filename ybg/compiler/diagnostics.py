@@ -128,6 +128,7 @@ CODES: dict[str, str] = {
     "W507": "ROS 1 through YARP needs YARP's yarp-ros plugins on this YARP version",
     "W508": "legacy config without `to_ros`: the output is a YARP port",
     "W509": "legacy `ports` ends with a comma, which the original read as part of a name",
+    "W512": "legacy layout of the original's first versions: read as its later layout",
     # notes
     "N601": "legacy form",
     "N602": "a fixed rate that publishes new data only",
