@@ -12,6 +12,7 @@ import shlex
 import shutil
 import subprocess
 import sys
+import sysconfig
 from pathlib import Path
 
 import yaml
@@ -102,8 +103,8 @@ def test_check_with_backend(tmp_path):
 
 def test_e318_hint_command_converts_into_a_new_file(tmp_path):
     """The command E318's hint gives, run as written: the legacy file stays
-    as it was, new.ini holds it converted for ROS 2, which the ros2 backend
-    builds."""
+    as it was, a new file named after it holds it converted for ROS 2, which
+    the ros2 backend builds."""
     legacy = ROOT.parent / "shared" / "legacy" / "thesis_figure5_rviz.ini"
     config = tmp_path / legacy.name
     shutil.copy(legacy, config)
@@ -113,13 +114,15 @@ def test_e318_hint_command_converts_into_a_new_file(tmp_path):
     command = re.search(r"`(ybgc [^`]*)`", e318["hint"]).group(1)
     words = [config.name if w == "FILE" else w for w in shlex.split(command)]
     assert words[0] == "ybgc" and config.name in words, command
+    target = words[words.index("-o") + 1]  # a new file, named after the config
+    assert target not in (config.name, "new.ini"), command
     done = run(*words[1:], cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert config.read_bytes() == original
-    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([config.name, "new.ini"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([config.name, target])
     converted = run("fmt", "--to", "named", "--ros2", "--stdout", config.name, cwd=tmp_path).stdout
-    assert converted and (tmp_path / "new.ini").read_text(encoding="utf-8") == converted
-    assert run("check", "--backend", "ros2", "new.ini", cwd=tmp_path).returncode == 0
+    assert converted and (tmp_path / target).read_text(encoding="utf-8") == converted
+    assert run("check", "--backend", "ros2", target, cwd=tmp_path).returncode == 0
 
 
 def test_fmt_check_and_rewrite(tmp_path):
@@ -335,15 +338,18 @@ def test_generate_reports_what_check_reports(tmp_path):
     code, a position and a hint, and `generate` reports the same lines: a
     ROS 2 output whose type is not found (E321), and what only the
     backend's lowering refuses (E318 at the field's line)."""
-    legacy = ROOT.parent / "shared" / "legacy" / "tutorial_example_yarp_ros.ini"
+    # the original tutorial's config in the named form, for ROS 2: its message
+    # type is the tutorial's own, which is not on the message path
     named = tmp_path / "motors.ini"
-    assert run("fmt", "--to", "named", "--ros2", legacy, "-o", named).returncode == 0
+    named.write_text("[output]\ntopic = /motors_inertial_port\nvia = ros2\ntype = MotorsInertial\nrate = 60\n\n"
+                     "[mux mux1]\nports = /dummy_head/state:o\nconvert = deg_to_rad\n\n"
+                     "[mux mux2]\nports = /inertial\n\n[message]\nfield1 = mux2\nfield2 = mux1\n")
     check = run("check", "--backend", "ros2", named)
     gen = run("generate", named, "--backend", "ros2", "-o", tmp_path / "out")
     assert check.returncode == gen.returncode == 1
-    assert f"{named}:9:8: error E321" in _text_diagnostics(check.stderr)
+    assert f"{named}:4:8: error E321" in _text_diagnostics(check.stderr)
     assert _text_diagnostics(gen.stderr) == _text_diagnostics(check.stderr)
-    assert "hint: write it with its package" in gen.stderr and "Traceback" not in gen.stderr
+    assert "hint: write `pkg/Name`" in gen.stderr and "Traceback" not in gen.stderr
     assert not (tmp_path / "out").exists()
 
     # a wstring field: the ros2 backend's lowering refuses it, so the check does
@@ -396,7 +402,7 @@ def test_fmt_to_ros2_retargets_the_inputs_or_says_why(tmp_path):
     hint = re.search(r"hint: convert without --ros2 \(`(ybgc [^`]*)`\)", r.stderr).group(1)
     words = [config.name if w == "FILE" else w for w in shlex.split(hint)]
     assert run(*words[1:], cwd=tmp_path).returncode == 0
-    new = tmp_path / "new.ini"
+    new = tmp_path / words[words.index("-o") + 1]
     text = new.read_text(encoding="utf-8")
     assert "topics = /fixation_point_goal_ros\nvia = ros1\n" in text
     new.write_text(text.replace("topics = /fixation_point_goal_ros\nvia = ros1\n",
@@ -463,3 +469,23 @@ def test_a_trailing_comma_the_original_misread_is_reported(tmp_path):
     assert run("fmt", config).returncode == 0
     assert "ports = /dummy_head/state:o\n" in config.read_text(encoding="utf-8")
     assert "W509" not in run("check", config).stderr
+
+
+def test_an_installation_missing_a_file_of_its_own_says_so(tmp_path):
+    """ybgc installed without one of its files (a broken or partial
+    install): generating a module that needs it ends in an error naming the
+    file and how to repair the install, exit 2, no traceback, nothing written."""
+    broken = tmp_path / "site"
+    shutil.copytree(ROOT / "ybg", broken / "ybg", ignore=shutil.ignore_patterns("__pycache__"))
+    (broken / "ybg" / "runtime" / "cpp" / "ybgc_runtime.hpp").unlink()
+    out = tmp_path / "m"
+    # -S: without site's .pth files, which map `ybg` to this checkout (editable install)
+    deps = sysconfig.get_paths()["purelib"]
+    r = subprocess.run([sys.executable, "-S", "-c", "import sys; from ybg.cli import main; sys.exit(main(sys.argv[1:]))",
+                        str(ROOT / "examples" / "yarp_to_yarp_end_effector.ini"), "--backend", "cpp", "-o", str(out)],
+                       capture_output=True, text=True, env={**os.environ, "PYTHONPATH": f"{broken}:{deps}"},
+                       cwd=tmp_path, timeout=120)
+    assert r.returncode == 2, r.stderr
+    assert "Traceback" not in r.stderr
+    assert "cannot read" in r.stderr and "ybgc_runtime.hpp" in r.stderr and "hint: reinstall ybgc" in r.stderr
+    assert not out.exists()

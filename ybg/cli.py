@@ -358,6 +358,13 @@ def cmd_generate(args) -> int:
         result.diagnostics = [lowering_diagnostic(e, args.backend, result)]
         _print([result], "text")
         return EXIT_PROBLEMS
+    except OSError as e:  # a file of ybgc's own (a template, the runtime library) missing or unreadable
+        import ybg
+
+        sys.stderr.write(f"ybgc: error: this installation of ybgc cannot read {e.filename or e}: "
+                         f"{e.strerror or e}\n    hint: reinstall ybgc (pip install --force-reinstall ybgc); "
+                         f"its files are in {Path(ybg.__file__).parent}\n")
+        return EXIT_USAGE
     try:
         rep = write_files(outdir, files, force=args.force, inputs=(Path(result.path),))
     except WriteError as e:
