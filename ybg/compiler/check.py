@@ -27,9 +27,13 @@ PASSES = (
 
 
 def check_named(doc: ast.Document, source: str, sink: Sink, options: Options,
-                module_default: str) -> ir.Program | None:
-    """Check a named-form document; the Program, or None when there are errors."""
-    ctx = Context(doc, source, sink, options, module_default)
+                module_default: str, legacy: bool | None = None) -> ir.Program | None:
+    """Check a named-form document; the Program, or None when there are errors.
+    ``legacy``: ``doc`` is the conversion of a legacy config (None: it is when
+    the conversion noted the legacy form in ``sink``, N601)."""
+    if legacy is None:
+        legacy = any(d.code == "N601" for d in sink.items)
+    ctx = Context(doc, source, sink, options, module_default, legacy)
     for run in PASSES:
         run(ctx)
     return ctx.program

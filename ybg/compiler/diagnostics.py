@@ -10,6 +10,7 @@ against the ROS message definitions, ``E4xx`` names, ``W5xx`` warnings,
 from __future__ import annotations
 
 import difflib
+import re
 from dataclasses import dataclass, field
 from enum import Enum
 from typing import Iterable
@@ -39,6 +40,26 @@ class Severity(str, Enum):
 
 
 @dataclass(frozen=True)
+class Edit:
+    """Replace the text of ``span`` (end exclusive) with ``text``; an empty
+    span inserts ``text`` there."""
+
+    span: Span
+    text: str
+
+
+@dataclass(frozen=True)
+class Fix:
+    """What a hint says to do, literally, as data: ``edits`` of the config's
+    text, or a ``command`` (a ``ybgc fmt`` command line in which ``FILE``
+    stands for the config). Applied, it removes the diagnostic without
+    losing anything the config says (docs/diagnostics.md, "Fixes")."""
+
+    edits: tuple[Edit, ...] = ()
+    command: str | None = None
+
+
+@dataclass(frozen=True)
 class Diagnostic:
     severity: Severity
     code: str
@@ -46,6 +67,7 @@ class Diagnostic:
     span: Span
     hint: str | None = None
     file: str = ""
+    fix: Fix | None = None  # the hint's literal fix, when it gives one
 
     def sort_key(self):
         return (self.file, self.span.line, self.span.column, self.code)
@@ -146,18 +168,21 @@ class Sink:
     items: list[Diagnostic] = field(default_factory=list)
 
     def add(self, severity: Severity, code: str, message: str, span: Span | None,
-            hint: str | None = None) -> None:
+            hint: str | None = None, fix: Fix | None = None) -> None:
         assert code in CODES, code
-        self.items.append(Diagnostic(severity, code, message, span or NOWHERE, hint, self.file))
+        self.items.append(Diagnostic(severity, code, message, span or NOWHERE, hint, self.file, fix))
 
-    def error(self, code: str, message: str, span: Span | None, hint: str | None = None) -> None:
-        self.add(Severity.ERROR, code, message, span, hint)
+    def error(self, code: str, message: str, span: Span | None, hint: str | None = None,
+              fix: Fix | None = None) -> None:
+        self.add(Severity.ERROR, code, message, span, hint, fix)
 
-    def warning(self, code: str, message: str, span: Span | None, hint: str | None = None) -> None:
-        self.add(Severity.WARNING, code, message, span, hint)
+    def warning(self, code: str, message: str, span: Span | None, hint: str | None = None,
+                fix: Fix | None = None) -> None:
+        self.add(Severity.WARNING, code, message, span, hint, fix)
 
-    def note(self, code: str, message: str, span: Span | None, hint: str | None = None) -> None:
-        self.add(Severity.NOTE, code, message, span, hint)
+    def note(self, code: str, message: str, span: Span | None, hint: str | None = None,
+             fix: Fix | None = None) -> None:
+        self.add(Severity.NOTE, code, message, span, hint, fix)
 
     @property
     def has_errors(self) -> bool:
@@ -167,16 +192,57 @@ class Sink:
         return sorted(self.items, key=Diagnostic.sort_key)
 
 
-def did_you_mean(word: str, candidates: Iterable[str], n: int = 1) -> str | None:
-    """``"did you mean `x`?"`` for the closest candidate, or None."""
+def closest(word: str, candidates: Iterable[str]) -> str | None:
+    """The candidate closest to ``word``, or None when none is close."""
     cands = list(dict.fromkeys(candidates))
     low = {c.lower(): c for c in cands}
-    close = difflib.get_close_matches(word.lower(), list(low), n=n, cutoff=0.6)
-    if not close:
-        # a bare type name against `pkg/Name` candidates
-        tails = {c.rsplit("/", 1)[-1].lower(): c for c in cands}
-        close2 = difflib.get_close_matches(word.rsplit("/", 1)[-1].lower(), list(tails), n=n, cutoff=0.75)
-        if not close2:
-            return None
-        return f"did you mean `{tails[close2[0]]}`?"
-    return f"did you mean `{low[close[0]]}`?"
+    close = difflib.get_close_matches(word.lower(), list(low), n=1, cutoff=0.6)
+    if close:
+        return low[close[0]]
+    # a bare type name against `pkg/Name` candidates
+    tails = {c.rsplit("/", 1)[-1].lower(): c for c in cands}
+    close = difflib.get_close_matches(word.rsplit("/", 1)[-1].lower(), list(tails), n=1, cutoff=0.75)
+    return tails[close[0]] if close else None
+
+
+def did_you_mean(word: str, candidates: Iterable[str], n: int = 1) -> str | None:
+    """``"did you mean `x`?"`` for the closest candidate, or None."""
+    guess = closest(word, candidates)
+    return f"did you mean `{guess}`?" if guess else None
+
+
+#: a `ybgc fmt ...` command quoted in a hint
+_HINT_COMMAND = re.compile(r"`(ybgc fmt(?: [^`]*)?)`")
+
+
+def fix_of(d: Diagnostic, legacy: bool) -> Fix | None:
+    """The fix the hint of ``d`` carries: its ``fix``; else the ``ybgc fmt``
+    command its text quotes, ``--to named`` only for a config in the
+    legacy form (``legacy``), which it converts (for a config in the named
+    form such a command is advice for legacy files: it only reformats)."""
+    if d.fix is not None:
+        return d.fix
+    for command in _HINT_COMMAND.findall(d.hint or ""):
+        if "--to named" in command and not legacy:
+            continue
+        return Fix(command=command)
+    return None
+
+
+def apply_edits(text: str, edits: Iterable[Edit]) -> str:
+    """``text`` with ``edits`` made (their spans are of ``text``, 1-based;
+    the spans of two edits do not overlap)."""
+    starts = [0] + [m.end() for m in re.finditer("\n", text)]  # where each line begins (lines end at \n)
+    ends = starts[1:] + [len(text)]
+
+    def offset(line: int, column: int) -> int:
+        if line > len(starts):
+            return len(text)
+        return min(starts[line - 1] + column - 1, ends[line - 1])
+
+    out = text
+    for e in sorted(edits, key=lambda e: (e.span.line, e.span.column), reverse=True):
+        a = offset(e.span.line, e.span.column)
+        b = offset(e.span.end_line or e.span.line, e.span.end_column or e.span.column)
+        out = out[:a] + e.text + out[max(a, b):]
+    return out

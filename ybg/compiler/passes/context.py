@@ -13,7 +13,7 @@ import os
 from dataclasses import dataclass, field
 
 from ybg.compiler import ast, ir
-from ybg.compiler.diagnostics import Sink
+from ybg.compiler.diagnostics import Edit, Fix, Sink
 from ybg.compiler.msgtypes import MsgDef, TypeStore, load_store
 from ybg.compiler.options import Options
 
@@ -46,6 +46,9 @@ class Context:
     sink: Sink
     options: Options
     module_default: str  # the module name when [module] gives none
+    # the document is the named form of a legacy config: its spans are of the
+    # legacy lines, and a fix that edits the named form's text is not given
+    legacy: bool = False
     stores: Stores = field(init=False)
 
     # sections: the sections by name, [mux <name>] by its name, entries by key
@@ -91,3 +94,8 @@ class Context:
 
     def __post_init__(self) -> None:
         self.stores = Stores(self.options)
+
+    def fix(self, *edits: Edit) -> Fix | None:
+        """The fix that makes ``edits``; none for a legacy config, whose
+        spans are of its own lines, not of the named form's."""
+        return None if self.legacy else Fix(tuple(edits))

@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 
 from ybg.compiler import ast, ir
-from ybg.compiler.diagnostics import did_you_mean
+from ybg.compiler.diagnostics import Edit, Fix, Span, did_you_mean
 from ybg.compiler.msgtypes import MsgDef, numeric_leaves
 from ybg.compiler.names import identifier_problem
 from ybg.compiler.passes.context import Context, FieldPath
@@ -62,7 +62,8 @@ def _struct(ctx: Context, msgdef: MsgDef, prefix: FieldPath, entries: Entries,
         if msgdef.field(head) is None:
             other = _other_dialect_field(ctx, msgdef.name, head)
             if other:
-                s.error("E311", f"`{written(p)}`: {other}", e.key_span, _other_dialect_hint(ctx, msgdef.name, head))
+                s.error("E311", f"`{written(p)}`: {other}", e.key_span, _other_dialect_hint(ctx, msgdef.name, head),
+                        ctx.fix(Edit(Span(e.span.line, 1, e.span.end_line + 1, 1), "")))
             else:
                 s.error("E302", f"`{msgdef.name}` has no field `{head}`", e.key_span,
                         did_you_mean(head, names) or f"fields: {', '.join(names)}")
@@ -403,7 +404,7 @@ def _mux_into_message(ctx: Context, item: ast.Item, t: ir.TypeRef, e: ast.Entry)
     if n is not None and n != len(leaves):
         s.error("E309", f"`{e.key}` is a {t.base} of {len(leaves)} numbers "
                 f"({', '.join(p for p, _ in leaves)}), but `{_written(mux.name, start, stop)}` gives {n}",
-                item.span, f"take a range: `{mux.name}[{start}:{start + len(leaves)}]`")
+                item.span, *_width_hint(ctx, mux, start, stop, n, [p for p, _ in leaves], t, item, e))
         return ir.Default()
     if types is not None:
         bad = sorted({x for x, (_, ft) in zip(types, leaves) if not _fits(x, ft)})
@@ -416,6 +417,77 @@ def _mux_into_message(ctx: Context, item: ast.Item, t: ir.TypeRef, e: ast.Entry)
     _check_quaternions(ctx, mux, start, [p for p, _ in leaves], t, item, e)
     return ir.MuxRef(mux.name, start, stop, None, False, "float64",
                      tuple(p for p, _ in leaves), tuple(ft for _, ft in leaves))
+
+
+def _width_hint(ctx: Context, mux: ir.Mux, start: int, stop: int | None, n: int, leaves: list[str],
+                t: ir.TypeRef, item: ast.Item, e: ast.Entry) -> tuple[str, Fix | None]:
+    """The hint and fix of E309 for a part of ``mux`` of ``n`` numbers into a
+    nested message of the numbers ``leaves``: the range it takes, when the
+    mux has it; Euler angles converted, when one number is missing where a
+    quaternion goes; else what gives the numbers."""
+    need = len(leaves)
+    width = mux.width
+    euler = _euler_at(mux, start, n, leaves)
+    if euler is not None:
+        conv = f"euler_to_quat(rpy, deg)[{euler}:{euler + 3}]"
+        key, section = ("function", f"[{mux.name}]") if ctx.legacy else ("convert", f"[mux {mux.name}]")
+        hint = (f"if elements {euler}..{euler + 2} of `{mux.name}` are Euler angles, make them the quaternion "
+                f"(4 numbers) in {section}: `{key} = {conv}` (roll, pitch, yaw in degrees; `rad` for "
+                f"radians; the other axis orders in docs/config.md)")
+        if stop is not None and stop < width:
+            # the elements after the range move by one: which lines to change is the user's choice
+            return (hint + f"; then take `{mux.name}[{start}:{stop + 1}]`, and the elements after it one "
+                    "place on"), None
+        edits = [_add_converter(ctx, mux.name, conv)]
+        if stop is not None:
+            edits.append(Edit(item.span, f"{mux.name}[{start}:{stop + 1}]"))
+            hint += f", and `{e.key} = {mux.name}[{start}:{stop + 1}]`"
+        return hint, ctx.fix(*edits)
+    if width is None or start + need <= width:
+        taken = f"{mux.name}[{start}:{start + need}]"
+        return f"take a range: `{taken}`", ctx.fix(Edit(item.span, taken))
+    return (f"`{mux.name}` has {width - start} elements from {start}, and a {t.base} takes {need}: read them "
+            f"all in the mux (declare what its ports send: `(float64 x<N>)`), or set the fields one by one "
+            f"(`{e.key}.{leaves[0]} = {mux.name}[{start}]`)"), None
+
+
+def _euler_at(mux: ir.Mux, start: int, n: int, leaves: list[str]) -> int | None:
+    """Where in ``mux`` three Euler angles begin that, made a quaternion,
+    give the part of ``n`` numbers from ``start`` the ``leaves`` it fills:
+    one number short of them, the missing one in a quaternion, and the
+    three numbers that come as they are from YARP ports; else None."""
+    if n != len(leaves) - 1 or mux.element_types is None:
+        return None
+    k = _quaternion_leaf(leaves)
+    known = quaternion_elements(mux)
+    if k is None or known is None:
+        return None
+    a = start + k
+    if any(known[a:a + 3]) or not all(x in ir.NUMERIC_TYPES for x in mux.element_types[a:a + 3]):
+        return None
+    return a
+
+
+def _quaternion_leaf(leaves: list[str]) -> int | None:
+    """The index of the first leaf of a quaternion (`x y z w` of one prefix) in ``leaves``."""
+    for k in range(len(leaves) - 3):
+        prefix = leaves[k][:-1]
+        if prefix[-1:] in ("", ".") and leaves[k:k + 4] == [prefix + c for c in "xyzw"]:
+            return k
+    return None
+
+
+def _add_converter(ctx: Context, mux: str, conv: str) -> Edit:
+    """The edit that appends the converter ``conv`` to [mux <mux>]: to its
+    `convert`, or in a `convert` line of its own after its last line."""
+    entry = ctx.mux_keys.get(mux, {}).get("convert")
+    if entry is not None:
+        end = entry.span
+        return Edit(Span(end.end_line, end.end_column, end.end_line, end.end_column),
+                    f", {conv}" if entry.items else f" {conv}")
+    sec = ctx.mux_sections[mux]
+    last = sec.entries[-1].span if sec.entries else sec.span
+    return Edit(Span(last.end_line + 1, 1, last.end_line + 1, 1), f"convert = {conv}\n")
 
 
 def _silent_cut(ctx: Context, item: ast.Item, e: ast.Entry, t: ir.TypeRef, mux: ir.Mux, start: int,
