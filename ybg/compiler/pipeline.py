@@ -20,7 +20,7 @@ from pathlib import Path
 from ybg.compiler import ast, ir
 from ybg.compiler.check import check_named
 from ybg.compiler.diagnostics import Diagnostic, Severity, Sink, Span
-from ybg.compiler.legacy import is_legacy, is_named, to_named
+from ybg.compiler.legacy import converted_name, is_legacy, is_named, to_named
 from ybg.compiler.msgtypes import DISTROS, load_store
 from ybg.compiler.names import sanitize_identifier
 from ybg.compiler.options import Options
@@ -117,7 +117,8 @@ def _compile_text(text: str, path: str, options: Options | None) -> Result:
         first = next(s for s in doc.sections if s.name in ("output", "module") or s.label)
         sink.error("E207", "this file mixes the legacy form ([general], [muxN], num_fields) and the "
                    "named form ([output], [mux name])", first.span,
-                   "keep one form; `ybgc fmt --to named` converts a legacy file")
+                   f"keep one form: `ybgc fmt --to named FILE -o {converted_name(path)}` converts it, "
+                   "keeping the named keys")
     if legacy:
         result.form = "legacy"
         named, _ = to_named_document(doc, path, sink, options)
@@ -173,7 +174,7 @@ def check_yarp_target(program: ir.Program, yarp: str, doc: ast.Document, sink: S
             sink.error("E320", f"{what} goes through YARP's ROS 1 support, which YARP {yarp} no longer has "
                        "(removed in YARP 4.0)", span,
                        "use ROS 2: `via = ros2`, and `ybgc CONFIG --backend ros2`; a legacy config converts "
-                       "with `ybgc fmt --to named --ros2 FILE -o new.ini`")
+                       f"with `ybgc fmt --to named --ros2 FILE -o {converted_name(sink.file)}`")
         else:
             sink.warning("W507", f"{what} goes through YARP's ROS 1 support, which YARP {yarp} has only with "
                          "its separate yarp-ros plugins (the tcpros and xmlrpc carriers)", span,
