@@ -29,6 +29,7 @@ from ybg.compiler.pipeline import Result, compile_path
 
 ROOT = Path(__file__).resolve().parent.parent
 INVALID = sorted((ROOT / "tests" / "invalid").glob("*.ini"))
+RUN_YBGC = "import sys; from ybg.cli import main; sys.exit(main(sys.argv[1:]))"
 
 #: fixes that cannot work yet, and why ("<file stem>:<code>:<line>:<column>" -> the cause)
 XFAIL: dict[str, str] = {}
@@ -203,3 +204,27 @@ def test_a_failed_converter_has_no_follow_on():
     result = _check(path, Options(), None)
     assert [(d.code, d.span.line, d.span.column) for d in result.diagnostics] == [("E208", 11, 30)]
     assert result.diagnostics[0].hint == "write `euler_to_quat(rpy, deg)`"
+
+
+def test_check_json_carries_the_fix_an_editor_applies(tmp_path: Path):
+    """`ybgc check --format json` gives each hint's literal fix as data: the
+    edits (1-based, end exclusive), applied to the text as an editor would,
+    leave a config that checks clean."""
+    import json
+    import subprocess
+    import sys
+
+    config = tmp_path / "c.ini"
+    config.write_text((ROOT / "tests" / "invalid" / "E313_unknown_converter.ini").read_text(encoding="utf-8"))
+    r = subprocess.run([sys.executable, "-c", RUN_YBGC, "check", "--format", "json", str(config)],
+                       capture_output=True, text=True, timeout=60)
+    (d,) = [d for d in json.loads(r.stdout) if d["code"] == "E313"]
+    lines = config.read_text(encoding="utf-8").splitlines(keepends=True)
+    for e in sorted(d["fix"]["edits"], key=lambda e: (e["line"], e["column"]), reverse=True):
+        assert e["line"] == e["end_line"]
+        line = lines[e["line"] - 1]
+        lines[e["line"] - 1] = line[:e["column"] - 1] + e["text"] + line[e["end_column"] - 1:]
+    config.write_text("".join(lines), encoding="utf-8")
+    again = subprocess.run([sys.executable, "-c", RUN_YBGC, "check", str(config)], capture_output=True, text=True,
+                           timeout=60)
+    assert again.returncode == 0, again.stderr

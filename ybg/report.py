@@ -53,13 +53,24 @@ def report_text(diags: list[Diagnostic], sources: dict[str, str], stream: TextIO
             console.print(f"  [cyan]hint:[/cyan] {escape(d.hint)}")
 
 
+def _fix_json(fix) -> dict | None:
+    """A hint's literal fix for an editor or a bot: the edits (1-based
+    line and column, end exclusive, and the new text), or the command."""
+    if fix is None:
+        return None
+    if fix.command is not None:
+        return {"command": fix.command}
+    return {"edits": [{"line": e.span.line, "column": e.span.column, "end_line": e.span.end_line,
+                       "end_column": e.span.end_column, "text": e.text} for e in fix.edits]}
+
+
 def report_json(diags: list[Diagnostic], stream: TextIO) -> None:
     out = [
         {
             "file": d.file, "line": d.span.line, "column": d.span.column,
             "end_line": d.span.end_line, "end_column": d.span.end_column,
             "severity": d.severity.value, "code": d.code, "title": CODES[d.code],
-            "message": d.message, "hint": d.hint,
+            "message": d.message, "hint": d.hint, "fix": _fix_json(d.fix),
         }
         for d in diags
     ]
