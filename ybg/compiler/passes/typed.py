@@ -22,6 +22,7 @@ import math
 
 from ybg.compiler import ast, ir
 from ybg.compiler.diagnostics import Edit, Fix, Span, did_you_mean
+from ybg.compiler.legacy import converted_name
 from ybg.compiler.msgtypes import MsgDef, numeric_leaves
 from ybg.compiler.names import identifier_problem
 from ybg.compiler.passes.context import Context, FieldPath
@@ -185,7 +186,8 @@ def _other_dialect_hint(ctx: Context, msg: str, field_name: str) -> str:
     if msg == "std_msgs/Header" and field_name == "seq":
         if ctx.ros == "ros2":
             return ("ROS 2 headers have no sequence number: remove the line (the stamp and "
-                    "frame_id remain); a legacy file converts with `ybgc fmt --to named --ros2 FILE`")
+                    "frame_id remain); a legacy file converts with "
+                    f"`ybgc fmt --to named --ros2 FILE -o {converted_name(ctx.sink.file)}`")
         return "for ROS 1 add `header.seq = counter`"
     return "remove the line, or compile for the other ROS version"
 
