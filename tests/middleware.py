@@ -20,6 +20,8 @@ Paths and checks
     cmake_prefix_path(install=None) -> "<yarp prefix>;<ycm prefix>" for -DCMAKE_PREFIX_PATH
     require_yarp(install=None), require_ros1(), require_ros2()   pytest.fail with how to install
     free_port() -> int
+    run_folder(tmp_path_factory, name) -> Path   a folder every pytest-xdist worker of the run sees
+    held(path)          with: an exclusive lock on a file across processes (build once per run)
     base_env(tmpdir=None) -> dict   os.environ + PATH (real YARP binaries, venv bin)
 
 Servers
@@ -340,17 +342,24 @@ def free_port(span: int = 64) -> int:
     register with it. Chosen at random below the kernel's ephemeral range
     (where outgoing connections would take them) and above 20000 (clear of
     YARP's and ROS's default ports), away from the ranges this process has
-    handed out already."""
+    handed out already. Under pytest-xdist each worker draws from a slice of
+    its own, so that two workers never hand out one range at once."""
     import random
 
     lo, _ = _ephemeral_range()
-    top = max(20000 + 1000, lo - span - 1)
+    bottom, top = 20000, max(20000 + 1000, lo - span - 1)
+    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT") or 1)
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "")
+    if workers > 1 and worker.startswith("gw") and worker[2:].isdigit():
+        width = (top - bottom) // workers
+        bottom += int(worker[2:]) % workers * width
+        top = bottom + width
     rnd = random.Random(os.getpid() ^ time.monotonic_ns() ^ threading.get_ident())
     with _HANDED_OUT_LOCK:
         now = time.monotonic()
         _HANDED_OUT[:] = [r for r in _HANDED_OUT if now - r[2] < _HANDED_OUT_FOR]
         for _ in range(200):
-            port = rnd.randrange(20000, top)
+            port = rnd.randrange(bottom, top)
             if any(port < start + width and start < port + span for start, width, _ in _HANDED_OUT):
                 continue
             if all(_port_free(p) for p in range(port, port + span, 4)) and _port_free(port):
@@ -358,6 +367,36 @@ def free_port(span: int = 64) -> int:
                     _HANDED_OUT.append((port, span, now))
                     return port
     raise RuntimeError("no free port range found")
+
+
+def run_folder(tmp_path_factory, name: str) -> Path:
+    """A folder of this test run that every pytest-xdist worker sees (the
+    run's base folder, of which each worker's is a subfolder; without
+    xdist, the session's), for what is built once per run."""
+    base = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        base = base.parent
+    folder = base / name
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+class held:
+    """``with held(path):`` an exclusive lock on the file ``path`` (created),
+    across processes: the pytest-xdist workers building one thing take
+    turns, and the later ones find it built."""
+
+    def __init__(self, path: Path):
+        self.path = path
+
+    def __enter__(self):
+        self.fd = os.open(self.path, os.O_CREAT | os.O_RDWR, 0o644)
+        fcntl.flock(self.fd, fcntl.LOCK_EX)
+        return self
+
+    def __exit__(self, *exc):
+        fcntl.flock(self.fd, fcntl.LOCK_UN)
+        os.close(self.fd)
 
 
 def release_port(port: int) -> None:

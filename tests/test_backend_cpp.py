@@ -37,7 +37,7 @@ from behaviour import (DEG, PROGRAMS, ROS1_PROGRAMS, TIMED, BridgeBehaviour, Lau
                        Module, ModuleCommandLine, Ros1Behaviour, config_program, escape_program,
                        needs_ros1, relay_program, supported_configs, values_program)
 from generated import without_runtime
-from middleware import VENV, Ros2Publisher, YarpProducer
+from middleware import VENV, Ros2Publisher, YarpProducer, held, run_folder
 from ybg.backends import check_result, get_backend
 from ybg.backends.cpp import CppBackend, runtime_library
 from ybg.backends.cpp.escape import (CPP_KEYWORDS, cpp_comment, cpp_float, cpp_identifier, cpp_int,
@@ -215,7 +215,7 @@ class Builds:
         """Configures the module's own folder by itself, as its user would."""
         self.build()
         folder = self.root / "src" / key
-        return subprocess.run(["cmake", "-S", str(folder), "-B", str(self.root / f"alone_{key}"),
+        return subprocess.run(["cmake", "-S", str(folder), "-B", str(self.root / f"alone_{key}_{os.getpid()}"),
                                f"-DCMAKE_PREFIX_PATH={self.install.cmake_prefix_path()}"],
                               capture_output=True, text=True)
 
@@ -223,6 +223,17 @@ class Builds:
         if self.built:
             return
         self.built = True
+        # the pytest-xdist workers of a run share one build (run_folder): the
+        # first builds it, the others wait for it and read its log
+        with held(self.root / ".build.lock"):
+            done = self.root / ".build.log"
+            if done.exists():
+                self.log = done.read_text(encoding="utf-8")
+                return
+            self._build()
+            done.write_text(self.log, encoding="utf-8")
+
+    def _build(self) -> None:
         src = self.root / "src"
         src.mkdir(parents=True, exist_ok=True)
         backend = CppBackend()
@@ -273,7 +284,7 @@ class Builds:
 @pytest.fixture(scope="session")
 def builds(tmp_path_factory, yarp) -> Builds:
     """Every module of these tests, built against the matrix version ``yarp``."""
-    b = Builds(tmp_path_factory.mktemp(f"cpp_modules_{yarp.version}"), yarp)
+    b = Builds(run_folder(tmp_path_factory, f"cpp_modules_{yarp.version}"), yarp)
     for key, make in BUILD_PROGRAMS.items():
         b.add(key, make(), optimize=key == TIMED)
     return b
