@@ -75,6 +75,27 @@ def pytest_unconfigure(config):
     middleware.stop_all()
 
 
+# --- where the time goes: the seconds of each test file (setup, call and
+# teardown; under pytest-xdist, summed over the workers), printed after the
+# run, so that a test that costs more than it should is seen
+
+_FILE_SECONDS: dict = {}
+
+
+def pytest_runtest_logreport(report):
+    path = report.nodeid.split("::", 1)[0]
+    _FILE_SECONDS[path] = _FILE_SECONDS.get(path, 0.0) + report.duration
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    if not _FILE_SECONDS or config.getoption("collectonly", False):
+        return
+    total = sum(_FILE_SECONDS.values())
+    terminalreporter.write_sep("-", f"seconds per test file ({total:.1f} s of tests in all)")
+    for path, seconds in sorted(_FILE_SECONDS.items(), key=lambda kv: -kv[1])[:20]:
+        terminalreporter.write_line(f"{seconds:8.1f}  {path}")
+
+
 @pytest.fixture(scope="session")
 def update_goldens(request) -> bool:
     return bool(request.config.getoption("--update-goldens"))
