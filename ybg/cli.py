@@ -330,13 +330,19 @@ def cmd_fmt(args) -> int:
 
 
 def cmd_ir(args) -> int:
-    from ybg.compiler import ir
+    import json
 
-    result = _compile(args.file or folder_config("ir"), args, _options(args))
+    from ybg.compiler import ir
+    from ybg.compiler.typehash import program_store, with_type_hashes
+
+    options = _options(args)
+    result = _compile(args.file or folder_config("ir"), args, options)
     _print([result], "text")
     if result.program is None:
         return EXIT_USAGE if _io_error(result) else EXIT_PROBLEMS
-    sys.stdout.write(ir.to_json(result.program))
+    # the IR, and the type hash of each ROS topic (ybg/compiler/typehash.py)
+    d = with_type_hashes(ir.to_dict(result.program), program_store(result.program, options))
+    sys.stdout.write(json.dumps(d, indent=2, ensure_ascii=False) + "\n")
     return EXIT_OK
 
 
