@@ -22,6 +22,8 @@ Fixtures
                       use ``ros2_domain.env`` for every ROS 2 process.
     update_goldens    bool, true with ``--update-goldens``: golden-file tests
                       rewrite their expected files instead of comparing.
+    ybgc              the ybgc command run in-process in ``tmp_path``:
+                      ``ybgc(*args) -> (exit status, stderr)``.
 """
 import os
 
@@ -94,6 +96,27 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
     terminalreporter.write_sep("-", f"seconds per test file ({total:.1f} s of tests in all)")
     for path, seconds in sorted(_FILE_SECONDS.items(), key=lambda kv: -kv[1])[:20]:
         terminalreporter.write_line(f"{seconds:8.1f}  {path}")
+
+
+@pytest.fixture
+def ybgc(tmp_path, monkeypatch, capsys):
+    """The ybgc command, run in-process in ``tmp_path``: a function of the
+    command's arguments giving (exit status, stderr); never a traceback."""
+    from ybg import cli
+
+    monkeypatch.chdir(tmp_path)
+
+    def run(*args) -> tuple[int, str]:
+        capsys.readouterr()
+        try:
+            status = cli.main([str(a) for a in args])
+        except SystemExit as e:  # usage errors exit from inside the command
+            status = e.code
+        err = capsys.readouterr().err
+        assert "Traceback" not in err
+        return status, err
+
+    return run
 
 
 @pytest.fixture(scope="session")

@@ -14,7 +14,6 @@ from pathlib import Path
 
 import pytest
 
-from ybg import cli
 from ybg.backends import check_result
 from ybg.compiler.pipeline import compile_path, compile_text
 
@@ -27,24 +26,6 @@ INVALID = ROOT / "tests" / "invalid"
 #: the day the original tool first built a message from [message] (commit 6b88a40,
 #: BottleCreatorGenerator); before it, [message] and [type] were notes it did not read
 FIRST_MESSAGE = "2015-03-13"
-
-
-@pytest.fixture
-def ybgc(tmp_path, monkeypatch, capsys):
-    """The ybgc command, run in-process in ``tmp_path``: (exit status, stderr)."""
-    monkeypatch.chdir(tmp_path)
-
-    def run(*args) -> tuple[int, str]:
-        capsys.readouterr()
-        try:
-            status = cli.main([str(a) for a in args])
-        except SystemExit as e:
-            status = e.code
-        err = capsys.readouterr().err
-        assert "Traceback" not in err
-        return status, err
-
-    return run
 
 
 def _hint_command(hint: str, config: str) -> list[str]:

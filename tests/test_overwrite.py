@@ -17,7 +17,6 @@ from pathlib import Path
 
 import pytest
 
-from ybg import cli
 
 ROOT = Path(__file__).resolve().parent.parent
 LEGACY = ROOT.parent / "shared" / "legacy"
@@ -26,24 +25,6 @@ HAND = ROOT / "examples" / "mixed_types_yarp.ini"  # module `hand_status`
 MINE = b"a file of the user's\n"
 #: a config ybgc did not write, and that fmt would change
 OTHER_CONFIG = b"[output]\nport=/other:o\n[mux m]\nports=/a:o (float64 x1)\n[message]\nx=m\n"
-
-
-@pytest.fixture
-def ybgc(tmp_path, monkeypatch, capsys):
-    """The ybgc command, run in-process in ``tmp_path``: (exit status, stderr)."""
-    monkeypatch.chdir(tmp_path)
-
-    def run(*args) -> tuple[int, str]:
-        capsys.readouterr()
-        try:
-            status = cli.main([str(a) for a in args])
-        except SystemExit as e:  # usage errors exit from inside the command
-            status = e.code
-        err = capsys.readouterr().err
-        assert "Traceback" not in err
-        return status, err
-
-    return run
 
 
 def snapshot(folder: Path) -> dict[str, bytes]:
