@@ -112,10 +112,12 @@ if ! "$vpy" -c 'import rclpy, sensor_msgs.msg, std_msgs.msg, geometry_msgs.msg' 
   pip_install ros-rclpy ros-sensor-msgs ros-std-msgs ros-geometry-msgs ros-rmw-fastrtps-cpp
 fi
 # Message packages with arrays of messages, for the tests of those
-# (visualization_msgs/MarkerArray, trajectory_msgs/JointTrajectory).
-if ! "$vpy" -c 'import trajectory_msgs.msg, visualization_msgs.msg' 2>/dev/null; then
-  log "installing the ROS 2 trajectory_msgs and visualization_msgs wheels"
-  pip_install ros-trajectory-msgs ros-visualization-msgs
+# (visualization_msgs/MarkerArray, trajectory_msgs/JointTrajectory), and the
+# other packages whose definitions ybgc ships (their type hashes are checked
+# against the typesupport's: tests/test_typehash.py).
+if ! "$vpy" -c 'import trajectory_msgs.msg, visualization_msgs.msg, nav_msgs.msg, shape_msgs.msg, stereo_msgs.msg, actionlib_msgs.msg' 2>/dev/null; then
+  log "installing the ROS 2 message wheels of the definitions ybgc ships"
+  pip_install ros-trajectory-msgs ros-visualization-msgs ros-nav-msgs ros-shape-msgs ros-stereo-msgs ros-actionlib-msgs
 fi
 # ROS 2 build tools from the wheels: ament_cmake and rosidl's generators build
 # the message packages PyPI has no wheel for (scripts/build_msgpkg.sh);
