@@ -76,6 +76,9 @@ class Input:
     of ``trajectory_msgs/JointTrajectory``); ``fields`` are then fields of
     its elements, and each element gives one row of the mux (a time or
     duration as one float64, seconds).
+    ``accepts`` (YARP ports): the other ports whose Bottles this input takes
+    too (a replay under another name); a Bottle from any other port than
+    ``name`` and these is refused at run time (docs/runtime.md, "Reading").
     """
 
     name: str
@@ -87,6 +90,7 @@ class Input:
     positions: tuple[tuple[int, ...], ...] | None = None
     reads: int | None = None
     each: str | None = None
+    accepts: tuple[str, ...] = ()
 
     @property
     def width(self) -> int | None:
@@ -573,7 +577,7 @@ def from_dict(d: dict[str, Any]) -> Program:
         fields_ = None if x["fields"] is None else tuple(x["fields"])
         positions = None if x.get("positions") is None else tuple(tuple(p) for p in x["positions"])
         return Input(x["name"], x["kind"], layout, x["ros_type"], fields_, x["timeout"], positions,
-                     x.get("reads"), x.get("each"))
+                     x.get("reads"), x.get("each"), tuple(x.get("accepts") or ()))
 
     def node(x):
         return ExprNode(x["op"], _tuple(x["args"], node), x["value"])

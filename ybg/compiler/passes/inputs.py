@@ -4,13 +4,16 @@ Checks: mux names (E214), `ports` or `topics` and not both (E204, E208),
 port and topic names (E401, E402), a port's element declaration
 `(float64 x6, int32 x3)` and a topic's message type and field
 `(pkg/Name field)` (E213, E301, E302, E309), ROS 2 topics without a type
-(E319), inputs read twice (W506), `timeout` and `verbose`.
+(E319), inputs read twice (W506), `timeout` and `verbose`; `accept`, the
+other ports an input takes Bottles from too (E208, E401, W506).
 Reads ``mux_sections``, ``mux_keys``, ``mux_via``, ``output_keys``
 (the default timeout), ``options`` (the distro) and ``stores``. Sets
 ``muxes``, without converters.
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 from ybg.compiler import ast, ir
 from ybg.compiler.diagnostics import Sink, Span, did_you_mean
@@ -71,6 +74,10 @@ def _mux(ctx: Context, name: str, sec: ast.Section, keys: dict[str, ast.Entry]) 
         seen[inp.name] = 1
     if not ok:
         return None
+    accepts = _accepts(ctx, name, keys.get("accept"), inputs)
+    if accepts is None:
+        return None
+    inputs = [dataclasses.replace(i, accepts=accepts[i.name]) if accepts.get(i.name) else i for i in inputs]
     verbose = False
     if "verbose" in keys:
         verbose = bool(boolean(keys["verbose"], s))
@@ -121,6 +128,63 @@ def _input(ctx: Context, item: ast.Item, is_topic: bool, via: str, timeout: floa
         if layout is None:
             return None
     return ir.Input(name, "yarp", layout, None, None, timeout)
+
+
+def _accepts(ctx: Context, mux: str, entry: ast.Entry | None,
+             inputs: list[ir.Input]) -> dict[str, tuple[str, ...]] | None:
+    """The other ports whose Bottles each input of the mux takes too, by
+    input port: `accept = /other:o` (a mux of one port) or
+    `accept = /input:o (/other:o, /another:o)`. None when reported."""
+    if entry is None:
+        return {}
+    s = ctx.sink
+    if any(i.kind != "yarp" for i in inputs):
+        s.error("E208", f"`accept` names other YARP ports an input takes Bottles from: mux `{mux}` reads "
+                "ROS topics, whose publishers are not YARP's to check", entry.key_span, "remove the line")
+        return None
+    if not entry.items:
+        s.error("E208", "`accept` names no port", entry.span,
+                "e.g. `accept = /replay/head/state:o`, or `accept = /icub/head/state:o (/replay/head/state:o)`")
+        return None
+    names = list(dict.fromkeys(i.name for i in inputs))
+    out: dict[str, list[str]] = {}
+    for item in entry.items:
+        if isinstance(item, ast.Call) and isinstance(item.func, (ast.Word, ast.Str)):
+            func = item.func
+            target = func.text if isinstance(func, ast.Word) else func.value
+            if target not in names:
+                s.error("E208", f"`{target}` is not a port of mux `{mux}`", func.span,
+                        did_you_mean(target, names) or f"its ports: {', '.join(names)}")
+                return None
+            if not item.args or any(len(arg) != 1 for arg in item.args):
+                s.error("E208", f"`accept = {target} (...)` lists the other ports, separated by commas",
+                        item.span, f"e.g. `accept = {target} (/replay{target})`")
+                return None
+            others = [arg[0] for arg in item.args]
+        elif isinstance(item, (ast.Word, ast.Str)):
+            if len(names) != 1:
+                text = item.text if isinstance(item, ast.Word) else item.value
+                s.error("E208", f"`accept = {text}`: mux `{mux}` reads {len(names)} ports; say which one takes "
+                        "its Bottles", item.span, f"e.g. `accept = {names[0]} ({text})`")
+                return None
+            target, others = names[0], [item]
+        else:
+            s.error("E208", "`accept` takes ports: `/other:o`, or `/input:o (/other:o)`", item.span)
+            return None
+        for other in others:
+            text = other.text if isinstance(other, ast.Word) else other.value if isinstance(other, ast.Str) else None
+            problem = "it is not a name" if text is None else port_problem(text)
+            if problem:
+                s.error("E401", f"invalid YARP port name `{text if text is not None else other}`: {problem}",
+                        other.span, "e.g. `/replay/icub/head/state:o`")
+                return None
+            if text == target:
+                s.warning("W506", f"`{text}` is the port itself: its Bottles are always taken", other.span)
+            elif text in out.get(target, ()):
+                s.warning("W506", f"`{text}` is accepted twice for `{target}`", other.span)
+            else:
+                out.setdefault(target, []).append(text)
+    return {k: tuple(v) for k, v in out.items()}
 
 
 def _layout(ctx: Context, decl, span: Span) -> tuple[ir.ElementGroup, ...] | None:

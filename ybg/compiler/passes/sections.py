@@ -20,7 +20,7 @@ SECTION_KEYS: dict[str, tuple[str, ...]] = {
     "module": ("name", "distro"),
     "output": ("topic", "port", "connect", "type", "via", "node", "rate", "trigger", "queue",
                "on_stale", "on_nan", "publish", "timeout", "reliability", "durability", "depth"),
-    "mux": ("ports", "topics", "via", "convert", "verbose", "timeout"),
+    "mux": ("ports", "topics", "via", "convert", "verbose", "timeout", "accept"),
     "message": (),
 }
 
