@@ -27,7 +27,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.qos_overriding_options import QoSOverridingOptions, QoSPolicyKind
 from rclpy.signals import SignalHandlerOptions
 
-from .core import _FLOAT_TYPES, _INT_TYPES, InputState, seconds_to_ns  # ybgc:runtime-import
+from .core import _FLOAT_TYPES, _INT_TYPES, InputState, parse_accept, seconds_to_ns  # ybgc:runtime-import
 from .yarp_io import YarpBridge  # ybgc:runtime-import
 
 
@@ -382,7 +382,7 @@ def input_status(inp, now):
     return level, text, (
         ("received", str(inp.received)), ("dropped", str(inp.dropped)),
         ("stale periods", str(inp.stale_periods)), ("unused", str(inp.unused)),
-        ("age (s)", age), ("timeout (s)", "%g" % inp.timeout))
+        ("refused", str(inp.refused)), ("age (s)", age), ("timeout (s)", "%g" % inp.timeout))
 
 
 def output_status(bridge, achieved):
@@ -454,8 +454,9 @@ def _parameter_number(value, name):
     return float(value)
 
 
-def node_options(node, default_prefix, default_rate):
-    """The options of docs/runtime.md from the node's parameters."""
+def node_options(node, default_prefix, default_rate, spec=None):
+    """The options of docs/runtime.md from the node's parameters (``spec``:
+    the bridge's, to check `accept` against its inputs)."""
     def declare(name, default, text):
         descriptor = ParameterDescriptor(description=text, dynamic_typing=True)
         return node.declare_parameter(name, default, descriptor).value
@@ -482,8 +483,18 @@ def node_options(node, default_prefix, default_rate):
                                "diagnostic_updater.period")
     if period <= 0:
         raise ParameterError("parameter diagnostic_updater.period must be positive")
+    accept = declare("accept", "", "other ports whose Bottles an input takes too: PORT=OTHER items "
+                                   "(a list, or one string separated by commas)")
+    if isinstance(accept, str):
+        accept = [a.strip() for a in accept.split(",") if a.strip()]
+    if not isinstance(accept, (list, tuple)) or not all(isinstance(a, str) for a in accept):
+        raise ParameterError("parameter accept must be a string or a list of strings, PORT=OTHER")
+    try:
+        accept = parse_accept(spec, accept) if spec is not None else {}
+    except ValueError as e:
+        raise ParameterError("parameter accept: %s" % e) from None
     return argparse.Namespace(prefix=prefix, rate=rate, timeout=timeout or None, verbose=verbose,
-                              diagnostics_period=period if diagnostics else None)
+                              diagnostics_period=period if diagnostics else None, accept=accept)
 
 
 def _parse_command_line(spec, args, default_prefix, default_rate):
@@ -496,6 +507,8 @@ def _parse_command_line(spec, args, default_prefix, default_rate):
                "                config's (default: 0)\n"
                "  prefix        prefix of the node's own YARP port names (default: %s)\n"
                "  verbose       print every value after conversion (default: false)\n"
+               "  accept        PORT=OTHER: the input of YARP port PORT also takes the Bottles\n"
+               "                of port OTHER (a list, or one string separated by commas)\n"
                "  diagnostics   publish the bridge's state on /diagnostics (default: true)\n"
                "  diagnostic_updater.period\n"
                "                seconds between two /diagnostics messages (default: 1)\n"
@@ -536,7 +549,7 @@ def run_node(spec, argv, node_name, default_prefix, default_rate, topic_inputs,
     try:
         node = rclpy.create_node(node_name)
         try:
-            options = node_options(node, default_prefix, default_rate)
+            options = node_options(node, default_prefix, default_rate, spec)
         except ParameterError as e:
             print("%s: %s" % (spec.module, e), flush=True)
             return 2

@@ -2,6 +2,7 @@
 ports opened and watched, the output message tree written as a Bottle on a
 YARP port or a ROS 1 topic, and the shutdown within 2 s (docs/runtime.md)."""
 
+import collections
 import os
 import signal
 import sys
@@ -174,8 +175,177 @@ def parse_bottle(bottle, types, flatten, drop_nan, positions=None, floats=False)
                 return None, "element %d is NaN" % k
     return out, None
 
+class _SourceReader(yarp.PortReader):
+    """What YARP calls for each Bottle that reaches an input's port, in the
+    thread of its connection: the input reads it there with the name of the
+    port that sent it."""
+
+    def __init__(self, inp):
+        yarp.PortReader.__init__(self)
+        self.inp = inp
+
+    def read(self, connection):
+        try:
+            return self.inp.arrive(connection)
+        except Exception as e:  # an exception into YARP's thread would abort the process
+            self.inp.fail(e)
+            return False
+
+
+class Input(InputState):
+    """One input of a mux read from a YARP port: its own port, read strictly
+    (every Bottle, in order; ``Timing.queue`` 1: the newest only), each
+    Bottle with the name of the port that sent it, which is YARP's name for
+    the connection's remote end (what YARP prints as "Receiving input
+    from"), the sender's own, whatever name the connection was asked for: a
+    Bottle of any port the input does not accept is refused, never used.
+
+    YARP's thread for each connection reads the Bottle (the port's reader,
+    ``_SourceReader``) and queues it; the input's own thread checks and
+    hands it to the bridge, so that a connection waits for no more than the
+    copy. No thread ever blocks in a binding call: from YARP 3.12.1 the
+    bindings' BufferedPortBottle keeps the interpreter lock in read(), so a
+    thread blocked there stops every other; the input's thread waits on a
+    Python condition, and ``yarp.Port`` lets the lock go in its calls."""
+
+    def __init__(self, bridge, spec, local, timeout):
+        self.init_state(bridge, spec, timeout)
+        self.local = local
+        self.port = yarp.Port()
+        self.reader = None
+        self.contact = None  # its port's own address, for admin commands
+        self.floats = spec.types is None or all(t in _FLOAT_TYPES for t in spec.types)
+        self.strict = bridge.spec.queue > 1
+        self.pending = collections.deque()  # (bottle, arrival, envelope), oldest first
+        self.wake = threading.Condition(threading.Lock())
+        self.reading = 0    # YARP threads inside arrive()
+        self.busy = False   # the input's thread handles a Bottle
+        self.closing = False
+        self.failed = False
+        self.thread = None
+        self.checked = None  # (connections, refused) when the watcher last listed them
+
+    def open(self):
+        self.reader = _SourceReader(self)
+        self.port.setReader(self.reader)
+        self.port.setInputMode(True)
+        self.port.setOutputMode(False)
+        if not self.port.open(self.local):
+            return False
+        where = self.port.where()
+        self.contact = yarp.Contact(self.local, "tcp", where.getHost(), where.getPort())
+        self.thread = threading.Thread(target=self._run, name="input " + self.local, daemon=True)
+        self.thread.start()
+        return True
+
+    def arrive(self, connection):
+        """In the connection's thread: the Bottle, where it came from, when
+        and its envelope stamp; queued, or refused if another port sent it."""
+        with self.wake:
+            self.reading += 1
+            self.calls += 1
+        try:
+            if not connection.isValid():
+                return False
+            bottle = yarp.Bottle()
+            if not bottle.read(connection):
+                return False
+            now = time.monotonic()
+            source = connection.getRemoteContact().getName()
+            if self.bridge.stopping:
+                return True
+            if source not in self.accepted:
+                self.bridge.on_foreign(self, source)
+                if self.bridge.watcher is not None:
+                    self.bridge.watcher.poke()  # closes the connection now, in its own thread
+                return True
+            envelope = None
+            stamp = yarp.Stamp()
+            if self.port.getEnvelope(stamp) and stamp.isValid():
+                envelope = stamp.getTime()
+            with self.wake:
+                if not self.strict:
+                    self.pending.clear()  # the newest only, as YARP reads by default
+                self.pending.append((bottle, now, envelope))
+                self.wake.notify()
+            return True
+        finally:
+            with self.wake:
+                self.reading -= 1
+
+    def fail(self, e):
+        if not self.failed:
+            self.failed = True
+            self.bridge.log("input %s: %s: %s" % (self.source, type(e).__name__, e))
+
+    def _run(self):
+        while True:
+            with self.wake:
+                while not self.pending and not self.closing:
+                    self.wake.wait()
+                if self.closing:
+                    self.pending.clear()
+                    return
+                bottle, now, envelope = self.pending.popleft()
+                behind = len(self.pending)
+                self.busy = True
+            try:
+                self._handle(bottle, now, envelope, behind)
+            finally:
+                with self.wake:
+                    self.busy = False
+
+    def _handle(self, bottle, now, envelope, behind):
+        if self.bridge.stopping:
+            return
+        try:
+            if behind > BACKLOG:
+                # far behind: skipped unread, so that the reader catches up
+                self.bridge.on_skipped(self)
+                return
+            values, reason = parse_bottle(bottle, self.spec.types, False,
+                                          self.bridge.spec.on_nan == "drop", None, self.floats)
+            self.bridge.on_bottle(self, values, reason, now, envelope)
+        except Exception as e:  # never a traceback out of the input's thread
+            self.fail(e)
+
+    def sources(self):
+        """The ports connected to its port, by YARP's names for them (its own
+        answer to `list in`); None when it does not answer."""
+        reply = _admin(self.contact, "list", "in")
+        if reply is None:
+            return None
+        names = [reply.get(k).asString() for k in range(reply.size())]
+        return [n for n in names if n.startswith("/") and n != self.local]
+
+    def drop(self, name):
+        """Closes the connection of port ``name`` to its port (an admin `del`
+        to its own port: no name server needed, and ``name`` may be a port
+        the name server does not know)."""
+        _admin(self.contact, "del", name)
+
+    def connections(self):
+        return self.port.getInputCount()
+
+    def interrupt(self):
+        self.port.interrupt()
+        with self.wake:
+            self.closing = True
+            self.wake.notify_all()
+
+    def settled(self):
+        """No Bottle waits to be handled and none is being read or handled."""
+        with self.wake:
+            return not self.busy and self.reading == 0 and not self.pending
+
+    def close(self):
+        self.port.close()
+        if self.thread is not None:
+            self.thread.join(0.2)
+
+
 class _Reader(yarp.BottleCallback):
-    """What YARP calls for each Bottle of an input, in YARP's own thread."""
+    """What YARP calls for each Bottle of a ROS 1 topic input, in YARP's own thread."""
 
     def __init__(self, inp):
         yarp.BottleCallback.__init__(self)
@@ -185,11 +355,13 @@ class _Reader(yarp.BottleCallback):
         self.inp.on_read(bottle)
 
 
-class Input(InputState):
-    """One input of a mux: its own port, read strictly (every Bottle, in
-    order) through a callback in YARP's reader thread. Never a blocking
-    read(): from YARP 3.12.1 the bindings' BufferedPortBottle keeps the
-    interpreter lock in read(), so a thread blocked there stops every other."""
+class TopicInput(InputState):
+    """One input of a mux read from a ROS 1 topic through YARP (its
+    topic@node port), strictly (every Bottle, in order) through a callback
+    in YARP's reader thread. Never a blocking read(): from YARP 3.12.1 the
+    bindings' BufferedPortBottle keeps the interpreter lock in read(), so a
+    thread blocked there stops every other. (Its publishers are ROS nodes:
+    the names of YARP's ports do not apply.)"""
 
     def __init__(self, bridge, spec, local, timeout):
         self.init_state(bridge, spec, timeout)
@@ -197,9 +369,6 @@ class Input(InputState):
         self.port = yarp.BufferedPortBottle()
         self.reader = None
         self.stamp = yarp.Stamp()
-        self.flatten = spec.kind == "ros1"
-        self.floats = spec.kind != "ros1" and (spec.types is None
-                                               or all(t in _FLOAT_TYPES for t in spec.types))
         self.busy = False   # inside a callback
         self.failed = False
 
@@ -207,8 +376,7 @@ class Input(InputState):
         # queue > 1: every Bottle, in order (BACKLOG bounds it); 1: the
         # newest only, as YARP reads by default
         self.port.setStrict(self.bridge.spec.queue > 1)
-        if self.spec.kind == "ros1":
-            self.port.setReadOnly()
+        self.port.setReadOnly()
         self.reader = _Reader(self)
         self.port.useCallback(self.reader)
         return self.port.open(self.local)
@@ -226,9 +394,9 @@ class Input(InputState):
             envelope = None
             if self.port.getEnvelope(self.stamp) and self.stamp.isValid():
                 envelope = self.stamp.getTime()
-            values, reason = parse_bottle(bottle, self.spec.types, self.flatten,
+            values, reason = parse_bottle(bottle, self.spec.types, True,
                                           self.bridge.spec.on_nan == "drop",
-                                          self.spec.positions, self.floats)
+                                          self.spec.positions, False)
             self.bridge.on_bottle(self, values, reason, now, envelope)
         except Exception as e:  # never a traceback out of YARP's thread
             if not self.failed:
@@ -246,25 +414,53 @@ class Input(InputState):
 
     def close(self):
         self.port.close()
-        if self.spec.kind == "ros1":
-            # YARP 3.5 leaves a closed topic@node subscriber registered with
-            # the ROS master: withdrawn, so that no publisher points at this process
-            withdraw_from_ros_master(self.local, publisher=False)
+        # YARP 3.5 leaves a closed topic@node subscriber registered with
+        # the ROS master: withdrawn, so that no publisher points at this process
+        withdraw_from_ros_master(self.local, publisher=False)
 
 
 # --- connections ---------------------------------------------------------------
 
+def _admin(contact, *words):
+    """The reply of the port at ``contact`` to an admin command (its words),
+    or None when it does not answer."""
+    style = yarp.ContactStyle()
+    style.admin = True
+    style.quiet = True
+    style.timeout = 1.0
+    cmd = yarp.Bottle()
+    for word in words:
+        cmd.addString(word)
+    reply = yarp.Bottle()
+    if not yarp.Network.write(contact, cmd, reply, style):
+        return None
+    return reply
+
+
+def _answers_as(contact, name):
+    """Does the port at ``contact`` answer as the port ``name`` (an admin
+    `prop get`, which a port answers with its process only for its own name)?"""
+    reply = _admin(contact, "prop", "get", name)
+    return reply is not None and reply.check("process")
+
+
 class Watcher(threading.Thread):
-    """Every 0.5 s, connects each (source, destination, linked) link whose
+    """Every 0.5 s, connects each (source, destination, input) link whose
     source exists and is not connected, so that a source that starts late or
-    is restarted is picked up. ``linked``, when given, tells from the
-    module's own port, without asking the network, that the link is up: only
-    a missing one costs name-server queries, besides one a period about the
-    module's first port (``_register_again``). A destination restarted under
-    the same name is reconnected too: the old connection stays listed until
-    a write fails on it, which for a module that writes only on new data (a
-    command) would lose the next command; the destination, asked for its
-    inputs, tells. The main loop never waits for it."""
+    is restarted is picked up. ``input``, when given, is the module's input
+    whose port is the destination: its connections are listed (asked of the
+    port itself) only when their number changed or one of its Bottles was
+    refused; one from a port the input does not accept is closed (said
+    once); the network is asked only about a missing link, besides one query
+    a period about the module's first port (``_register_again``). What YARP
+    connected is the port that answered at the address the name server gave:
+    it is said by its own name, and when it is another port its Bottles are
+    refused and its connection closed; that address is then connected again
+    only once the port there answers as the source. A destination restarted
+    under the same name is reconnected too: the old connection stays listed
+    until a write fails on it, which for a module that writes only on new
+    data (a command) would lose the next command; the destination, asked for
+    its inputs, tells. The main loop never waits for it."""
 
     PERIOD = 0.5
 
@@ -274,32 +470,85 @@ class Watcher(threading.Thread):
         self.log = log
         self.own = list(own)  # the module's own ports, kept registered
         self.done = threading.Event()
+        self.poked = threading.Event()
         self.connected = {}
         self.made = set()  # the (source, destination) links this watcher connected
+        self.blocked = {}  # (source, destination) -> where another port answered to the source's name
+
+    def poke(self):
+        """Wakes it at once (an input refused a Bottle: its connection is closed now)."""
+        self.poked.set()
 
     def run(self):
         while not self.done.is_set():
+            self.poked.clear()
             self._register_again()
-            for src, dst, linked in self.pairs:
+            for src, dst, inp in self.pairs:
                 if self.done.is_set():
                     break
-                # a link this watcher made and that the port still shows is up;
-                # any other input connection (a query) does not count for it
-                if linked is not None and self.connected.get((src, dst)) and linked():
-                    continue
-                self._check(src, dst, linked)
-            self.done.wait(self.PERIOD)
+                if inp is not None:
+                    self._check_input(inp)
+                else:
+                    self._check(src, dst)
+            self.poked.wait(self.PERIOD)
 
-    def _check(self, src, dst, linked=None):
-        up = yarp.Network.exists(src, True) and yarp.Network.exists(dst, True)
-        # a source that lists a connection to this module's input when the input
-        # shows none lists one to a predecessor (killed): connected again
-        if up and (linked is None or linked()) and yarp.Network.isConnected(src, dst, True):
+    def _check_input(self, inp):
+        key = (inp.source, inp.local)
+        state = (inp.connections(), inp.refused)
+        if state == inp.checked and state[0] > 0 and self.connected.get(key):
+            return  # as when they were listed: a port it accepts
+        sources = inp.sources() if state[0] > 0 else []
+        if sources is None:
+            return
+        up = False
+        refused = False
+        for name in sources:
+            if name in inp.accepted:
+                up = True
+            else:
+                inp.bridge.on_foreign(inp, name, bottle=False)
+                inp.drop(name)
+                refused = True
+        inp.checked = None if refused else state
+        if up:
+            self.connected[key] = True
+            return
+        src, dst = key
+        where = yarp.Network.queryName(src)
+        blocked = self.blocked.get(key)
+        if where.isValid() and blocked == (where.getHost(), where.getPort()) and not _answers_as(where, src):
+            return  # the name still gives the address of the other port (said when it was connected)
+        if where.isValid() and yarp.Network.exists(src, True) and yarp.Network.connect(src, dst, "", True):
+            # the port YARP connected, by its own name: the one at the address
+            # the name server gave, which may be another port's
+            after = inp.sources() or []
+            real = next((n for n in after if n in inp.accepted), after[0] if after else src)
+            inp.checked = None
+            if real in inp.accepted:
+                self.log("connected %s -> %s" % (real, dst))
+                self.connected[key] = True
+                self.made.add(key)
+                self.blocked.pop(key, None)
+            else:
+                # its Bottles are refused as they come; its connection is closed next
+                self.log("connected %s -> %s (asked for %s)" % (real, dst, src))
+                inp.bridge.on_foreign(inp, real, bottle=False)
+                self.blocked[key] = (where.getHost(), where.getPort())
+                self.connected[key] = False
+        elif self.connected.get(key):
+            self.log("lost %s -> %s; reconnecting when it is back" % (src, dst))
+            self.connected[key] = False
+
+    def _check(self, src, dst):
+        """The output's link to a port it connects to."""
+        if yarp.Network.exists(dst, True) and yarp.Network.isConnected(src, dst, True):
             if (src, dst) not in self.made or _lists_input(dst, src) is not False:
+                self.connected[(src, dst)] = True
                 return
             # the destination was restarted: the connection listed is to its predecessor
             yarp.Network.disconnect(src, dst, True)
-        if up and yarp.Network.connect(src, dst, "", True):
+        if yarp.Network.exists(src, True) and yarp.Network.exists(dst, True) \
+                and yarp.Network.connect(src, dst, "", True):
             self.log("connected %s -> %s" % (src, dst))
             self.connected[(src, dst)] = True
             self.made.add((src, dst))
@@ -319,6 +568,7 @@ class Watcher(threading.Thread):
 
     def stop(self, timeout=1.0):
         self.done.set()
+        self.poked.set()
         if self.is_alive():
             self.join(timeout)
         return not self.is_alive()
@@ -327,14 +577,8 @@ class Watcher(threading.Thread):
 def _lists_input(port, source):
     """Does ``port`` list a connection from ``source`` among its inputs (its
     admin answer to `list in`)? None when it does not answer."""
-    style = yarp.ContactStyle()
-    style.admin = True
-    style.quiet = True
-    style.timeout = 1.0
-    cmd = yarp.Bottle()
-    cmd.fromString("list in")
-    reply = yarp.Bottle()
-    if not yarp.Network.write(yarp.Contact(port), cmd, reply, style):
+    reply = _admin(yarp.Contact(port), "list", "in")
+    if reply is None:
         return None
     return any(reply.get(k).asString() == source for k in range(reply.size()))
 
@@ -374,7 +618,7 @@ class YarpBridge(Bridge):
     rpc = None
 
     def make_input(self, mux, spec, local, timeout):
-        return Input(self, spec, local, timeout)
+        return TopicInput(self, spec, local, timeout) if spec.kind == "ros1" else Input(self, spec, local, timeout)
 
     def run(self):
         """Open everything, loop until SIGINT/SIGTERM, close; the exit status."""
@@ -404,8 +648,7 @@ class YarpBridge(Bridge):
             if not self.rpc.open():
                 self.log("cannot open the RPC port %s" % self.rpc.name)
                 return 1
-            pairs = [(i.source, i.local, i.port.getInputCount) for i in self.inputs
-                     if i.spec.kind == "yarp"]
+            pairs = [(i.source, i.local, i) for i in self.inputs if i.spec.kind == "yarp"]
             pairs.extend((src, dst, None) for src, dst in self.output.connections())
             own = [i.port for i in self.inputs if i.spec.kind == "yarp"]
             if getattr(self.output, "kind", None) == "yarp":
@@ -661,7 +904,7 @@ class _QuickTransport(xmlrpc.client.Transport):
 #: what `help` answers on the RPC port, one line a command
 RPC_HELP = (
     "help: this list",
-    "stats: the totals so far: per input (input SOURCE received N dropped N stale N unused N), "
+    "stats: the totals so far: per input (input SOURCE received N dropped N stale N unused N refused N), "
     "(published N skipped N failures N), (rate ACHIEVED configured HZ|event-driven)",
     "quit: stop the module (it closes its ports and exits 0, as on SIGINT)",
 )
@@ -678,25 +921,25 @@ def rpc_respond(command, reply, bridge, meter):
     elif word == "stats":
         inputs, published, skipped, failures = bridge.totals()
         reply.addVocab32("many")
-        for source, received, dropped, stale, unused in inputs:
+        for source, received, dropped, stale, unused, refused in inputs:
             item = reply.addList()
             item.addString("input")
             item.addString(source)
-            for key, n in (("received", received), ("dropped", dropped), ("stale", stale), ("unused", unused)):
+            for key, n in (("received", received), ("dropped", dropped), ("stale", stale), ("unused", unused),
+                           ("refused", refused)):
                 item.addString(key)
                 item.addInt64(n)
         item = reply.addList()
         for key, n in (("published", published), ("skipped", skipped), ("failures", failures)):
             item.addString(key)
             item.addInt64(n)
+        # the rates as text, with the digits that mean something (a float64
+        # prints with 21 digits)
         item = reply.addList()
         item.addString("rate")
-        item.addFloat64(meter.read(time.monotonic(), published))
+        item.addString("%.2f" % meter.read(time.monotonic(), published))
         item.addString("configured")
-        if bridge.rate is None:
-            item.addString("event-driven")
-        else:
-            item.addFloat64(bridge.rate)
+        item.addString("event-driven" if bridge.rate is None else repr(float(bridge.rate)))
     elif word in ("quit", "exit", "bye"):
         bridge.log("asked to quit on the RPC port")
         bridge.request_stop()

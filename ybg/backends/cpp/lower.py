@@ -522,6 +522,8 @@ def _input_comment(mux: str, k: int, inp: ir.Input) -> str:
     kind = {"ros1": "ROS 1 topic", "ros2": "ROS 2 topic"}.get(inp.kind, "port")
     extra = f" ({comment(inp.ros_type)})" if inp.ros_type else ""
     reads = "" if inp.reads is None else f"; the message reads the first {inp.reads} (W511)"
+    if inp.accepts:
+        reads += f"; also from {', '.join(comment(a) for a in inp.accepts)}"
     return f"mux {comment(mux)}, input {k}: {kind} {comment(inp.name)}{extra}, {what}{reads}"
 
 
@@ -559,9 +561,10 @@ def lower(program: ir.Program, builder=_Builder) -> ModuleView:
             ids.append(n)
             kind = {"ros1": "ybgc::InputKind::Ros1", "ros2": "ybgc::InputKind::Ros2"}.get(
                 i.kind, "ybgc::InputKind::Yarp")
-            reads = "" if i.reads is None else f", {int(i.reads)}"
+            reads = "" if i.reads is None and not i.accepts else f", {-1 if i.reads is None else int(i.reads)}"
+            accepts = f", {{{', '.join(cpp_string(a) for a in i.accepts)}}}" if i.accepts else ""
             init = (f"{{{mi}, {k}, {cpp_string(i.name)}, {kind}, {cpp_float(float(i.timeout))}, "
-                    f"{_layout(i)}, {_fields(i, program.distro)}{reads}}}")
+                    f"{_layout(i)}, {_fields(i, program.distro)}{reads}{accepts}}}")
             inputs.append(InputView(n, init, _input_comment(m.name, k, i)))
             gather.append(Line(1, f"ybgc::append(mux.{members[m.name]}, in[{n}]);  // {comment(i.name)}"))
         if m.rows and m.converters:  # each row converted alike

@@ -88,6 +88,7 @@ class InputView:
     description: str
     positions: str = "None"
     reads: str = "None"
+    accepts: str = "()"  # the other ports whose Bottles it takes too
 
 
 @dataclass(frozen=True)
@@ -466,6 +467,8 @@ def lower(program: ir.Program) -> ModuleView:
             width = "any number of numbers" if types is None else f"{len(types)} elements"
             if i.reads is not None:
                 width += f"; the message reads the first {i.reads} (W511)"
+            if i.accepts:
+                width += f"; also from {', '.join(i.accepts)}"
             inputs.append(InputView(
                 mux=py_literal(m.name),
                 index=k,
@@ -476,6 +479,7 @@ def lower(program: ir.Program) -> ModuleView:
                 description=py_literal(f"{i.kind} {i.name}: {width}"),
                 positions=py_literal(i.positions),
                 reads=py_literal(i.reads),
+                accepts=py_literal(tuple(i.accepts)),
             ))
         convs = converter_views(m, used)
         muxes.append(MuxView(

@@ -495,13 +495,16 @@ def _lower_inputs(program: ir.Program):
                 desc = f"yarp {i.name}: {width}"
                 if i.reads is not None:
                     desc += f"; the message reads the first {i.reads} (W511)"
+                if i.accepts:
+                    desc += f"; also from {', '.join(i.accepts)}"
             else:
                 raise LoweringError(f"the ros2 backend cannot read a {i.kind!r} input ({i.name})",
                                     ("input", m.name, i.name))
             inputs.append(InputView(
                 mux=py_literal(m.name), index=k, source=py_literal(i.name), kind=py_literal(i.kind),
                 types=py_literal(types), timeout=py_literal(float(i.timeout)),
-                description=py_literal(desc), reads=py_literal(i.reads)))
+                description=py_literal(desc), reads=py_literal(i.reads),
+                accepts=py_literal(tuple(i.accepts))))
         convs = converter_views(m, used)
         muxes.append(MuxView(py_literal(m.name), tuple(inputs), convs, py_literal(bool(m.verbose)),
                              py_literal(m.element_types), m.rows))

@@ -305,6 +305,33 @@ bool parameterOptions(const rcl_params_t* params, const std::string& fqn, std::v
             options.push_back("--verbose");
         }
     }
+    if (const rcl_variant_t* v = parameter(params, fqn, "accept")) {
+        // `PORT=OTHER` (or `OTHER`) items: a list of strings, or one string of them separated by commas
+        std::vector<std::string> items;
+        if (v->string_value != nullptr) {
+            const std::string text = v->string_value;
+            for (std::size_t start = 0; start <= text.size();) {
+                const std::size_t end = std::min(text.find(',', start), text.size());
+                std::string item = text.substr(start, end - start);
+                item.erase(0, item.find_first_not_of(" \t"));
+                item.erase(item.find_last_not_of(" \t") + 1);
+                if (!item.empty()) {
+                    items.push_back(item);
+                }
+                start = end + 1;
+            }
+        } else if (v->string_array_value != nullptr) {
+            for (std::size_t k = 0; k < v->string_array_value->size; ++k) {
+                items.emplace_back(v->string_array_value->data[k]);
+            }
+        } else {
+            error = "parameter accept must be a string or a list of strings, PORT=OTHER, got " + valueText(*v);
+            return false;
+        }
+        for (const std::string& item : items) {
+            options.push_back("--accept=" + item);
+        }
+    }
     return true;
 }
 
@@ -372,6 +399,7 @@ std::vector<Status> statuses(const Totals& totals, const std::string& node, doub
                     {"dropped", std::to_string(in.dropped)},
                     {"stale periods", std::to_string(in.stale)},
                     {"unused", std::to_string(in.unused)},
+                    {"refused", std::to_string(in.refused)},
                     {"age (s)", in.age < 0 ? "" : printed("%.3f", in.age)},
                     {"timeout (s)", printed("%g", in.timeout)}};
         out.push_back(std::move(s));

@@ -39,7 +39,10 @@
 #include <yarp/os/Contact.h>
 #include <yarp/os/ContactStyle.h>
 #include <yarp/os/Network.h>
+#include <yarp/os/PortInfo.h>
 #include <yarp/os/PortReader.h>
+#include <yarp/os/PortReport.h>
+#include <yarp/os/Portable.h>
 #include <yarp/os/ResourceFinder.h>
 #include <yarp/os/RpcServer.h>
 #include <yarp/os/Stamp.h>
@@ -844,6 +847,32 @@ void refuse(InputState& in, const std::string& why)
     }
 }
 
+bool accepts(const InputState& in, const std::string& name)
+{
+    return std::find(in.accepted.begin(), in.accepted.end(), name) != in.accepted.end();
+}
+
+std::string foreignText(const std::string& source, const std::string& other)
+{
+    return "input " + source + ": " + other + " is connected to its port, not " + source + " (the name server gave "
+           + source + " the address of " + other + ", or the connection was made by hand): its Bottles are refused "
+           + "(dropped and counted), the connection closed and " + source + " tried again; to take them, `accept` "
+           + "it in the config or give --accept " + source + "=" + other + "; said once";
+}
+
+bool refuseForeign(InputState& in, const std::string& other, bool bottle)
+{
+    if (bottle) {
+        ++in.refused;
+    }
+    if (std::find(in.foreign.begin(), in.foreign.end(), other) != in.foreign.end()) {
+        return false;
+    }
+    in.foreign.push_back(other);
+    say(foreignText(in.spec.source, other));
+    return true;
+}
+
 Matcher::Matcher(const BridgeSpec& spec, std::vector<InputState*> inputs, bool eventDriven) :
         spec_(spec), inputs_(std::move(inputs)), eventDriven_(eventDriven)
 {
@@ -1007,11 +1036,65 @@ struct Shared
     bool dropNan = false;
     std::size_t queue = 1;  // unused Bottles kept per input (BridgeSpec::queue)
     ArrivalListener* listener = nullptr;
+    std::function<void()> foreign;  // an input refused a Bottle of another port: the watcher closes its connection
 };
 
+/// An input Bottle with the name of the port that sent it: YARP's name for
+/// the connection's remote end (what YARP prints as "Receiving input from"),
+/// which is the sender's own name, whatever name the connection was asked for.
+class SourcedBottle : public yarp::os::Portable
+{
+public:
+    bool read(yarp::os::ConnectionReader& connection) override
+    {
+        source = connection.getRemoteContact().getName();
+        return bottle.read(connection);
+    }
+
+    bool write(yarp::os::ConnectionWriter& connection) const override { return bottle.write(connection); }
+
+    yarp::os::Bottle bottle;
+    std::string source;
+};
+
+/// The ports connected to a port, as it reports them itself (no network):
+/// YARP's names for the senders of its input connections.
+class InputSources : public yarp::os::PortReport
+{
+public:
+    void report(const yarp::os::PortInfo& info) override
+    {
+        if (info.tag == yarp::os::PortInfo::PORTINFO_CONNECTION && info.incoming && !info.sourceName.empty()
+            && info.sourceName[0] == '/') {
+            names.push_back(info.sourceName);
+        }
+    }
+
+    std::vector<std::string> names;
+};
+
+/// An admin command to the port at `where` (its contact: no name server
+/// needed); false when it does not answer.
+bool admin(const yarp::os::Contact& where, const std::string& command, yarp::os::Bottle& reply)
+{
+    yarp::os::ContactStyle style;
+    style.admin = true;
+    style.quiet = true;
+    style.timeout = 1.0;
+    yarp::os::Bottle cmd;
+    for (std::size_t start = 0; start < command.size();) {
+        const std::size_t end = std::min(command.find(' ', start), command.size());
+        cmd.addString(command.substr(start, end - start));
+        start = end + 1;
+    }
+    return yarp::os::Network::write(where, cmd, reply, style);
+}
+
 /// One input: its own port, read by YARP's callback thread, keeping only
-/// the newest accepted Bottle with its arrival time and envelope.
-class Input : public InputState, public yarp::os::TypedReaderCallback<yarp::os::Bottle>
+/// the newest accepted Bottle with its arrival time and envelope. Each
+/// Bottle comes with the name of the port that sent it: from a YARP port
+/// input, a Bottle of any port it does not accept is refused, never used.
+class Input : public InputState, public yarp::os::TypedReaderCallback<SourcedBottle>
 {
 public:
     Input(Shared& shared, const InputSpec& spec, std::string local, double timeout) :
@@ -1053,14 +1136,41 @@ public:
         }
     }
 
-    /// Connections coming into its port.
-    int connections() { return port_.getInputCount(); }
+    /// The ports connected to its port, by YARP's names for them.
+    std::vector<std::string> sources()
+    {
+        InputSources report;
+        port_.getReport(report);
+        return report.names;
+    }
 
-    using yarp::os::TypedReaderCallback<yarp::os::Bottle>::onRead;
+    /// Closes the connection from port `name` to its port (an admin `del`
+    /// to its own port, which needs no name server: `name` may be a port
+    /// the name server does not know).
+    void drop(const std::string& name)
+    {
+        yarp::os::Bottle reply;
+        admin(port_.where(), "del " + name, reply);
+    }
 
-    void onRead(yarp::os::Bottle& bottle) override
+    using yarp::os::TypedReaderCallback<SourcedBottle>::onRead;
+
+    void onRead(SourcedBottle& in) override
     {
         const SteadyClock::time_point now = SteadyClock::now();
+        if (spec.kind == InputKind::Yarp && !accepts(*this, in.source)) {
+            std::function<void()> watcher;
+            {
+                std::lock_guard<std::mutex> lock(shared_.mutex);
+                refuseForeign(*this, in.source, true);
+                watcher = shared_.foreign;
+            }
+            if (watcher) {
+                watcher();  // closes the connection now, in its own thread
+            }
+            return;
+        }
+        const yarp::os::Bottle& bottle = in.bottle;
         if (port_.getPendingReads() > kBacklog) {
             ++received;  // far behind: skipped unread, so that the reader catches up
             ++unused;
@@ -1094,6 +1204,13 @@ public:
     /// Its port's name and address, once open.
     yarp::os::Contact where() const { return port_.where(); }
 
+    /// A connection of port `other`, which it does not accept: said once.
+    void refuseConnection(const std::string& other)
+    {
+        std::lock_guard<std::mutex> lock(shared_.mutex);
+        refuseForeign(*this, other, false);
+    }
+
     const std::string local;  // this module's own port
     std::string registered;   // its name in the name server (topic-@node for ROS)
 
@@ -1119,30 +1236,43 @@ private:
     }
 
     Shared& shared_;
-    yarp::os::BufferedPort<yarp::os::Bottle> port_;
+    yarp::os::BufferedPort<SourcedBottle> port_;
     Mux scratch_;  // only touched by the callback thread
     std::vector<const yarp::os::Value*> items_;
 };
 
 // --- connections --------------------------------------------------------------------
 
-/// A connection the watcher keeps up. `linked`, when set, tells from the
-/// module's own port, without asking the network, that it has a connection.
+/// A connection the watcher keeps up: to an input's port from its source
+/// (`input` set), or from the output to a port it connects to.
 struct Link
 {
     std::string source;
     std::string destination;
-    std::function<bool()> linked;
+    Input* input = nullptr;
 };
+
+/// Does the port at `where` answer as the port `name` (an admin `prop get`,
+/// which a port answers with its process only for its own name)?
+bool answersAs(const yarp::os::Contact& where, const std::string& name)
+{
+    yarp::os::Bottle reply;
+    return admin(where, "prop get " + name, reply) && reply.check("process");
+}
 
 /// Every 0.5 s, connects each link whose source exists and that is not
 /// connected, so that a source that starts late or is restarted is picked
-/// up. An input port that has a connection is left alone (no network
-/// traffic); the network is asked only about a missing one, and once a
-/// period whether the name server still knows the module's first port
-/// (registerAgain). Its own thread:
-/// the loop never waits for it. Its state is shared with the thread, so that
-/// a thread held up by a peer that does not answer can be left behind at exit.
+/// up. An input's port reports its connections itself (no network traffic):
+/// one from its source (or a port it accepts) leaves it alone; one from any
+/// other port is closed (said once); the network is asked only about a
+/// missing one, and once a period whether the name server still knows the
+/// module's first port (registerAgain). What YARP connected is the port that
+/// answered at the address the name server gave: it is said by its own name,
+/// and when it is another port its Bottles are refused and its connection
+/// closed; that address is then connected again only once the port there
+/// answers as the source. Its own thread: the loop never waits for it. Its
+/// state is shared with the thread, so that a thread held up by a peer that
+/// does not answer can be left behind at exit.
 class Watcher
 {
 public:
@@ -1151,6 +1281,7 @@ public:
     {
         state_->connected.assign(links.size(), false);
         state_->made.assign(links.size(), false);
+        state_->blocked.assign(links.size(), yarp::os::Contact());
         state_->links = std::move(links);
         state_->own = std::move(own);
     }
@@ -1159,6 +1290,18 @@ public:
     {
         std::shared_ptr<State> state = state_;
         thread_ = std::thread([state] { run(*state); });
+    }
+
+    /// What wakes it at once (an input refused a Bottle: its connection is
+    /// closed now); callable from any thread, also once it has stopped.
+    std::function<void()> waker() const
+    {
+        std::shared_ptr<State> state = state_;
+        return [state] {
+            std::lock_guard<std::mutex> lock(state->mutex);
+            state->poked = true;
+            state->wake.notify_all();
+        };
     }
 
     /// Stops the thread; false if it did not end within `limit`.
@@ -1187,9 +1330,11 @@ private:
         std::vector<yarp::os::Contact> own;
         std::vector<bool> connected;
         std::vector<bool> made;  // connected by this watcher
+        std::vector<yarp::os::Contact> blocked;  // where another port answered to the source's name
         std::mutex mutex;
         std::condition_variable wake;
         bool done = false;
+        bool poked = false;
         bool finished = false;
     };
 
@@ -1197,17 +1342,22 @@ private:
     {
         std::unique_lock<std::mutex> lock(s.mutex);
         while (!s.done) {
+            s.poked = false;
             lock.unlock();
             registerAgain(s);
             for (std::size_t k = 0; k < s.links.size(); ++k) {
-                check(s, k);
+                if (s.links[k].input != nullptr) {
+                    checkInput(s, k);
+                } else {
+                    check(s, k);
+                }
                 std::lock_guard<std::mutex> again(s.mutex);
                 if (s.done) {
                     break;
                 }
             }
             lock.lock();
-            s.wake.wait_for(lock, std::chrono::milliseconds(500), [&s] { return s.done; });
+            s.wake.wait_for(lock, std::chrono::milliseconds(500), [&s] { return s.done || s.poked; });
         }
         s.finished = true;
         s.wake.notify_all();
@@ -1231,16 +1381,72 @@ private:
         }
     }
 
+    /// An input's link: the connections of other ports closed, its source
+    /// connected when no port it accepts is.
+    static void checkInput(State& s, std::size_t k)
+    {
+        const Link& link = s.links[k];
+        Input& input = *link.input;
+        bool up = false;
+        for (const std::string& name : input.sources()) {
+            if (accepts(input, name)) {
+                up = true;
+            } else {
+                input.refuseConnection(name);
+                input.drop(name);
+            }
+        }
+        if (up) {
+            s.connected[k] = true;
+            return;
+        }
+        const yarp::os::Contact where = yarp::os::Network::queryName(link.source);
+        const yarp::os::Contact& blocked = s.blocked[k];
+        if (where.isValid() && blocked.isValid() && where.getHost() == blocked.getHost()
+            && where.getPort() == blocked.getPort() && !answersAs(where, link.source)) {
+            return;  // the name still gives the address of the other port (said when it was connected)
+        }
+        if (where.isValid() && yarp::os::Network::exists(link.source, true)
+            && yarp::os::Network::connect(link.source, link.destination, "", true)) {
+            // the port YARP connected, by its own name: the one at the address
+            // the name server gave, which may be another port's
+            std::string real;
+            for (const std::string& name : input.sources()) {
+                if (accepts(input, name)) {
+                    real = name;
+                    break;
+                }
+                if (real.empty()) {
+                    real = name;
+                }
+            }
+            if (real.empty()) {
+                real = link.source;  // not listed yet
+            }
+            if (accepts(input, real)) {
+                say("connected " + real + " -> " + link.destination);
+                s.connected[k] = true;
+                s.made[k] = true;
+                s.blocked[k] = yarp::os::Contact();
+            } else {
+                // its Bottles are refused as they come; its connection is closed next
+                say("connected " + real + " -> " + link.destination + " (asked for " + link.source + ")");
+                input.refuseConnection(real);
+                s.blocked[k] = where;
+                s.connected[k] = false;
+            }
+        } else if (s.connected[k]) {
+            say("lost " + link.source + " -> " + link.destination + "; reconnecting when it is back");
+            s.connected[k] = false;
+        }
+    }
+
+    /// The output's link to a port it connects to.
     static void check(State& s, std::size_t k)
     {
         const Link& link = s.links[k];
-        if (link.linked) {
-            if (link.linked()) {
-                s.connected[k] = true;
-                return;
-            }
-        } else if (yarp::os::Network::exists(link.destination, true)
-                   && yarp::os::Network::isConnected(link.source, link.destination, true)) {
+        if (yarp::os::Network::exists(link.destination, true)
+            && yarp::os::Network::isConnected(link.source, link.destination, true)) {
             if (!s.made[k] || listsInput(link.destination, link.source)) {
                 s.connected[k] = true;
                 return;
@@ -1589,10 +1795,18 @@ private:
 /// What `help` answers on the RPC port, one line a command.
 const char* const kRpcHelp[] = {
     "help: this list",
-    "stats: the totals so far: per input (input SOURCE received N dropped N stale N unused N), "
+    "stats: the totals so far: per input (input SOURCE received N dropped N stale N unused N refused N), "
     "(published N skipped N failures N), (rate ACHIEVED configured HZ|event-driven)",
     "quit: stop the module (it closes its ports and exits 0, as on SIGINT)",
 };
+
+/// A rate achieved as `stats` gives it: messages per second, two decimals.
+std::string rateText(double rate)
+{
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.2f", rate);
+    return buf;
+}
 
 /// The rate achieved: messages published per second since the previous
 /// reading (the first: since the meter was made, at start).
@@ -1677,7 +1891,8 @@ private:
                 item.addString("input");
                 item.addString(in.source);
                 for (const auto& [key, n] : {std::pair<const char*, std::uint64_t>{"received", in.received},
-                                             {"dropped", in.dropped}, {"stale", in.stale}, {"unused", in.unused}}) {
+                                             {"dropped", in.dropped}, {"stale", in.stale}, {"unused", in.unused},
+                                             {"refused", in.refused}}) {
                     item.addString(key);
                     item.addInt64(static_cast<std::int64_t>(n));
                 }
@@ -1688,18 +1903,16 @@ private:
                 counts.addString(key);
                 counts.addInt64(static_cast<std::int64_t>(n));
             }
+            // the rates as text, with the digits that mean something (a float64
+            // prints with 21 digits)
             yarp::os::Bottle& rate = reply.addList();
             rate.addString("rate");
             {
                 std::lock_guard<std::mutex> lock(meterMutex_);
-                rate.addFloat64(meter_.read(SteadyClock::now(), totals.published));
+                rate.addString(rateText(meter_.read(SteadyClock::now(), totals.published)));
             }
             rate.addString("configured");
-            if (rate_ > 0) {
-                rate.addFloat64(rate_);
-            } else {
-                rate.addString("event-driven");
-            }
+            rate.addString(rate_ > 0 ? reprFloat(rate_) : std::string("event-driven"));
         } else if (word == "quit" || word == "exit" || word == "bye") {
             say("asked to quit on the RPC port");
             quit_();
@@ -1731,6 +1944,7 @@ struct Options
     bool hasTimeout = false;
     double timeout = 0.0;
     bool verbose = false;
+    std::vector<std::pair<std::string, std::string>> accept;  // --accept: (input's source, other port)
 };
 
 std::string formatNumber(double x)
@@ -1765,6 +1979,16 @@ public:
                 : options.prefix + "/" + mux + "/in" + index + ":i";
             inputs_.push_back(std::make_unique<Input>(shared_, in, local,
                                                       options.hasTimeout ? options.timeout : in.timeout));
+            std::vector<std::string>& accepted = inputs_.back()->accepted;
+            accepted.emplace_back(in.source);
+            for (const char* other : in.accepts) {
+                accepted.emplace_back(other);
+            }
+            for (const auto& [port, other] : options.accept) {
+                if (in.kind == InputKind::Yarp && port == in.source) {
+                    accepted.push_back(other);
+                }
+            }
         }
         std::vector<InputState*> states;
         for (const auto& in : inputs_) {
@@ -1790,6 +2014,8 @@ public:
         const SteadyClock::time_point now = SteadyClock::now();
         for (const auto& in : inputs_) {
             Totals::PerInput t{in->spec.source, in->received, in->dropped, in->stalePeriods, in->unused};
+            t.refused = in->refused;
+            t.foreign = in->foreign;
             t.state = in->state;
             t.age = in->state == Freshness::Waiting ? -1.0 : std::chrono::duration<double>(now - in->arrival).count();
             t.timeout = in->timeout;
@@ -1844,8 +2070,7 @@ public:
         std::vector<Link> links;
         for (const auto& in : inputs_) {
             if (in->spec.kind == InputKind::Yarp) {
-                Input* input = in.get();
-                links.push_back({in->spec.source, in->local, [input] { return input->connections() > 0; }});
+                links.push_back({in->spec.source, in->local, in.get()});
             }
         }
         if (spec_.output.connectTo[0] != '\0') {
@@ -1861,6 +2086,10 @@ public:
             own.push_back(output_.where());
         }
         Watcher watcher(std::move(links), std::move(own));
+        {
+            std::lock_guard<std::mutex> lock(shared_.mutex);
+            shared_.foreign = watcher.waker();
+        }
         if (status == 0) {
             // a ROS 2 node among them reports the totals (its /diagnostics)
             output_.watch([this] { return totals(); });
@@ -2053,7 +2282,15 @@ private:
         for (const auto& in : inputs_) {
             out += "  input " + std::string(in->spec.source) + ": received " + std::to_string(in->received)
                 + ", dropped " + std::to_string(in->dropped) + ", stale periods "
-                + std::to_string(in->stalePeriods) + ", unused " + std::to_string(in->unused) + "\n";
+                + std::to_string(in->stalePeriods) + ", unused " + std::to_string(in->unused);
+            if (in->refused > 0) {
+                std::string from;
+                for (const std::string& name : in->foreign) {
+                    from += (from.empty() ? "" : ", ") + name;
+                }
+                out += ", refused " + std::to_string(in->refused) + " from " + from;
+            }
+            out += "\n";
         }
         out += "  published " + std::to_string(published_) + " messages, skipped "
             + std::to_string(skippedCycles_) + " cycles, build failures " + std::to_string(buildFailures_) + "\n";
@@ -2079,7 +2316,8 @@ private:
 void usage(const BridgeSpec& spec, const std::string& prog, std::FILE* out, bool full)
 {
     std::fprintf(out,
-                 "usage: %s [--name P] [--rate HZ] [--timeout S] [--verbose] [--from FILE] [--context CTX] [--help]\n",
+                 "usage: %s [--name P] [--rate HZ] [--timeout S] [--verbose] [--accept [PORT=]OTHER] [--from FILE]\n"
+                 "       [--context CTX] [--help]\n",
                  prog.c_str());
     if (!full) {
         return;
@@ -2095,6 +2333,10 @@ void usage(const BridgeSpec& spec, const std::string& prog, std::FILE* out, bool
                  "  --rate HZ     fixed output rate in Hz, 0 for event-driven (default: %s)\n"
                  "  --timeout S   freshness timeout of every input in seconds (default: the config's)\n"
                  "  --verbose     print every value after conversion, for every mux\n"
+                 "  --accept [PORT=]OTHER\n"
+                 "                the input of YARP port PORT also takes the Bottles of port OTHER (a replay\n"
+                 "                under another name); OTHER alone: the module's one YARP port input; any\n"
+                 "                other port's Bottles are refused. May be given several times\n"
                  "  --from FILE   read these options (name, prefix, rate, timeout, verbose) from a YARP\n"
                  "                config file, found by YARP's ResourceFinder; the command line wins\n"
                  "  --context CTX the ResourceFinder's context to look for the file in (alone: %s)\n"
@@ -2109,7 +2351,7 @@ void usage(const BridgeSpec& spec, const std::string& prog, std::FILE* out, bool
         std::fprintf(out,
                      "\nROS arguments (--ros-args ... [--], as for every ROS 2 program): remappings\n"
                      "(-r FROM:=TO), parameters (-p NAME:=VALUE, --params-file FILE), --log-level. Parameters:\n"
-                     "  rate, timeout, prefix, verbose\n"
+                     "  rate, timeout, prefix, verbose, accept\n"
                      "                as the options above (timeout 0: the config's); the options win\n"
                      "  use_sim_time  the node's clock is the simulated time of /clock (default: false)\n"
                      "  diagnostics   publish the bridge's state on /diagnostics (default: true)\n"
@@ -2130,6 +2372,52 @@ bool parseNumber(const std::string& text, double& out)
     errno = 0;
     out = std::strtod(text.c_str(), &end);
     return errno == 0 && end == text.c_str() + text.size() && std::isfinite(out);
+}
+
+/// Adds `--accept` `value` to `accept`: `PORT=OTHER` (the input of YARP port
+/// PORT also takes the Bottles of port OTHER), or `OTHER` for a module of
+/// one YARP port input; false (`why` says it) for anything else.
+bool parseAccept(const BridgeSpec& spec, const std::string& value, std::vector<std::pair<std::string, std::string>>& accept,
+                 std::string& why)
+{
+    std::vector<std::string> ports;
+    for (const InputSpec& in : spec.inputs) {
+        if (in.kind == InputKind::Yarp && std::find(ports.begin(), ports.end(), in.source) == ports.end()) {
+            ports.emplace_back(in.source);
+        }
+    }
+    std::string read;
+    for (const std::string& port : ports) {
+        read += (read.empty() ? "" : ", ") + port;
+    }
+    if (read.empty()) {
+        read = "no YARP port";
+    }
+    const std::size_t split = value.find('=');
+    std::string port;
+    std::string other = value;
+    if (split == std::string::npos) {
+        if (ports.size() != 1) {
+            why = "--accept " + value + ": say which input takes it, --accept PORT=" + value + " (the module reads "
+                + read + ")";
+            return false;
+        }
+        port = ports.front();
+    } else {
+        port = value.substr(0, split);
+        other = value.substr(split + 1);
+    }
+    if (std::find(ports.begin(), ports.end(), port) == ports.end()) {
+        why = "--accept " + value + ": " + port + " is not a YARP port the module reads (it reads " + read + ")";
+        return false;
+    }
+    if (other.size() < 2 || other[0] != '/'
+        || std::any_of(other.begin(), other.end(), [](unsigned char c) { return std::isspace(c) != 0; })) {
+        why = "--accept " + value + ": '" + other + "' is not a YARP port name";
+        return false;
+    }
+    accept.emplace_back(port, other);
+    return true;
 }
 
 /// Parses `args` into `opt` (from the config's defaults): -1 to go on, 0
@@ -2163,7 +2451,7 @@ int parseArgs(const BridgeSpec& spec, const std::string& prog, const std::vector
             continue;
         }
         if (arg != "--prefix" && arg != "--name" && arg != "--rate" && arg != "--timeout" && arg != "--from"
-            && arg != "--context") {
+            && arg != "--context" && arg != "--accept") {
             why = "unknown option " + arg;
             return 2;
         }
@@ -2186,6 +2474,10 @@ int parseArgs(const BridgeSpec& spec, const std::string& prog, const std::vector
             opt.from = value;
         } else if (arg == "--context") {
             opt.context = value;
+        } else if (arg == "--accept") {
+            if (!parseAccept(spec, value, opt.accept, why)) {
+                return 2;
+            }
         } else if (arg == "--rate") {
             if (!parseNumber(value, opt.rate) || opt.rate < 0) {
                 why = "--rate must be 0 (event-driven) or positive";

@@ -275,6 +275,7 @@ struct InputSpec
     std::vector<FieldPath> fields;  // ROS 1 topic: the fields read (empty: every leaf)
     int reads = -1;                 // undeclared port cut by the message (W511): the values
                                     // it reads; a wider Bottle is said once (-1: no cut)
+    std::vector<const char*> accepts = {};  // YARP port: other ports whose Bottles it takes too
 };
 
 struct MuxSpec
@@ -406,6 +407,9 @@ struct InputState
     std::atomic<std::uint64_t> dropped{0};
     std::atomic<std::uint64_t> unused{0};        // accepted (or skipped unread), never in a message
     std::atomic<std::uint64_t> stalePeriods{0};
+    std::atomic<std::uint64_t> refused{0};       // Bottles of another port than those it accepts
+    std::vector<std::string> accepted;           // the ports whose Bottles it takes: its source, those accepted
+    std::vector<std::string> foreign;            // the other ports that sent to it, in order (each said once)
     Freshness state = Freshness::Waiting;
     bool reportedWaiting = false;
     bool reportedDrop = false;
@@ -421,6 +425,18 @@ bool accept(InputState& in, Mux& values, bool hasEnvelope, double envelope, Stea
 
 /// A Bottle the input refused (`why`): counted, said the first time only.
 void refuse(InputState& in, const std::string& why);
+
+/// Does the input take the Bottles of port `name` (its source, or one it accepts)?
+bool accepts(const InputState& in, const std::string& name);
+
+/// A Bottle (`bottle`), or a connection, of port `other`, which the input
+/// does not accept: never used; the Bottle counted; said once per port with
+/// both names. True the first time `other` is seen.
+bool refuseForeign(InputState& in, const std::string& other, bool bottle);
+
+/// What is said, once per port, when another port than an input's own (or
+/// those it accepts) is connected to it.
+std::string foreignText(const std::string& source, const std::string& other);
 
 /// What is said, once, when a Bottle of an undeclared port brings more values
 /// (`width`) than the message reads (`reads`, InputSpec::reads).
@@ -500,6 +516,8 @@ struct Totals
     {
         std::string source;
         std::uint64_t received, dropped, stale, unused;
+        std::uint64_t refused = 0;  // Bottles of other ports
+        std::vector<std::string> foreign = {};  // those ports
         Freshness state = Freshness::Waiting;
         double age = -1.0;      // seconds since its newest accepted Bottle (< 0: none yet)
         double timeout = 0.0;   // its freshness timeout, seconds

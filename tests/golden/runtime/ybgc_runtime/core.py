@@ -24,8 +24,9 @@ _INT_TYPES = frozenset(("int8", "uint8", "int16", "uint16", "int32", "uint32",
 _INT_BITS = {"int8": 8, "uint8": 8, "byte": 8, "char": 8, "int16": 16, "uint16": 16,
              "int32": 32, "uint32": 32, "int64": 64, "uint64": 64}
 
-InputSpec = collections.namedtuple("InputSpec", "mux index source kind types timeout positions reads",
-                                   defaults=(None, None))
+#: ``accepts``: the other ports whose Bottles a YARP port input takes too
+InputSpec = collections.namedtuple("InputSpec", "mux index source kind types timeout positions reads accepts",
+                                   defaults=(None, None, ()))
 ConverterSpec = collections.namedtuple("ConverterSpec", "name scale offset to_float start stop")
 #: a geometry converter (geometry.py) on the elements [start, start + its width)
 GeometrySpec = collections.namedtuple("GeometrySpec", "name function args start")
@@ -138,12 +139,18 @@ class InputState:
     accepted Bottles no message used yet (``queue``, oldest first, each
     ``(values, arrival, envelope)``), the values messages use (``values``,
     ``envelope``; ``values`` None before the first), the arrival of the
-    newest accepted Bottle, and the totals."""
+    newest accepted Bottle, and the totals. ``accepted``: the ports whose
+    Bottles it takes (its source, and those the config or the command line
+    accept); ``refused`` counts the Bottles of any other port, ``foreign``
+    names those ports, in the order they came."""
 
     def init_state(self, bridge, spec, timeout):
         self.bridge = bridge
         self.spec = spec
         self.source = spec.source
+        self.accepted = frozenset((spec.source,) + tuple(spec.accepts or ()))
+        self.refused = 0
+        self.foreign = []
         self.timeout = timeout
         self.queue = collections.deque()
         self.values = None
@@ -231,7 +238,10 @@ class Bridge:
                 else:
                     local = "%s/%s/in%d:i" % (self.prefix, mux.name, i.index)
                 timeout = i.timeout if self.timeout is None else self.timeout
-                group.append(self.make_input(mux, i, local, timeout))
+                inp = self.make_input(mux, i, local, timeout)
+                if i.kind == "yarp":
+                    inp.accepted |= frozenset(getattr(options, "accept", {}).get(i.source, ()))
+                group.append(inp)
             self.mux_inputs[mux.name] = group
             self.inputs.extend(group)
         needed = [i for name in spec.needed for i in self.mux_inputs[name]]
@@ -283,6 +293,18 @@ class Bridge:
                 # event-driven: built and published here, in the thread of
                 # the Bottle that completes it (no hand-off to another thread)
                 self._publish_ready()
+
+    def on_foreign(self, inp, source, bottle=True):
+        """A Bottle (``bottle``), or a connection, of another port than the
+        input's own and those it accepts: never used; the Bottle counted;
+        said once per port, with both names."""
+        with self.cond:
+            if bottle:
+                inp.refused += 1
+            if source in inp.foreign:
+                return
+            inp.foreign.append(source)
+            self.log(foreign_text(inp.source, source))
 
     def on_skipped(self, inp):
         """A Bottle skipped unread: the input's reader fell BACKLOG behind."""
@@ -475,20 +497,35 @@ class Bridge:
 
     def totals(self):
         """The totals as they stand, read under the lock: ([(source,
-        received, dropped, stale periods, unused) per input], published,
-        skipped cycles, build failures). What `stats` answers on the RPC port."""
+        received, dropped, stale periods, unused, refused) per input],
+        published, skipped cycles, build failures). What `stats` answers on
+        the RPC port."""
         with self.cond:
-            inputs = [(i.source, i.received, i.dropped, i.stale_periods, i.unused) for i in self.inputs]
+            inputs = [(i.source, i.received, i.dropped, i.stale_periods, i.unused, i.refused)
+                      for i in self.inputs]
             return inputs, self.published, self.skipped_cycles, self.build_errors
 
     def _print_totals(self):
         lines = ["totals:"]
         for inp in self.inputs:
-            lines.append("  input %s: received %d, dropped %d, stale periods %d, unused %d"
-                         % (inp.source, inp.received, inp.dropped, inp.stale_periods, inp.unused))
+            line = ("  input %s: received %d, dropped %d, stale periods %d, unused %d"
+                    % (inp.source, inp.received, inp.dropped, inp.stale_periods, inp.unused))
+            if inp.refused:
+                line += ", refused %d from %s" % (inp.refused, ", ".join(inp.foreign))
+            lines.append(line)
         lines.append("  published %d messages, skipped %d cycles, build failures %d"
                      % (self.published, self.skipped_cycles, self.build_errors))
         print("\n".join(lines), flush=True)
+
+
+def foreign_text(source, other):
+    """What the module says, once per port, when another port than an input's
+    own (or those it accepts) is connected to it: both names, what is done,
+    how to accept it."""
+    return ("input %s: %s is connected to its port, not %s (the name server gave %s the address of %s, "
+            "or the connection was made by hand): its Bottles are refused (dropped and counted), the "
+            "connection closed and %s tried again; to take them, `accept` it in the config or give "
+            "--accept %s=%s; said once" % (source, other, source, source, other, source, source, other))
 
 
 def cut_text(source, width, reads):
@@ -555,6 +592,31 @@ class RateMeter:
         return (published - before) / (now - then) if now > then else 0.0
 
 
+def parse_accept(spec, items):
+    """{input port: (other ports it takes Bottles from)} of ``--accept``
+    values, each `PORT=OTHER`, or `OTHER` for a module of one YARP port
+    input; ValueError saying what is wrong."""
+    ports = list(dict.fromkeys(i.source for m in spec.muxes for i in m.inputs if i.kind == "yarp"))
+    out = {}
+    for item in items:
+        port, sep, other = item.partition("=")
+        if not sep:
+            other = item
+            if len(ports) != 1:
+                raise ValueError("--accept %s: say which input takes it, --accept PORT=%s (the module reads %s)"
+                                 % (item, item, ", ".join(ports) or "no YARP port"))
+            port = ports[0]
+        if port not in ports:
+            raise ValueError("--accept %s: %s is not a YARP port the module reads (it reads %s)"
+                             % (item, port, ", ".join(ports) or "none"))
+        if not other.startswith("/") or len(other) < 2 or any(c.isspace() for c in other):
+            raise ValueError("--accept %s: %r is not a YARP port name" % (item, other))
+        out.setdefault(port, [])
+        if other not in out[port]:
+            out[port].append(other)
+    return {k: tuple(v) for k, v in out.items()}
+
+
 def truthy(text):
     """A YARP config file's flag: ``true``/``1``/no value -> True, ``false``/``0`` -> False, else None."""
     return {"": True, "true": True, "1": True, "false": False, "0": False}.get(text.strip().lower())
@@ -586,6 +648,10 @@ def parse_options(spec, argv, default_prefix, read_file=None):
     parser.add_argument("--from", dest="from_file", metavar="FILE",
                         help="read these options (name, prefix, rate, timeout, verbose) from a YARP "
                         "config file, found by YARP's ResourceFinder; the command line wins")
+    parser.add_argument("--accept", action="append", default=[], metavar="[PORT=]OTHER",
+                        help="the input of YARP port PORT also takes the Bottles of port OTHER (a "
+                        "replay under another name); OTHER alone: the module's one YARP port input; "
+                        "any other port's Bottles are refused. May be given several times")
     parser.add_argument("--context", metavar="CTX",
                         help="the ResourceFinder's context to look for the file in (alone: %s)"
                         % DEFAULT_CONFIG_FILE)
@@ -601,6 +667,10 @@ def parse_options(spec, argv, default_prefix, read_file=None):
         parser.error("--timeout must be positive")
     if not options.prefix.startswith("/"):
         parser.error("--prefix must start with /")
+    try:
+        options.accept = parse_accept(spec, options.accept)
+    except ValueError as e:
+        parser.error(str(e))
     if len(options.prefix) > 1:
         options.prefix = options.prefix.rstrip("/")
     return options
