@@ -200,16 +200,30 @@ class Rig:
         words = out.split()
         return words[words.index("ip") + 1] if "ip" in words else ""
 
+    def contact(self, port: str) -> Optional[tuple[str, int]]:
+        """(address, port number) the name server gives ``port`` (None: not registered)."""
+        words = self.yarp("name", "query", port).stdout.split()
+        if "registration" not in words or "ip" not in words or "port" not in words:
+            return None
+        return words[words.index("ip") + 1], int(words[words.index("port") + 1])
+
     def wait_port(self, port: str, timeout: float = 30.0, host: str = "names") -> None:
         middleware._wait_until(lambda: self.exists(port, host), timeout, f"port {port} on the rig")
 
-    def start_name_server(self) -> Proc:
-        """``yarpserver`` on the names host (started again if it was stopped)."""
+    def start_name_server(self, keep: bool = False) -> Proc:
+        """``yarpserver`` on the names host (started again if it was stopped).
+        ``keep``: its registrations kept in a database on disk (``--portdb``,
+        ``--subdb``), so that started again it still knows every port; its
+        address then comes from yarp.conf (``--ip`` or ``--socket`` would
+        reset the database)."""
         if self.name_server is None:
+            argv = [self.install.bin / "yarpserver", "--ip", self.ip("names"),
+                    "--socket", NAME_SERVER_PORT, "--read"]
+            if keep:
+                argv = [self.install.bin / "yarpserver", "--read",
+                        "--portdb", self.tmpdir / "ports.db", "--subdb", self.tmpdir / "subs.db"]
             self.name_server = self.place("names", Proc(
-                [self.install.bin / "yarpserver", "--ip", self.ip("names"),
-                 "--socket", NAME_SERVER_PORT, "--read"],
-                env=self.env("names"), name="yarpserver", log_dir=self.tmpdir,
+                argv, env=self.env("names"), name="yarpserver", log_dir=self.tmpdir,
                 die_with_parent=True))
         self.name_server.start()
         middleware._wait_until(lambda: self.exists("/root"), 30, "the rig's yarpserver",

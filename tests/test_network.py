@@ -16,6 +16,7 @@ Needs root (network namespaces): elsewhere every test here fails saying so.
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import re
 import signal
@@ -434,6 +435,113 @@ FAULTS = {
 @pytest.mark.parametrize("fault", list(FAULTS))
 def test_fault(rig, modules, fault):
     FAULTS[fault](rig, modules)
+
+
+# --------------------------------------------------------------------------
+# a name that leads to another port (docs/network.md)
+
+#: a producer running since before the name server restarted, whose port
+#: number the restarted server hands to the late source
+OTHER = "/t/other:o"
+#: its values, none of which the source sends
+FOREIGN = [[1000.0 + k] for k in range(10)]
+#: a port number no port of the producers' host holds
+FREE_SOCKET = netns.NAME_SERVER_PORT + 900
+
+
+class PinnedProducer(YarpProducer):
+    """A producer whose port opens at a port number of its own choosing, its
+    name registered there."""
+
+    def __init__(self, env: dict, port: str, socket: int, **kw):
+        super().__init__(env, port, **kw)
+        self.config["socket"] = socket
+        self.argv[-1] = json.dumps(self.config)
+
+
+def start_failing(producer: YarpProducer) -> str:
+    """Start a producer whose port cannot open: it says why and exits; its log."""
+    with pytest.raises(RuntimeError, match="exited"):
+        producer.start()
+    producer.wait_exit(timeout=30)
+    return producer.log_text()
+
+
+def test_a_name_that_leads_to_another_port(rig, modules):
+    """The name server killed and restarted: it has forgotten the producers
+    that run on. The source, started late, is handed the port number the
+    server believes free, the first it hands out, which a producer running
+    since before (OTHER, started first) holds: YARP cannot open it (address
+    conflict), but the name stays registered at OTHER's address. The module
+    connects the name, YARP connects OTHER: said by OTHER's own name, none of
+    its Bottles is used (no output carries its values), they are refused,
+    counted and said once, the connection closed, and that address not
+    connected again while OTHER answers there. The source started again on a
+    free port: connected, its values relayed exactly."""
+    with contextlib.ExitStack() as stack:
+        other = rig.place("producers", YarpProducer(rig.env("producers"), OTHER, bottles=FOREIGN, rate=50))
+        stack.enter_context(other)
+        module, reader, producer = relay(stack, rig, modules, rate=None, started=False)
+        reader.wait_connected()
+        held = rig.contact(OTHER)
+        rig.name_server.kill()
+        rig.start_name_server()
+        module.wait_log("registered them again")
+        log = start_failing(producer)
+        assert "address conflict" in log or "cannot open" in log, log[-2000:]
+        assert rig.contact(SRC) == held  # the clash: the source's name at OTHER's address
+        module.wait_log(f"connected {OTHER} -> {IN} (asked for {SRC})")
+        module.wait_log(f"input {SRC}: {OTHER} is connected to its port, not {SRC}")
+        other.wait(lambda: other.output_count() == 0, 30, f"{OTHER} -> {IN} closed")
+        # the source, really there: started again on a free port of its host
+        source = rig.place("producers", PinnedProducer(rig.env("producers"), SRC, FREE_SOCKET))
+        stack.enter_context(source)
+        module.wait_log(f"connected {SRC} -> {IN}")
+        assert rig.contact(SRC) == (rig.ip("producers"), FREE_SOCKET)
+        source.wait_outputs(1)
+        for k in range(5):
+            source.write([float(k)])
+            reader.wait_for(k + 1)
+        rc, elapsed = module.interrupt(signal.SIGINT)
+        log = assert_clean_exit(rig, module, rc, elapsed, [IN, OUT])
+    assert exactly([b.data for b in reader.bottles], [[k, float(k)] for k in range(5)])
+    said = re.findall(rf"input {re.escape(SRC)}: {re.escape(OTHER)} is connected to its port", log)
+    assert len(said) == 1, log[-3000:]
+    assert module.count(rf"connected {re.escape(OTHER)} -> ") == 1  # never connected again
+    refused = re.search(rf"input {re.escape(SRC)}: received 5, dropped 0, stale periods 0, unused 0, "
+                        rf"refused (\d+) from {re.escape(OTHER)}\n", log)
+    assert refused and int(refused.group(1)) >= 1, log[-3000:]
+
+
+def test_a_name_server_that_keeps_its_registrations(rig, install, tmp_path):
+    """A name server started with its registrations on disk (yarpserver
+    --portdb): killed and started again, it still knows every port, so a
+    source started late gets a port number of its own, `yarp name query`
+    gives each port its own address, and the module connects the source.
+    (What the name server does: one backend suffices.)"""
+    rig.name_server.stop()
+    rig.name_server = None
+    rig.start_name_server(keep=True)
+    modules = launcher("py", tmp_path)
+    with contextlib.ExitStack() as stack:
+        other = rig.place("producers", YarpProducer(rig.env("producers"), OTHER, bottles=FOREIGN, rate=50))
+        stack.enter_context(other)
+        module, reader, producer = relay(stack, rig, modules, rate=None, started=False)
+        reader.wait_connected()
+        held = rig.contact(OTHER)
+        rig.name_server.kill()
+        rig.start_name_server()
+        assert rig.contact(OTHER) == held and rig.contact(IN)[0] == rig.ip("module")
+        producer.start()
+        module.wait_log(f"connected {SRC} -> {IN}")
+        assert rig.contact(SRC)[0] == rig.ip("producers") and rig.contact(SRC) != held
+        producer.wait_outputs(1)
+        producer.write([1.5])
+        reader.wait_for(1)
+        rc, elapsed = module.interrupt(signal.SIGINT)
+        log = assert_clean_exit(rig, module, rc, elapsed, [IN, OUT])
+    assert "registered them again" not in log and "is connected to its port, not" not in log
+    assert exactly([b.data for b in reader.bottles], [[0, 1.5]])
 
 
 def test_without_root_the_rig_says_why(install, monkeypatch):

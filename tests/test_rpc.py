@@ -46,9 +46,12 @@ arm = [arm]
 """
 
 # `yarp rpc` prints each item of a "many" answer on a line of its own
-STATS_INPUT = re.compile(r'^\s*input "?([^"\s]+)"? received (\d+) dropped (\d+) stale (\d+) unused (\d+)$', re.M)
+# (each input's `refused N` follows: tests/test_foreign_source.py)
+STATS_INPUT = re.compile(r'^\s*input "?([^"\s]+)"? received (\d+) dropped (\d+) stale (\d+) unused (\d+) refused \d+$',
+                         re.M)
 STATS_PUBLISHED = re.compile(r"^\s*published (\d+) skipped (\d+) failures (\d+)$", re.M)
-STATS_RATE = re.compile(r"^\s*rate (\S+) configured (\S+)$", re.M)
+# the rates are text, which YARP prints quoted when it starts with a digit
+STATS_RATE = re.compile(r'^\s*rate "?([^"\s]+)"? configured "?([^"\s]+)"?$', re.M)
 
 
 _COMMANDS: dict = {}
@@ -142,6 +145,7 @@ def test_rpc_port_answers_help_stats_and_quit(yarp, yarp_server, tmp_path_factor
         assert got["inputs"] == {"/rpcsrc/arm:o": (14, 4, 0, 0), "/rpcsrc/hand:o": (4, 0, 0, 3)}, got["text"]
         assert got["published"] == (10, 0, 0), got["text"]
         assert got["rate"][0] > 0, got["text"]
+        assert re.search(r'^\s*rate "\d+\.\d\d" configured event-driven$', got["text"], re.M), got["text"]
         bye = rpc(yarp_server, port, "quit")
         assert "bye" in bye, bye
         rc = module.wait_exit(timeout=10)

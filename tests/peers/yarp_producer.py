@@ -2,7 +2,10 @@
 
 Config: {"port": "/name", "bottles": [[...], ...], "rate": hz or null,
          "count": n or null, "envelope": bool, "wait_connected": bool,
-         "connect_to": ["/port", ...], "carrier": "tcp"}
+         "connect_to": ["/port", ...], "carrier": "tcp", "socket": n or null}
+With a socket, the port opens at that port number (of this host, YARP_IP)
+instead of the one the name server hands out, and registers its name there
+(YARP does not register a port opened at a given address).
 With a rate, writes the bottles in turn (cycling) at that rate (count times, or
 forever); without, writes only on command.
 Commands: {"cmd": "write", "data": [...], "stamp": [seq, time] (optional)}
@@ -13,6 +16,7 @@ Commands: {"cmd": "write", "data": [...], "stamp": [seq, time] (optional)}
           {"cmd": "quit"}
 Events: ready, sent (n, t), burst (n, t0, t1), outputs (n), done.
 """
+import os
 import threading
 import time
 
@@ -27,9 +31,14 @@ def main():
     yarp.Network.init()
     port = yarp.BufferedPortBottle()
     port.setWriteOnly()  # required for a ROS topic name such as /topic@/node
-    if not port.open(cfg["port"]):
+    where = cfg["port"]
+    if cfg.get("socket"):
+        where = yarp.Contact(cfg["port"], "tcp", os.environ.get("YARP_IP", "127.0.0.1"), int(cfg["socket"]))
+    if not port.open(where):
         peer_io.emit("error", message="cannot open " + cfg["port"])
         return 1
+    if cfg.get("socket"):
+        yarp.Network.registerContact(port.where())
     for dst in cfg.get("connect_to") or []:
         yarp.Network.connect(cfg["port"], dst, cfg.get("carrier") or "", True)
     lock = threading.Lock()
