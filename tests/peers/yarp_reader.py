@@ -31,6 +31,13 @@ def main():
     src = cfg.get("source")
     carrier = cfg.get("carrier") or ""
     poll = float(cfg.get("poll") or 0.2)
+    # the connection is looked for with its carrier: YARP 4 does not count a
+    # fast_tcp connection as one of the default carrier, and connecting again
+    # replaces it (what is in flight is lost)
+    style = yarp.ContactStyle()
+    style.quiet = True
+    if carrier:
+        style.carrier = carrier
     peer_io.emit("ready")
     connected = False
     last_state = None
@@ -39,7 +46,7 @@ def main():
         now = time.monotonic()
         if src and now >= next_check:
             next_check = now + poll
-            ok = yarp.Network.isConnected(src, name, True)
+            ok = yarp.Network.isConnected(src, name, style)
             state = ("connected",) if ok else None
             if not ok:
                 there = yarp.Network.exists(src, True)
