@@ -225,6 +225,7 @@ class Builds:
         self.built = True
         # the pytest-xdist workers of a run share one build (run_folder): the
         # first builds it, the others wait for it and read its log
+        self.root.mkdir(parents=True, exist_ok=True)
         with held(self.root / ".build.lock"):
             done = self.root / ".build.log"
             if done.exists():
