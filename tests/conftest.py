@@ -59,8 +59,32 @@ def pytest_generate_tests(metafunc):
                          ids=[f"yarp{v}" for v in versions])
 
 
+def _compile_once() -> None:
+    """The tests build many small CMake projects, each compiling a module and
+    the runtime library beside it: ccache (when installed, as the setup
+    does) compiles each distinct source once, in ~/.cache/ybgc/ccache (its
+    paths made relative to the temp folder, where the builds are, so that
+    one runtime library beside two modules is one entry). Set in the
+    environment, so every cmake the tests run (and the processes they
+    start) configures with it."""
+    import shutil
+    import tempfile
+
+    if os.environ.get("YBG_NO_CCACHE") or not shutil.which("ccache"):
+        return
+    os.environ.setdefault("CMAKE_CXX_COMPILER_LAUNCHER", "ccache")
+    os.environ.setdefault("CMAKE_C_COMPILER_LAUNCHER", "ccache")
+    os.environ.setdefault("CCACHE_DIR", str(middleware.YARP_CACHE / "ccache"))
+    os.environ.setdefault("CCACHE_BASEDIR", os.path.realpath(tempfile.gettempdir()))
+    os.environ.setdefault("CCACHE_NOHASHDIR", "1")
+    # the sources are written just before they are compiled
+    os.environ.setdefault("CCACHE_SLOPPINESS", "include_file_mtime,include_file_ctime,time_macros")
+    os.environ.setdefault("CCACHE_MAXSIZE", "3G")
+
+
 @pytest.hookimpl(tryfirst=True)
 def pytest_configure(config):
+    _compile_once()
     config.addinivalue_line("markers", "yarp_min(version): run on the YARP releases of the matrix "
                                        "from `version` (a tuple) on only")
     config.addinivalue_line("markers", "slow: a long test (real middleware, seconds or more); "
