@@ -502,3 +502,16 @@ def test_import_is_light():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          cwd=ROOT, env=env).stdout.splitlines()
     assert out == ["False False", "[]"]
+
+
+def test_a_ros2_input_is_read_in_the_distro_the_config_names():
+    """`[module] distro = kilted` holds for the topics a mux reads as for the
+    output: nav_msgs/Goals is Kilted's only (Jazzy has no such type)."""
+    from ybg.compiler.options import Options
+    from ybg.compiler.pipeline import compile_text
+
+    text = ("[module]\nname = goals_bridge\ndistro = kilted\n\n[output]\nport = /goals:o\n\n"
+            "[mux g]\ntopics = /goals (nav_msgs/Goals header.stamp)\nvia = ros2\n\n[message]\nstamp = g[0]\n")
+    assert [d.code for d in compile_text(text, "goals.ini").diagnostics] == []
+    jazzy = compile_text(text, "goals.ini", Options(distro="jazzy")).diagnostics  # the command line wins
+    assert [(d.code, d.span.line, d.span.column) for d in jazzy] == [("E301", 9, 18)]

@@ -310,8 +310,10 @@ def _topic_type(ctx: Context, decl, via: str, report: bool = True):
     """The message definition a topic declaration names, and its store (None: reported)."""
     s = ctx.sink
     words = [a.text for a in decl[0]]
-    distro = ctx.options.distro
-    store = ctx.stores.get(via, distro if DISTROS.get(distro or "") == via else None)
+    # the distro the dialect pass settled on ([module] distro, or --distro),
+    # when the topic is of the config's ROS; else --distro if it is of the topic's
+    distro = next((d for d in (ctx.distro, ctx.options.distro) if d and DISTROS.get(d) == via), None)
+    store = ctx.stores.get(via, distro)
     norm = normalize_name(words[0])
     msgdef = store.resolve(norm) if norm else None
     if msgdef is None and report:
