@@ -220,13 +220,13 @@ def test_status_levels():
     assert head(ros2_io.output_status(bridge, 17.99)) == (WARN, "rate too low: 17.99 Hz of 20 Hz")
 
     inp = SimpleNamespace(state="waiting", arrival=None, received=0, dropped=0, stale_periods=0,
-                          unused=0, timeout=0.5)
+                          unused=0, refused=0, timeout=0.5)
     assert head(ros2_io.input_status(inp, 100.0)) == (ERROR, "no data received yet")
-    inp.state, inp.arrival, inp.received, inp.dropped = "stale", 97.75, 12, 3
+    inp.state, inp.arrival, inp.received, inp.dropped, inp.refused = "stale", 97.75, 12, 3, 4
     status = ros2_io.input_status(inp, 100.0)
     assert head(status) == (WARN, "stale: no data for 2.2 s")
     values = status[2]
     assert dict(values) == {"received": "12", "dropped": "3", "stale periods": "0", "unused": "0",
-                            "age (s)": "2.250", "timeout (s)": "0.5"}
+                            "refused": "4", "age (s)": "2.250", "timeout (s)": "0.5"}
     inp.state = "fresh"
     assert head(ros2_io.input_status(inp, 97.875)) == (OK, "fresh")

@@ -29,7 +29,8 @@ from generated import generate
 from middleware import YarpProducer, YarpReader
 from test_backend_cpp import CppModules, builds  # noqa: F401 (the session's one CMake project)
 from test_backend_py import PyModules
-from test_backend_ros2 import Ros2Modules
+from test_backend_ros2 import QosSubscriber, Ros2Modules
+from test_diagnostics import statuses
 from test_rpc import rpc
 from ybg.backends import get_backend
 from ybg.compiler.pipeline import compile_text
@@ -90,14 +91,27 @@ def wait_closed(other: YarpProducer, timeout: float = 30.0) -> None:
     other.wait(lambda: other.output_count() == 0, timeout, f"{OTHER} -> {IN} closed")
 
 
+def refused_on_diagnostics(diag: QosSubscriber, at_least: int) -> None:
+    """The node's /diagnostics status of the input counts ``at_least`` refused."""
+    def refused(msg) -> int:
+        st = [v for name, v in statuses(msg).items() if name.endswith(f": input {SRC}")]
+        return int(st[0][2]["refused"]) if st else -1
+    diag.wait(lambda: any(refused(m.msg) >= at_least for m in diag.messages), 30,
+              f"refused {at_least} on /diagnostics")
+
+
 def test_a_port_connected_by_hand_is_refused(modules, yarp_server):
     """A port connected by hand to the input's port: none of its Bottles
-    comes out; they are counted (`stats`, the totals), said once with both
-    names; the module closes the connection; the source, started later, is
-    connected and relayed exactly; connected by hand again, the other port is
-    refused again, counted, not said again, and the source flows on."""
+    comes out; they are counted (`stats`, the totals, the ros2 node's
+    /diagnostics), said once with both names; the module closes the
+    connection; the source, started later, is connected and relayed exactly;
+    connected by hand again, the other port is refused again, counted, not
+    said again, and the source flows on."""
     env = modules.environment(yarp_server.env)
     with contextlib.ExitStack() as stack:
+        diag = None
+        if modules.backend == "ros2":
+            diag = stack.enter_context(QosSubscriber(env, "/diagnostics", "diagnostic_msgs/msg/DiagnosticArray"))
         module = stack.enter_context(relay(modules, env))
         reader = stack.enter_context(YarpReader(env, "/test/foreign:i", source=OUT))
         other = stack.enter_context(YarpProducer(env, OTHER, bottles=FOREIGN, rate=100, wait_connected=True))
@@ -108,6 +122,8 @@ def test_a_port_connected_by_hand_is_refused(modules, yarp_server):
         wait_closed(other)
         first = refused_by_stats(yarp_server)
         assert first >= 1
+        if diag is not None:
+            refused_on_diagnostics(diag, first)
         src = stack.enter_context(YarpProducer(env, SRC))
         module.wait_log(f"connected {SRC} -> {IN}")
         src.wait_outputs(1)

@@ -361,11 +361,12 @@ void testDiagnostics()
     t.inputs[0].age = 2.25;
     t.inputs[0].received = 12;
     t.inputs[0].dropped = 3;
+    t.inputs[0].refused = 4;  // Bottles of other ports than its source
     all = ybgc::ros2::statuses(t, "diag", 0.0);
     CHECK(all[0].level == Status::Warn && all[0].message == "stale: no data for 2.2 s");
     CHECK((all[0].values == std::vector<std::pair<std::string, std::string>>{
-        {"received", "12"}, {"dropped", "3"}, {"stale periods", "0"}, {"unused", "0"}, {"age (s)", "2.250"},
-        {"timeout (s)", "0.5"}}));
+        {"received", "12"}, {"dropped", "3"}, {"stale periods", "0"}, {"unused", "0"}, {"refused", "4"},
+        {"age (s)", "2.250"}, {"timeout (s)", "0.5"}}));
     t.inputs[0].state = ybgc::Freshness::Fresh;
     all = ybgc::ros2::statuses(t, "diag", 0.0);
     CHECK(all[0].level == Status::Ok && all[0].message == "fresh");
