@@ -177,6 +177,10 @@ def parse_bottle(bottle, types, flatten, drop_nan, positions=None, floats=False)
                 return None, "element %d is NaN" % k
     return out, None
 
+#: what clears a port's envelope stamp (an empty one)
+_NO_ENVELOPE = yarp.Bottle()
+
+
 class _SourceReader(yarp.PortReader):
     """What YARP calls for each Bottle that reaches an input's port, in the
     thread of its connection: the input reads it there with the name of the
@@ -257,6 +261,10 @@ class Input(InputState):
             if self.bridge.stopping:
                 return True
             if source not in self.accepted:
+                # the port keeps the envelope of the last message that had one,
+                # by whichever connection it came: this one's is not left to
+                # the source's next Bottle
+                self.port.setEnvelope(_NO_ENVELOPE)
                 self.bridge.on_foreign(self, source)
                 if self.bridge.watcher is not None:
                     self.bridge.watcher.poke()  # closes the connection now, in its own thread
