@@ -1852,16 +1852,28 @@ public:
         return port_.open(name);
     }
 
+    /// Closed; after a `quit` it asked for, once its `bye` is on its way:
+    /// YARP sends a reply when read() has returned, so a port closed at once
+    /// could drop it (the caller would not know the module heard it).
     void close()
     {
+        if (quitAsked_) {
+            const SteadyClock::time_point deadline = SteadyClock::now() + std::chrono::milliseconds(500);
+            while (reading_ && SteadyClock::now() < deadline) {
+                std::this_thread::sleep_for(std::chrono::milliseconds(1));
+            }
+            std::this_thread::sleep_for(std::chrono::milliseconds(50));  // read() returned: the reply is sent
+        }
         port_.interrupt();
         port_.close();
     }
 
     bool read(yarp::os::ConnectionReader& connection) override
     {
+        reading_ = true;
         yarp::os::Bottle command;
         if (!command.read(connection)) {
+            reading_ = false;
             return false;
         }
         yarp::os::Bottle reply;
@@ -1870,6 +1882,7 @@ public:
         if (writer != nullptr) {
             reply.write(*writer);
         }
+        reading_ = false;
         return true;
     }
 
@@ -1917,6 +1930,7 @@ private:
             rate.addString(rate_ > 0 ? reprFloat(rate_) : std::string("event-driven"));
         } else if (word == "quit" || word == "exit" || word == "bye") {
             say("asked to quit on the RPC port");
+            quitAsked_ = true;
             quit_();
             reply.addVocab32("bye");
         } else {
@@ -1929,6 +1943,8 @@ private:
     std::function<Totals()> totals_;
     std::function<void()> quit_;
     const double rate_;
+    std::atomic<bool> reading_{false};
+    std::atomic<bool> quitAsked_{false};
     std::mutex meterMutex_;
     RateMeter meter_;
     yarp::os::RpcServer port_;

@@ -952,6 +952,7 @@ def rpc_respond(command, reply, bridge, meter):
         item.addString("event-driven" if bridge.rate is None else repr(float(bridge.rate)))
     elif word in ("quit", "exit", "bye"):
         bridge.log("asked to quit on the RPC port")
+        bridge.quit_asked = True
         bridge.request_stop()
         reply.addVocab32("bye")
     else:
@@ -1000,8 +1001,15 @@ class RpcPort(yarp.PortReader):
         """Interrupted, then closed once no command is being answered (a
         binding call keeps the interpreter lock: closing while YARP's thread
         waits for it to answer would deadlock)."""
-        self.port.interrupt()
         end = time.monotonic() + 0.3
+        if getattr(self.bridge, "quit_asked", False):
+            # its `bye` is sent once read() has returned: not dropped by a
+            # port closed at once (the caller would not know it was heard)
+            end = time.monotonic() + 0.5
+            while self.busy and time.monotonic() < end:
+                time.sleep(0.005)
+            time.sleep(0.05)
+        self.port.interrupt()
         while self.busy and time.monotonic() < end:
             time.sleep(0.005)
         self.port.close()
