@@ -19,6 +19,7 @@ lowering errors, the CMake build, its install rule.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import math
 import os
@@ -284,10 +285,15 @@ class Builds:
 
 @pytest.fixture(scope="session")
 def builds(tmp_path_factory, yarp) -> Builds:
-    """Every module of these tests, built against the matrix version ``yarp``."""
-    b = Builds(run_folder(tmp_path_factory, f"cpp_modules_{yarp.version}"), yarp)
+    """Every module of these tests, built against the matrix version ``yarp``:
+    once for the run, shared by the pytest-xdist workers whose programs are
+    the same (the folder is named by their digest: a worker that drew other
+    programs, hypothesis' strings say, builds its own)."""
+    b = Builds(Path(), yarp)
     for key, make in BUILD_PROGRAMS.items():
         b.add(key, make(), optimize=key == TIMED)
+    digest = hashlib.sha256(repr(sorted(b.programs.items())).encode()).hexdigest()[:16]
+    b.root = run_folder(tmp_path_factory, f"cpp_modules_{yarp.version}_{digest}")
     return b
 
 
