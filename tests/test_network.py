@@ -472,6 +472,20 @@ def start_failing(producer: YarpProducer) -> str:
     return producer.log_text()
 
 
+def restart_beside_other(stack: contextlib.ExitStack, rig: Rig, modules):
+    """OTHER producing, the relay (its source not started) and its reader
+    connected, then the name server killed and started again: (other,
+    module, reader, producer, the contact OTHER held before the restart)."""
+    other = rig.place("producers", YarpProducer(rig.env("producers"), OTHER, bottles=FOREIGN, rate=50))
+    stack.enter_context(other)
+    module, reader, producer = relay(stack, rig, modules, rate=None, started=False)
+    reader.wait_connected()
+    held = rig.contact(OTHER)
+    rig.name_server.kill()
+    rig.start_name_server()
+    return other, module, reader, producer, held
+
+
 def test_a_name_that_leads_to_another_port(rig, modules):
     """The name server killed and restarted: it has forgotten the producers
     that run on. The source, started late, is handed the port number the
@@ -484,13 +498,7 @@ def test_a_name_that_leads_to_another_port(rig, modules):
     connected again while OTHER answers there. The source started again on a
     free port: connected, its values relayed exactly."""
     with contextlib.ExitStack() as stack:
-        other = rig.place("producers", YarpProducer(rig.env("producers"), OTHER, bottles=FOREIGN, rate=50))
-        stack.enter_context(other)
-        module, reader, producer = relay(stack, rig, modules, rate=None, started=False)
-        reader.wait_connected()
-        held = rig.contact(OTHER)
-        rig.name_server.kill()
-        rig.start_name_server()
+        other, module, reader, producer, held = restart_beside_other(stack, rig, modules)
         module.wait_log("registered them again")
         log = start_failing(producer)
         assert "address conflict" in log or "cannot open" in log, log[-2000:]
@@ -529,13 +537,7 @@ def test_a_name_server_that_keeps_its_registrations(rig, install, tmp_path):
     rig.start_name_server(keep=True)
     modules = launcher("py", tmp_path)
     with contextlib.ExitStack() as stack:
-        other = rig.place("producers", YarpProducer(rig.env("producers"), OTHER, bottles=FOREIGN, rate=50))
-        stack.enter_context(other)
-        module, reader, producer = relay(stack, rig, modules, rate=None, started=False)
-        reader.wait_connected()
-        held = rig.contact(OTHER)
-        rig.name_server.kill()
-        rig.start_name_server()
+        other, module, reader, producer, held = restart_beside_other(stack, rig, modules)
         assert rig.contact(OTHER) == held and rig.contact(IN)[0] == rig.ip("module")
         producer.start()
         module.wait_log(f"connected {SRC} -> {IN}")
