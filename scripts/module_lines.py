@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from ybg.backends import check_result, get_backend  # noqa: E402
-from ybg.backends.runtime import CPP_HEADER, CPP_SOURCE, PY_PACKAGE  # noqa: E402
+from ybg.backends.runtime import is_runtime_file  # noqa: E402
 from ybg.compiler.pipeline import compile_text  # noqa: E402
 
 EXAMPLES = ROOT / "examples"
@@ -53,7 +53,7 @@ def module_lines(demo: str, backend: str) -> tuple[str, int]:
     files = get_backend(backend).render(result.program)
     suffix = ".cpp" if backend == "cpp" else ".py"
     (file, text), = [(f, t) for f, t in files.items() if f.endswith(suffix)
-                     and PY_PACKAGE not in Path(f).parts and f not in (CPP_HEADER, CPP_SOURCE)]
+                     and not is_runtime_file(f)]
     return file, text.count("\n")
 
 

@@ -9,7 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from ybg.backends.runtime import CPP_HEADER, CPP_ROS2_HEADER, CPP_ROS2_SOURCE, CPP_SOURCE, PY_PACKAGE
+from ybg.backends.runtime import is_runtime_file
 
 
 #: the ybgc command of the venv the tests run in
@@ -35,8 +35,7 @@ def generate(tmp: Path, text: str, name: str, backend: str, *options: str) -> Pa
 
 def is_runtime(name: str) -> bool:
     """Is ``name`` (a path relative to the output folder) a runtime file?"""
-    parts = Path(name).parts
-    return PY_PACKAGE in parts[:-1] or parts[-1] in (CPP_HEADER, CPP_SOURCE, CPP_ROS2_HEADER, CPP_ROS2_SOURCE)
+    return is_runtime_file(name)
 
 
 def without_runtime(files: dict[str, str]) -> dict[str, str]:

@@ -80,6 +80,13 @@ def _cpp_names(ros2: bool) -> tuple[str, ...]:
     return (CPP_HEADER, CPP_SOURCE) + ((CPP_ROS2_HEADER, CPP_ROS2_SOURCE) if ros2 else ())
 
 
+def is_runtime_file(name: str) -> bool:
+    """Is ``name`` (a path relative to a module's output folder) a file of the
+    runtime library that ybgc writes beside a module, not of the module?"""
+    parts = Path(name).parts
+    return PY_PACKAGE in parts[:-1] or (len(parts) == 1 and parts[0] in _cpp_names(True))
+
+
 def cpp_files(ros2: bool = False) -> dict[str, str]:
     """The C++ runtime's header and source, beside a module (``ros2``: and
     its ROS 2 side, for a module that publishes to ROS 2)."""
@@ -126,4 +133,4 @@ def runtime_text_filter(text) -> str:
 
 __all__ = ["RuntimeView", "runtime_view", "runtime_text_filter", "VERSION", "PY_PACKAGE", "PY_MODULES", "CPP_HEADER", "CPP_SOURCE",
            "CPP_ROS2_HEADER", "CPP_ROS2_SOURCE",
-           "python_files", "python_inline", "cpp_files", "cpp_inline"]
+           "python_files", "python_inline", "cpp_files", "cpp_inline", "is_runtime_file"]
