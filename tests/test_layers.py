@@ -1,6 +1,23 @@
-"""Stages depend downward only: the compiler knows no backend. Each backend
-says itself what it can build (``ybg.backends.check``), so no module of
-``ybg/compiler/`` imports ``ybg.backends``, at its top or inside a function."""
+"""The layers of the tree, read from its imports::
+
+    ybg/compiler  (front end: text -> AST -> IR)
+        <- ybg/lower     (the lowering library: IR -> what backends share)
+            <- ybg/backends/<name>  (one package a backend, siblings)
+    ybg/runtime   (what generated modules run on)
+
+- the compiler imports no backend and not the lowering library;
+- the lowering library imports no backend;
+- no backend imports another backend, nor what finds backends by name
+  (``ybg.backends`` itself, its registry and support);
+- the runtime imports nothing of the compiler, the lowering library or the
+  backends (a generated module carries it alone);
+- backends and the lowering library read no AST: they import no module of
+  the front end's syntax (``ast``, ``parser``, ``legacy``, ``fmt``,
+  ``passes``) and touch no document of a result (``.named``, ``.document``).
+
+Every import counts: at a module's top or inside a function, relative or
+absolute, ``importlib.import_module`` of a constant name.
+"""
 
 from __future__ import annotations
 
@@ -10,9 +27,17 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-COMPILER = ROOT / "ybg" / "compiler"
-MODULES = sorted(COMPILER.rglob("*.py"))
-FORBIDDEN = "ybg.backends"
+YBG = ROOT / "ybg"
+COMPILER = YBG / "compiler"
+LOWER = YBG / "lower"
+RUNTIME = YBG / "runtime"
+BACKENDS = YBG / "backends"
+BACKEND_PACKAGES = sorted(p.name for p in BACKENDS.iterdir() if (p / "__init__.py").is_file())
+#: the front end's syntax, which no backend reads
+SYNTAX = ("ybg.compiler.ast", "ybg.compiler.parser", "ybg.compiler.legacy", "ybg.compiler.fmt",
+          "ybg.compiler.passes")
+#: the parts of ybg.backends that find backends by name (and so import them)
+FINDERS = ("ybg.backends", "ybg.backends.registry", "ybg.backends.support")
 
 
 def module_name(path: Path, root: Path) -> str:
@@ -48,18 +73,75 @@ def imported(path: Path, root: Path) -> list[tuple[int, str]]:
     return out
 
 
-def imports_backends(path: Path, root: Path = ROOT) -> list[str]:
+def _under(name: str, prefix: str) -> bool:
+    return name == prefix or name.startswith(prefix + ".")
+
+
+def violations(path: Path, forbidden, root: Path = ROOT) -> list[str]:
+    """The imports of ``path`` under any of the module names ``forbidden``."""
     return [f"{path.relative_to(root)}:{line}: {name}" for line, name in imported(path, root)
-            if name == FORBIDDEN or name.startswith(FORBIDDEN + ".")]
+            if any(_under(name, f) for f in forbidden)]
 
 
-def test_the_walk_sees_the_compiler():
-    assert COMPILER / "check.py" in MODULES and COMPILER / "passes" / "context.py" in MODULES
+def modules(folder: Path) -> list[Path]:
+    return sorted(folder.rglob("*.py"))
 
 
-@pytest.mark.parametrize("path", MODULES, ids=lambda p: str(p.relative_to(COMPILER)))
-def test_no_compiler_module_imports_a_backend(path: Path):
-    assert imports_backends(path) == []
+def backend_of(path: Path, root: Path = ROOT) -> str | None:
+    """The backend package ``path`` belongs to (``cpp``), or None."""
+    parts = path.relative_to(root / "ybg" / "backends").parts
+    return parts[0] if len(parts) > 1 else None
+
+
+def backend_violations(path: Path, root: Path = ROOT) -> list[str]:
+    """The imports by which the backend module ``path`` reaches another backend."""
+    own = backend_of(path, root)
+    allowed = [f"ybg.backends.{ok}" for ok in ("base", "features", "runtime", own)]
+    others = [f"ybg.backends.{b}" for b in BACKEND_PACKAGES if b != own]
+    return [v for v in violations(path, others + list(FINDERS), root)
+            if not any(_under(v.rpartition(": ")[2], ok) for ok in allowed)]
+
+
+def test_the_walks_see_every_layer():
+    assert COMPILER / "check.py" in modules(COMPILER) and COMPILER / "passes" / "context.py" in modules(COMPILER)
+    assert LOWER / "python.py" in modules(LOWER) and RUNTIME / "core.py" in modules(RUNTIME)
+    assert BACKEND_PACKAGES == ["cpp", "py", "ros2"]
+
+
+@pytest.mark.parametrize("path", modules(COMPILER), ids=lambda p: str(p.relative_to(COMPILER)))
+def test_the_compiler_imports_no_backend_and_no_lowering(path: Path):
+    assert violations(path, ("ybg.backends", "ybg.lower")) == []
+
+
+@pytest.mark.parametrize("path", modules(LOWER), ids=lambda p: str(p.relative_to(LOWER)))
+def test_the_lowering_library_imports_no_backend(path: Path):
+    assert violations(path, ("ybg.backends",)) == []
+
+
+@pytest.mark.parametrize("path", [p for p in modules(BACKENDS) if backend_of(p)],
+                         ids=lambda p: str(p.relative_to(BACKENDS)))
+def test_no_backend_imports_another(path: Path):
+    assert backend_violations(path) == []
+
+
+@pytest.mark.parametrize("path", modules(RUNTIME), ids=lambda p: str(p.relative_to(RUNTIME)))
+def test_the_runtime_imports_nothing_of_the_compiler(path: Path):
+    assert violations(path, ("ybg.compiler", "ybg.lower", "ybg.backends", "ybg.cli")) == []
+
+
+def _reads_documents(path: Path) -> list[str]:
+    tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
+    return [f"{path.relative_to(ROOT)}:{n.lineno}: .{n.attr}" for n in ast.walk(tree)
+            if isinstance(n, ast.Attribute) and n.attr in ("named", "document")]
+
+
+@pytest.mark.parametrize("path", modules(BACKENDS) + modules(LOWER), ids=lambda p: str(p.relative_to(YBG)))
+def test_backends_read_no_ast(path: Path):
+    assert violations(path, SYNTAX) == [] and _reads_documents(path) == []
+
+
+# --------------------------------------------------------------------------
+# the checks themselves
 
 
 @pytest.mark.parametrize("source", [
@@ -68,14 +150,32 @@ def test_no_compiler_module_imports_a_backend(path: Path):
     "from ybg.backends import REGISTRY",
     "from ybg import backends",
     "from .. import backends",
-    "from ..backends.wire import WIRE_ROS1",
+    "from ..backends.runtime import PY_PACKAGE",
     "def f():\n    from ybg.backends import check\n",
     "import importlib\nimportlib.import_module('ybg.backends.py')",
+    "from ybg.lower.python import py_literal",
 ])
 def test_every_form_of_import_is_caught(tmp_path: Path, source: str):
-    """The check itself: each way of importing the backends, in a module
-    placed as ybg/compiler/x.py would be."""
+    """Each way of importing the backends or the lowering library, in a
+    module placed as ybg/compiler/x.py would be."""
     module = tmp_path / "ybg" / "compiler" / "x.py"
     module.parent.mkdir(parents=True)
     module.write_text(source + "\n", encoding="utf-8")
-    assert imports_backends(module, tmp_path), source
+    assert violations(module, ("ybg.backends", "ybg.lower"), tmp_path), source
+
+
+@pytest.mark.parametrize("source,caught", [
+    ("from ybg.backends.py.lower import py_literal", True),
+    ("from ..py import PyBackend", True),
+    ("from ybg.backends import get_backend", True),
+    ("from ybg.backends.registry import REGISTRY", True),
+    ("from ybg.backends.base import Backend", False),
+    ("from ybg.backends.cpp.escape import comment", False),
+    ("from . import lower", False),
+    ("from ybg.lower.python import py_literal", False),
+])
+def test_a_backend_importing_another_is_caught(tmp_path: Path, source: str, caught: bool):
+    module = tmp_path / "ybg" / "backends" / "cpp" / "x.py"
+    module.parent.mkdir(parents=True)
+    module.write_text(source + "\n", encoding="utf-8")
+    assert bool(backend_violations(module, tmp_path)) == caught, source

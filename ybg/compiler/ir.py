@@ -7,6 +7,13 @@ legal YARP port / ROS topic names, literals carry their element type, widths
 and slices are resolved. ``to_json``/``from_json`` give the form printed by
 ``ybgc ir``.
 
+Every element a backend may refuse or report on (an input, a mux, a
+converter, a field, a message, the output and its type) carries ``span``:
+where the config writes it, or, for what the config leaves to its
+defaults, the nearest line that decides it (``passes/spans.py``). Spans
+take no part in equality: two programs that build the same module are
+equal wherever they were written.
+
 The pipeline of one bridge::
 
     inputs (YARP ports or ROS topics) --> Mux (concatenate, in port order)
@@ -26,8 +33,10 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Union
+
+from ybg.compiler.diagnostics import Span
 
 IR_VERSION = 1
 
@@ -91,6 +100,7 @@ class Input:
     reads: int | None = None
     each: str | None = None
     accepts: tuple[str, ...] = ()
+    span: Span | None = field(default=None, compare=False, repr=False)
 
     @property
     def width(self) -> int | None:
@@ -121,6 +131,7 @@ class Converter:
     to_float: bool = True
     start: int = 0
     stop: int | None = None
+    span: Span | None = field(default=None, compare=False, repr=False)
 
     @property
     def is_identity(self) -> bool:
@@ -157,6 +168,7 @@ class GeometryConverter:
     axes: str | None = None
     degrees: bool = False
     text: str = ""
+    span: Span | None = field(default=None, compare=False, repr=False)
 
     @property
     def width_in(self) -> int:
@@ -200,6 +212,7 @@ class ExprConverter:
     start: int = 0
     stop: int | None = None
     text: str = ""
+    span: Span | None = field(default=None, compare=False, repr=False)
 
     @property
     def name(self) -> str:
@@ -222,6 +235,7 @@ class Mux:
     inputs: tuple[Input, ...]
     converters: tuple[AnyConverter, ...] = ()
     verbose: bool = False
+    span: Span | None = field(default=None, compare=False, repr=False)
 
     @property
     def rows(self) -> bool:
@@ -389,6 +403,7 @@ class Field:
     name: str
     source: Source
     type: TypeRef | None = None
+    span: Span | None = field(default=None, compare=False, repr=False)
 
 
 @dataclass(frozen=True)
@@ -399,6 +414,7 @@ class Struct:
 
     fields: tuple[Field, ...]
     msg_type: str | None = None
+    span: Span | None = field(default=None, compare=False, repr=False)
 
 
 # --------------------------------------------------------------------------
@@ -429,6 +445,9 @@ class Output:
     node: str | None = None
     qos: QoS | None = None
     connect_to: str | None = None
+    span: Span | None = field(default=None, compare=False, repr=False)
+    #: where the message type is written (else the output's line)
+    type_span: Span | None = field(default=None, compare=False, repr=False)
 
 
 #: Bottles each input keeps that no message used yet, unless the config says
@@ -505,14 +524,27 @@ _CONVERTER_KINDS = {"geometry": GeometryConverter, "expr": ExprConverter}
 _KIND_OF.update({cls: kind for kind, cls in _CONVERTER_KINDS.items()})
 
 
+_SPAN_KEYS = ("span", "type_span")
+
+
+def _span(d: dict[str, Any], key: str = "span") -> Span | None:
+    v = d.get(key)
+    return None if v is None else Span(*v)
+
+
 def _encode(obj: Any) -> Any:
+    if isinstance(obj, Span):
+        return [obj.line, obj.column, obj.end_line, obj.end_column]
     if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
         out: dict[str, Any] = {}
         kind = _KIND_OF.get(type(obj))
         if kind is not None:
             out["kind"] = kind
         for f in dataclasses.fields(obj):
-            out[f.name] = _encode(getattr(obj, f.name))
+            value = getattr(obj, f.name)
+            if f.name in _SPAN_KEYS and value is None:
+                continue  # no position: a program built by hand, not from a config
+            out[f.name] = _encode(value)
         return out
     if isinstance(obj, tuple):
         return [_encode(x) for x in obj]
@@ -562,8 +594,8 @@ def _typeref(d):
 
 def _struct(d: dict[str, Any]) -> Struct:
     return Struct(
-        _tuple(d["fields"], lambda f: Field(f["name"], _source(f["source"]), _typeref(f["type"]))),
-        d["msg_type"],
+        _tuple(d["fields"], lambda f: Field(f["name"], _source(f["source"]), _typeref(f["type"]), _span(f))),
+        d["msg_type"], _span(d),
     )
 
 
@@ -577,7 +609,7 @@ def from_dict(d: dict[str, Any]) -> Program:
         fields_ = None if x["fields"] is None else tuple(x["fields"])
         positions = None if x.get("positions") is None else tuple(tuple(p) for p in x["positions"])
         return Input(x["name"], x["kind"], layout, x["ros_type"], fields_, x["timeout"], positions,
-                     x.get("reads"), x.get("each"), tuple(x.get("accepts") or ()))
+                     x.get("reads"), x.get("each"), tuple(x.get("accepts") or ()), _span(x))
 
     def node(x):
         return ExprNode(x["op"], _tuple(x["args"], node), x["value"])
@@ -585,17 +617,20 @@ def from_dict(d: dict[str, Any]) -> Program:
     def converter(c):
         args = dict(c)
         kind = args.pop("kind", None)
+        args["span"] = _span(args)
         if kind == "expr":
             args["body"] = node(args["body"])
         return _CONVERTER_KINDS.get(kind, Converter)(**args)
 
     muxes = _tuple(
         d["muxes"],
-        lambda m: Mux(m["name"], _tuple(m["inputs"], inp), _tuple(m["converters"], converter), m["verbose"]),
+        lambda m: Mux(m["name"], _tuple(m["inputs"], inp), _tuple(m["converters"], converter), m["verbose"],
+                      _span(m)),
     )
     o = d["output"]
     output = Output(o["kind"], o["name"], o["msg_type"], o["node"],
-                    None if o["qos"] is None else QoS(**o["qos"]), o["connect_to"])
+                    None if o["qos"] is None else QoS(**o["qos"]), o["connect_to"], _span(o),
+                    _span(o, "type_span"))
     return Program(
         module=d["module"],
         source=d["source"],

@@ -12,13 +12,12 @@ named``.
 from __future__ import annotations
 
 import re
-import shlex
-from pathlib import Path
 
 from ybg.compiler import ast
 from ybg.compiler.diagnostics import Sink, Span, did_you_mean
 from ybg.compiler.ir import INTEGER_TYPES
 from ybg.compiler.msgtypes import MsgDef, TypeStore
+from ybg.compiler.names import converted_name
 from ybg.compiler.values import check_keys
 
 GENERAL_KEYS = ("output_name", "to_ros", "num_mux", "rate", "ros_msg_name", "from_ros_topics")
@@ -58,15 +57,6 @@ def early_layout(doc: ast.Document) -> ast.Section | None:
         if sec.label is None and (sec.name in ("mux_general", "mux") or _CONVERTER_SECTION.match(sec.name)):
             return sec
     return None
-
-
-def converted_name(path: str) -> str:
-    """The file the hints' `ybgc fmt --to named` commands write: the
-    config's stem with `.named.ini`, in the current folder. A name of its
-    own, so that converting several configs of one folder does not write
-    them all into one file."""
-    stem = Path(path).stem if path and not path.startswith("<") else ""
-    return shlex.quote(f"{stem or 'config'}.named.ini")
 
 
 def _int(e: ast.Entry | None, sink: Sink) -> int | None:

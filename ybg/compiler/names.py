@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import keyword
 import re
+import shlex
+from pathlib import Path
 
 CPP_KEYWORDS = frozenset("""
 alignas alignof and and_eq asm auto bitand bitor bool break case catch char
@@ -79,3 +81,12 @@ def sanitize_identifier(text: str) -> str:
     if identifier_problem(out):
         out = out + "_module"
     return out
+
+
+def converted_name(path: str) -> str:
+    """The file the hints' `ybgc fmt --to named` commands write: the
+    config's stem with `.named.ini`, in the current folder. A name of its
+    own, so that converting several configs of one folder does not write
+    them all into one file."""
+    stem = Path(path).stem if path and not path.startswith("<") else ""
+    return shlex.quote(f"{stem or 'config'}.named.ini")

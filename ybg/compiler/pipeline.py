@@ -136,16 +136,6 @@ def _compile_text(text: str, path: str, options: Options | None) -> Result:
     return result
 
 
-def output_span(doc: ast.Document) -> Span | None:
-    """Where a diagnostic about the output points: its `via`, `topic` or
-    `port` line, else the [output] header."""
-    sec = doc.section("output")
-    if sec is None:
-        return None
-    e = sec.get("via") or sec.get("topic") or sec.get("port")
-    return e.span if e else sec.span
-
-
 def yarp_version(text: str) -> tuple[int, ...] | None:
     """``"3.12"`` -> (3, 12); None for anything that is not a version."""
     parts = text.strip().split(".")
@@ -163,7 +153,7 @@ def check_yarp_target(program: ir.Program, yarp: str, doc: ast.Document, sink: S
         return
     uses = []
     if program.output.kind == "ros1":
-        uses.append(("its output", output_span(doc)))
+        uses.append(("its output", program.output.span))
     for m in program.muxes:
         if any(i.kind == "ros1" for i in m.inputs):
             sec = doc.section("mux", m.name)

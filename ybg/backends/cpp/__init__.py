@@ -24,11 +24,14 @@ from pathlib import Path
 
 import jinja2
 
-from ybg.backends import (Backend, RenderOptions, code_filter, indent_line_filter, template_environment,
-                          xml_comment_filter, xml_filter, yarpmanager)
-from ybg.backends.cpp.lower import LoweringError, lower
+from ybg.backends.base import Backend, RenderOptions
+from ybg.backends.cpp.lower import lower
 from ybg.backends.cpp.package import lower_launch, lower_package
 from ybg.backends.runtime import CPP_ROS2_SOURCE, CPP_SOURCE, cpp_files, runtime_text_filter, runtime_view
+from ybg.lower import yarpmanager
+from ybg.lower.errors import LoweringError
+from ybg.lower.package import launch_file
+from ybg.lower.templates import code_filter, indent_line_filter, template_environment, xml_comment_filter, xml_filter
 from ybg.runtime import VERSION
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
@@ -74,12 +77,9 @@ class CppBackend(Backend):
                 launch_file_name=launch.launch_file if launch else None),
         }
         if pkg is not None:
-            from ybg.backends import ros2 as ros2_backend  # its launch file's template
-
             files["package.xml"] = env.get_template("package.xml.j2").render(p=pkg)
             if launch is not None:
-                files[f"launch/{launch.launch_file}"] = ros2_backend.environment().get_template(
-                    "launch.py.j2").render(p=launch)
+                files[f"launch/{launch.launch_file}"] = launch_file(launch)
         if not options.single_file:
             files.update(cpp_files(ros2))
         # run from the folder it was generated into, built as its header says

@@ -155,7 +155,18 @@ def mangle(prefix: str, name: str) -> str:
     return cpp_identifier(re.sub(r"_+", "_", prefix + body))
 
 
-__all__ = [
+_SAFE_TEXT = re.compile(r"[A-Za-z0-9_/.:@+\-\[\]<=>, ]*\Z")
+
+
+def comment(text: str) -> str:
+    """Config text for a ``//`` comment: as it is when made only of safe
+    characters (names, ports, types), else quoted and escaped."""
+    if _SAFE_TEXT.match(text) and text.strip() == text and text:
+        return text
+    return cpp_comment(text)
+
+
+__all__ = ["comment", 
     "CPP_KEYWORDS", "cpp_string", "cpp_std_string", "cpp_comment", "cpp_float", "cpp_int",
     "cpp_identifier", "mangle", "utf8",
 ]

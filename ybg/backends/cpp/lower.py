@@ -17,17 +17,18 @@ import re
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from ybg.backends.cpp.escape import (cpp_comment, cpp_float, cpp_identifier, cpp_int,
-                                     cpp_std_string, cpp_string, mangle)
-from ybg.backends import Line, LoweringError, nest_fields
-from ybg.backends.wire import WIRE_ROS1 as _WIRE_ROS1
-from ybg.backends.wire import WIRE_YARP as _WIRE_YARP
-from ybg.backends.wire import has_fixed_array, has_message_array, ros1_shape
+from ybg.backends.cpp import ros2_inputs as readers
+from ybg.backends.cpp.escape import (comment, cpp_float, cpp_identifier, cpp_int, cpp_std_string, cpp_string,
+                                     mangle)
 from ybg.compiler import ir
+from ybg.lower.errors import Line, LoweringError
+from ybg.lower.tree import TIME_TYPES, coerce, default_scalar, nest_fields, time_style
+from ybg.lower.wire import WIRE_ROS1 as _WIRE_ROS1
+from ybg.lower.wire import WIRE_YARP as _WIRE_YARP
+from ybg.lower.wire import has_fixed_array, has_message_array, ros1_shape
 
 if TYPE_CHECKING:
     from ybg.backends.cpp.ros2 import Ros2View
-    from ybg.backends.cpp.ros2_inputs import Ros2InputsView
 
 #: The runtime's `Wire` enumerator of each element type (the shared tables of
 #: ybg.backends, in C++ spelling: "float64" -> "Float64").
@@ -43,20 +44,10 @@ CPP_INT_TYPES: dict[str, str] = {
 }
 
 _WIRE_BITS = {"Int8": 8, "Int16": 16, "Int32": 32, "Int64": 64}
-_TIME_TYPES = ("time", "duration", "builtin_interfaces/Time", "builtin_interfaces/Duration")
 #: target names CMake keeps for itself
 _CMAKE_RESERVED = frozenset({"all", "clean", "help", "install", "test", "package", "package_source",
                              "edit_cache", "rebuild_cache", "list_install_components", "depend",
                              "preinstall", "install_strip", "install_local"})
-_SAFE_TEXT = re.compile(r"[A-Za-z0-9_/.:@+\-\[\]<=>, ]*\Z")
-
-
-def comment(text: str) -> str:
-    """Config text for a ``//`` comment: as it is when made only of safe
-    characters (names, ports, types), else quoted and escaped."""
-    if _SAFE_TEXT.match(text) and text.strip() == text and text:
-        return text
-    return cpp_comment(text)
 
 
 # --------------------------------------------------------------------------
@@ -109,7 +100,7 @@ class ModuleView:
     ros1: bool                       # uses YARP's ROS 1 support (output or an input)
     ros2: "Ros2View | None" = None   # publishes to ROS 2 through rcl (.ros2)
     message_cpp: str = "yarp::os::Bottle"  # the C++ type buildMessage fills
-    ros2_inputs: "Ros2InputsView | None" = None  # reads ROS 2 topics through rcl (.ros2_inputs)
+    ros2_inputs: "readers.Ros2InputsView | None" = None  # reads ROS 2 topics through rcl (.ros2_inputs)
 
     @property
     def uses_ros2(self) -> bool:
@@ -124,36 +115,6 @@ class ModuleView:
 
 # --------------------------------------------------------------------------
 # helpers
-
-
-def _coerce(value, element_type: str):
-    if element_type in ir.FLOAT_TYPES:
-        return float(value)
-    if element_type == "bool":
-        return bool(value)
-    if element_type == "string":
-        return str(value)
-    if element_type in ir.NUMERIC_TYPES:
-        return int(value)
-    raise LoweringError(f"unknown element type {element_type!r}")
-
-
-def _default_scalar(base: str):
-    if base in ir.FLOAT_TYPES:
-        return 0.0
-    if base == "bool":
-        return False
-    if base == "string":
-        return ""
-    if base in ir.NUMERIC_TYPES:
-        return 0
-    raise LoweringError(f"no default for type {base!r}")
-
-
-def _time_style(base: str, ros: str | None) -> str:
-    if base.startswith("builtin_interfaces/") or ros == "ros2":
-        return "ros2"
-    return "ros1"
 
 
 #: geometry converter -> the runtime's ybgc::Geometry
@@ -193,20 +154,20 @@ def _converter(target: str, c) -> str:
     """The call of converter ``c`` on the mux (or row) ``target``."""
     if isinstance(c, ir.GeometryConverter):
         axes = cpp_string(c.axes or "xyz")
-        return (f"ybgc::convertGeometry({target}, ybgc::Geometry::{_GEOMETRY[c.name]}, {_size(c.start)}, "
+        return (f"ybgc::convertGeometry({target}, ybgc::Geometry::{_GEOMETRY[c.name]}, {index_text(c.start)}, "
                 f"{axes}, {'true' if c.degrees else 'false'});  // {comment(c.text)}")
     if isinstance(c, ir.ExprConverter):
         return (f"ybgc::convertEach({target}, []([[maybe_unused]] double x) {{ return {cpp_expression(c.body)}; }}, "
-                f"{_size(c.start)}, {_size(c.stop)});  // {comment('expr(' + c.text + ')')}")
+                f"{index_text(c.start)}, {index_text(c.stop)});  // {comment('expr(' + c.text + ')')}")
     if c.start < 0 or (c.stop is not None and c.stop < c.start):
         raise LoweringError(f"converter {c.name} has the range [{c.start}:{c.stop}]")
     stop = "" if c.stop is None else str(c.stop)
     return (f"ybgc::convert({target}, {cpp_float(float(c.scale))}, {cpp_float(float(c.offset))}, "
-            f"{'true' if c.to_float else 'false'}, {_size(c.start)}, {_size(c.stop)});"
+            f"{'true' if c.to_float else 'false'}, {index_text(c.start)}, {index_text(c.stop)});"
             f"  // {comment(c.name)}[{c.start}:{stop}]")
 
 
-def _size(n: int | None) -> str:
+def index_text(n: int | None) -> str:
     if n is None:
         return "ybgc::kToEnd"
     if n < 0:
@@ -218,7 +179,7 @@ def _size(n: int | None) -> str:
 # the message builder
 
 
-class _Builder:
+class BottleBuilder:
     """Writes the body of ``buildMessage`` from the message tree."""
 
     def __init__(self, program: ir.Program, members: dict[str, str], input_ids: dict[str, list[int]]):
@@ -259,7 +220,7 @@ class _Builder:
         wire = self.wire.get(element_type)
         if wire is None:
             raise LoweringError(f"no Bottle tag for element type {element_type!r}")
-        value = _coerce(value, element_type)
+        value = coerce(value, element_type)
         if wire == "String":
             return f"{var}.addString({cpp_std_string(str(value))});"
         if wire == "Float64":
@@ -280,7 +241,7 @@ class _Builder:
         try:
             self._field(f, parent, depth, indent)
         except LoweringError as e:
-            raise e.at("field", ".".join(self.path).replace(".[", "["))
+            raise e.at(f.span)
         finally:
             self.path.pop()
 
@@ -449,7 +410,7 @@ class _Builder:
                 self.list_of(parent, depth, indent, statements)
             return
         target = parent if ref.splice else f"{parent}.addList()"
-        self.emit(indent, f"ybgc::putRange({target}, {values}, {_size(ref.start)}, {_size(ref.stop)}, "
+        self.emit(indent, f"ybgc::putRange({target}, {values}, {index_text(ref.start)}, {index_text(ref.stop)}, "
                           f"{self.wire_of(ref.element_type)});")
 
     def default(self, typ: ir.TypeRef | None, parent: str, depth: int, indent: int) -> None:
@@ -459,14 +420,14 @@ class _Builder:
         if typ.array == "sequence":
             self.emit(indent, f"{parent}.addList();")
             return
-        if base in _TIME_TYPES:
+        if base in TIME_TYPES:
             if typ.array is not None:
                 raise LoweringError(f"no default for an array of {base}")
-            self.time(parent, "0", _time_style(base, self.program.ros), indent)
+            self.time(parent, "0", time_style(base, self.program.ros), indent)
             return
         if typ.is_message:
             raise LoweringError(f"a default {typ} needs its fields; the checker expands nested messages")
-        value = _default_scalar(base)
+        value = default_scalar(base)
         if typ.array == "fixed":
             self.list_of(parent, depth, indent,
                          [lambda var: self.add_value(var, value, base)] * (typ.size or 0))
@@ -535,11 +496,11 @@ def _executable(module: str) -> tuple[str, str]:
     return target, module
 
 
-def lower(program: ir.Program, builder=_Builder) -> ModuleView:
+def lower(program: ir.Program, builder=BottleBuilder) -> ModuleView:
     """The view-model of the module generated for ``program``; ``builder``
     writes the message (a ROS 2 output's: :mod:`.ros2`)."""
     out = program.output
-    if out.kind not in ("yarp", "ros1") and builder is _Builder:
+    if out.kind not in ("yarp", "ros1") and builder is BottleBuilder:
         raise LoweringError(f"the cpp backend cannot publish to a {out.kind!r} output")
     target, executable = _executable(program.module)
     members = _members(program)
@@ -553,10 +514,9 @@ def lower(program: ir.Program, builder=_Builder) -> ModuleView:
         gather = [Line(1, f"mux.{members[m.name]}.clear();")]
         for k, i in enumerate(m.inputs):
             if i.kind not in ("yarp", "ros1", "ros2"):
-                raise LoweringError(f"the cpp backend cannot read a {i.kind!r} input ({i.name})",
-                                    ("input", m.name, i.name))
+                raise LoweringError(f"the cpp backend cannot read a {i.kind!r} input ({i.name})", i.span)
             if not i.timeout > 0:
-                raise LoweringError(f"input {i.name} has a timeout of {i.timeout!r}", ("input", m.name, i.name))
+                raise LoweringError(f"input {i.name} has a timeout of {i.timeout!r}", i.span)
             n = len(inputs)
             ids.append(n)
             kind = {"ros1": "ybgc::InputKind::Ros1", "ros2": "ybgc::InputKind::Ros2"}.get(
@@ -582,7 +542,6 @@ def lower(program: ir.Program, builder=_Builder) -> ModuleView:
 
     ros2_inputs = None
     if any(i.kind == "ros2" for m in program.muxes for i in m.inputs):
-        from ybg.backends.cpp import ros2_inputs as readers
         ros2_inputs = readers.lower(program, members)
 
     b = builder(program, members, input_ids)

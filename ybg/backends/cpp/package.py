@@ -4,18 +4,19 @@ install it where ROS 2's tools look: the executable in ``lib/<package>``
 (``ros2 run <package> <executable>``), and ament_package() for the rest
 (the ament index, ``share/<package>/package.xml``, the environment hooks
 of AMENT_PREFIX_PATH); for a module with a ROS 2 side, also the launch file
-of the ros2 backend's package, ``launch/<module>.launch.py``, since the
-module takes the rclpy node's parameters. A module of YARP ports alone is a
-package too (a robot's colcon workspace holds it), without a launch file."""
+of the lowering library (:mod:`ybg.lower.package`), ``launch/<module>.launch.py``,
+the same as the rclpy node's, since the module takes the node's parameters.
+A module of YARP ports alone is a package too (a robot's colcon workspace
+holds it), without a launch file."""
 
 from __future__ import annotations
 
 import os
 from dataclasses import dataclass
 
-from ybg.backends.ros2.lower import PackageView as LaunchView
-from ybg.backends.ros2.lower import node_name, node_parameters, package_name
 from ybg.compiler import ir
+from ybg.lower.package import PackageView as LaunchView
+from ybg.lower.rosnames import node_name, node_parameters, package_name
 
 
 @dataclass(frozen=True)
@@ -44,8 +45,8 @@ def lower_package(program: ir.Program, packages: tuple[str, ...]) -> PackageView
 
 
 def lower_launch(program: ir.Program, package: PackageView, executable: str) -> LaunchView:
-    """The view-model of the launch file (the ros2 backend's template): the
-    module started by launch_ros with the node's parameters."""
+    """The view-model of the launch file: the module started by launch_ros
+    with the node's parameters."""
     return LaunchView(config=package.config, package=package.package, node_module=executable,
                       executable=executable, node_name=node_name(program), description=package.description,
                       depends=package.depends, launch_file=f"{program.module}.launch.py",

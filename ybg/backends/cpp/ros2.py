@@ -17,21 +17,18 @@ filled as any nested message.
 from __future__ import annotations
 
 import dataclasses
-import re
 from dataclasses import dataclass
 
-from ybg.backends import LoweringError
-from ybg.backends.cpp.lower import ModuleView, comment
-from ybg.backends.cpp.lower import _Builder as BottleBuilder
-from ybg.backends.cpp.lower import _size as index_text
+from ybg.backends.cpp.escape import comment, cpp_float, cpp_identifier, cpp_int, cpp_std_string, cpp_string
+from ybg.backends.cpp.lower import BottleBuilder, ModuleView, index_text
 from ybg.backends.cpp.lower import lower as lower_module
-from ybg.backends.cpp.escape import cpp_float, cpp_identifier, cpp_int, cpp_std_string, cpp_string
-from ybg.backends.ros2.lower import _check_size, node_name, slice_stop, split_type, used_packages
+from ybg.backends.cpp.rcl import RUNTIME_PACKAGES, c_header, c_struct
 from ybg.compiler import ir
+from ybg.lower.errors import LoweringError
+from ybg.lower.rosnames import node_name, split_type, used_packages
+from ybg.lower.tree import check_size, slice_stop
 
 _TIME_TYPES = ("builtin_interfaces/Time", "time")
-#: the message packages the runtime's ROS 2 side uses itself
-RUNTIME_PACKAGES = ("builtin_interfaces", "diagnostic_msgs", "rosgraph_msgs", "std_msgs")
 
 
 @dataclass(frozen=True)
@@ -48,30 +45,12 @@ class Ros2View:
     packages: tuple[str, ...]  # the message packages to link
 
 
-def snake_case(name: str) -> str:
-    """A message name as rosidl names its header (``JointState`` -> ``joint_state``)."""
-    name = re.sub(r"(.)([A-Z][a-z]+)", r"\1_\2", name)
-    return re.sub(r"([a-z0-9])([A-Z])", r"\1_\2", name).lower()
-
-
 def _member(name: str) -> str:
     """A field, or a dotted path of fields (``position.x``), as members of a C struct."""
     try:
         return ".".join(cpp_identifier(part) for part in name.split("."))
     except ValueError as e:
         raise LoweringError(f"field {name!r} cannot be a member of a C struct ({e})") from None
-
-
-def c_struct(msg_type: str) -> str:
-    """The C struct of a message type (``geometry_msgs/Point`` -> ``geometry_msgs__msg__Point``)."""
-    pkg, name = split_type(msg_type)
-    return f"{pkg}__msg__{name}"
-
-
-def c_header(msg_type: str) -> str:
-    """The header that declares a message's C struct and its functions."""
-    pkg, name = split_type(msg_type)
-    return f"{pkg}/msg/{snake_case(name)}.h"
 
 
 def _all_defaults(struct: ir.Struct) -> bool:
@@ -142,7 +121,7 @@ class CStructBuilder(BottleBuilder):
         try:
             self._field(f, f"{target}.{_member(f.name)}", self.where())
         except LoweringError as e:
-            raise e.at("field", self.where())
+            raise e.at(f.span)
         finally:
             self.path.pop()
 
@@ -198,7 +177,7 @@ class CStructBuilder(BottleBuilder):
         each element, a nested message or a mux filling one."""
         if typ.array is None or not typ.is_message or typ.base != src.msg_type:
             raise LoweringError(f"field {name}: an array of {src.msg_type} for a {typ} field")
-        _check_size(typ, len(src.elements), f"field {name}")
+        check_size(typ, len(src.elements), f"field {name}")
         n = len(src.elements)
         self.line(f"// {comment(name)} ({comment(str(typ))}): {n:d} element{'' if n == 1 else 's'}")
         if typ.array == "fixed":
@@ -250,7 +229,7 @@ class CStructBuilder(BottleBuilder):
             return
         if typ.array is None:
             raise LoweringError(f"field {name}: a list for the scalar field {typ}")
-        _check_size(typ, len(lit.values), f"field {name}")
+        check_size(typ, len(lit.values), f"field {name}")
         if not lit.values:
             self.line(f"ybgc::ros2::resize({target}, 0);")
         elif typ.base == "string":
@@ -283,7 +262,7 @@ def ros2_view(program: ir.Program) -> Ros2View:
     out = program.output
     msg_type = out.msg_type or program.message.msg_type
     if not msg_type:
-        raise LoweringError("a ROS 2 output needs its message type", ("type",))
+        raise LoweringError("a ROS 2 output needs its message type", out.type_span)
     try:
         pkg, name = split_type(msg_type)
         # the packages of the elements of its arrays of messages (the module calls their functions)
@@ -293,7 +272,7 @@ def ros2_view(program: ir.Program) -> Ros2View:
         packages = tuple(sorted(set(used_packages(program)) | {split_type(t)[0] for t in elements}
                                 | set(RUNTIME_PACKAGES)))
     except LoweringError as e:
-        raise e.at("type")
+        raise e.at(out.type_span)
     qos = out.qos or ir.QoS()
     if qos.reliability not in ("reliable", "best_effort") or qos.durability not in ("volatile", "transient_local"):
         raise LoweringError(f"unknown QoS {qos}")
@@ -323,5 +302,4 @@ def lower(program: ir.Program) -> ModuleView:
                                description=view.description + (ros_args,))
 
 
-__all__ = ["CStructBuilder", "Ros2View", "array_element_types", "c_header", "c_struct", "lower", "ros2_view",
-           "snake_case"]
+__all__ = ["CStructBuilder", "Ros2View", "array_element_types", "lower", "ros2_view"]

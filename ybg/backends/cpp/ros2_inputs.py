@@ -18,12 +18,11 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from ybg.backends import Line, LoweringError
-from ybg.backends.cpp.escape import cpp_identifier, cpp_string
-from ybg.backends.cpp.lower import comment
-from ybg.backends.cpp.ros2 import RUNTIME_PACKAGES, snake_case
-from ybg.backends.ros2.lower import node_name, split_type, used_packages
+from ybg.backends.cpp.escape import comment, cpp_identifier, cpp_string
+from ybg.backends.cpp.rcl import RUNTIME_PACKAGES, c_header
 from ybg.compiler import ir
+from ybg.lower.errors import Line, LoweringError
+from ybg.lower.rosnames import node_name, split_type, used_packages
 
 _ELEMENT = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)((?:\[[0-9]+\])*)\Z")
 
@@ -66,7 +65,7 @@ def _member_path(path: str) -> str:
 
 
 def _reader(program: ir.Program, m: ir.Mux, k: int, i: ir.Input, index: int, member: str) -> TopicReaderView:
-    where = ("input", m.name, i.name)
+    where = i.span
     if not i.ros_type:
         raise LoweringError(f"the ROS 2 input {i.name} has no message type", where)
     if not i.fields:
@@ -86,7 +85,7 @@ def _reader(program: ir.Program, m: ir.Mux, k: int, i: ir.Input, index: int, mem
                      *(Line(2, f"ybgc::ros2::read(row, element.{_member_path(f)});") for f in i.fields),
                      Line(1, "});"))
     except LoweringError as e:
-        raise e.at(*where)
+        raise e.at(where)
     c_type = f"{pkg}__msg__{name}"
     function = f"read_{member}_{k}"
     entry = (Line(2, f"ybgc::ros2::topic<{c_type}, &{c_type}__create, &{c_type}__destroy, &{function}>("),
@@ -109,8 +108,7 @@ def lower(program: ir.Program, members: dict[str, str]) -> Ros2InputsView:
             if i.kind == "ros2":
                 reader = _reader(program, m, k, i, index, members[m.name])
                 readers.append(reader)
-                pkg, name = split_type(i.ros_type or "")
-                includes.add(f"{pkg}/msg/{snake_case(name)}.h")
+                includes.add(c_header(i.ros_type or ""))
             index += 1
     return Ros2InputsView(
         node=cpp_string(node_name(program)),

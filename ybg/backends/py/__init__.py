@@ -18,27 +18,19 @@ from pathlib import Path
 
 import jinja2
 
-from ybg.backends import Backend, RenderOptions, code_filter, indent_line_filter, template_environment, yarpmanager
-from ybg.backends.py.lower import LoweringError, lower, py_literal
+from ybg.backends.base import Backend, RenderOptions
+from ybg.backends.py.lower import lower
 from ybg.backends.runtime import python_files, runtime_text_filter, runtime_view
+from ybg.lower import yarpmanager
+from ybg.lower.errors import LoweringError
+from ybg.lower.python import PYTHON_FILTERS
+from ybg.lower.templates import template_environment
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
 
 
-def _int_literal(value) -> str:
-    if not isinstance(value, int) or isinstance(value, bool):
-        raise TypeError(f"expected an int, got {type(value).__name__}")
-    return py_literal(value)
-
-
-#: the template filters of a Python module (the ros2 backend uses them too)
-FILTERS = {
-    "code": code_filter,
-    "int_literal": _int_literal,
-    "indent_line": indent_line_filter,
-    "pyliteral": py_literal,
-    "runtime_text": runtime_text_filter,
-}
+#: the template filters of the Python module
+FILTERS = {**PYTHON_FILTERS, "runtime_text": runtime_text_filter}
 
 
 @functools.lru_cache(maxsize=None)

@@ -18,11 +18,13 @@ from pathlib import Path
 
 import jinja2
 
-from ybg.backends import Backend, RenderOptions, template_environment, xml_comment_filter, xml_filter
-from ybg.backends.py import FILTERS as PY_FILTERS
-from ybg.backends.py.lower import LoweringError
+from ybg.backends.base import Backend, RenderOptions
 from ybg.backends.ros2.lower import lower, lower_package
-from ybg.backends.runtime import PY_PACKAGE, python_files, runtime_view
+from ybg.backends.runtime import PY_PACKAGE, python_files, runtime_text_filter, runtime_view
+from ybg.lower.errors import LoweringError
+from ybg.lower.package import launch_file
+from ybg.lower.python import PYTHON_FILTERS
+from ybg.lower.templates import py_comment_filter, template_environment, xml_comment_filter, xml_filter
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
 
@@ -34,21 +36,15 @@ def _package_name(text) -> str:
     return text
 
 
-def _py_comment(text) -> str:
-    """Text for a Python comment: one line."""
-    if not isinstance(text, str):
-        raise TypeError(f"expected a str, got {type(text).__name__}")
-    return " ".join(text.splitlines())
-
-
 @functools.lru_cache(maxsize=None)
 def environment() -> jinja2.Environment:
-    """The templates of this backend, with the ``py`` backend's filters."""
+    """The templates of this backend and their filters."""
     return template_environment([TEMPLATE_DIR], {
-        **PY_FILTERS,
+        **PYTHON_FILTERS,
+        "runtime_text": runtime_text_filter,
         "xml": xml_filter,
         "xml_comment": xml_comment_filter,
-        "py_comment": _py_comment,
+        "py_comment": py_comment_filter,
         "package_name": _package_name,
     })
 
@@ -79,7 +75,7 @@ class Ros2Backend(Backend):
                 p=pkg, runtime_package=None if options.single_file else PY_PACKAGE),
             "setup.cfg": env.get_template("setup.cfg.j2").render(p=pkg),
             f"resource/{pkg.package}": env.get_template("resource_marker.j2").render(p=pkg),
-            f"launch/{pkg.launch_file}": env.get_template("launch.py.j2").render(p=pkg),
+            f"launch/{pkg.launch_file}": launch_file(pkg),
         }
         if not options.single_file:
             files.update(python_files(f"{pkg.package}/{PY_PACKAGE}"))

@@ -1,33 +1,38 @@
 """Lowering of a checked :class:`~ybg.compiler.ir.Program` to the view-model
 that the ROS 2 templates print.
 
-The generated node reuses the Python runtime of the ``py`` backend (inputs,
-freshness, converters, timing, shutdown) and adds the ROS 2 side: topics
-read as mux inputs, and a typed message filled field by field. This module
+The generated node runs on the Python runtime library (inputs, freshness,
+converters, timing, shutdown), as the ``py`` backend's module does, and
+adds the ROS 2 side: topics read as mux inputs, and a typed message filled
+field by field. This module
 decides, for every field of the message, which Python expression fills it
 and with which Python type (``float`` for float fields, ``int``, ``bool``,
 ``str``, lists for arrays, nested messages assigned member by member), and
 whether a size check is needed at run time. A Bottle output (ROS 2 topics to
-a YARP port) is built exactly as the ``py`` backend builds it, by its own
-lowering, so that both give the same Bottle.
+a YARP port) is built by the lowering library's Bottle builder
+(:mod:`ybg.lower.python`), as the ``py`` backend's is, so that both give the
+same Bottle.
 
 Every value from the config reaches the generated source through
-:func:`~ybg.backends.py.lower.py_literal`; every identifier made from a
-config name is checked (:func:`_identifier`) or used only inside a literal.
+:func:`~ybg.lower.python.py_literal`; every identifier made from a
+config name is checked (:func:`~ybg.lower.rosnames.identifier`) or used only inside a literal.
 """
 
 from __future__ import annotations
 
 import keyword
 import os
-import re
 from dataclasses import dataclass
 
-from ybg.backends import Line
-from ybg.backends.py.lower import (WIRE_YARP, InputView, LoweringError, MuxView, OutputView, RuntimeImport,
-                                   converter_views, py_literal, runtime_imports)
-from ybg.backends.py.lower import _Builder as BottleBuilder
 from ybg.compiler import ir
+from ybg.lower.errors import Line, LoweringError
+from ybg.lower.package import PackageView
+from ybg.lower.python import (BottleBuilder, InputView, MuxView, OutputView, RuntimeImport, bottle_output,
+                              converter_views, py_literal, runtime_imports, timing_summary)
+from ybg.lower.rosnames import (identifier, node_name, node_parameters, package_name, ros2_type_name, split_type,
+                                used_packages)
+from ybg.lower.tree import check_size, slice_stop
+from ybg.lower.wire import WIRE_YARP
 
 #: Python conversion of one value of a ROS primitive field (the name of a
 #: helper of the generated node, or a builtin)
@@ -51,8 +56,6 @@ RELIABILITY = {"reliable": "RELIABLE", "best_effort": "BEST_EFFORT"}
 DURABILITY = {"volatile": "VOLATILE", "transient_local": "TRANSIENT_LOCAL"}
 
 _TIME_TYPES = ("builtin_interfaces/Time", "time")
-_PKG = re.compile(r"[a-z][a-z0-9_]*\Z")
-_MSG_NAME = re.compile(r"[A-Za-z][A-Za-z0-9]*\Z")
 
 
 # --------------------------------------------------------------------------
@@ -124,62 +127,15 @@ class NodeView:
     runtime_imports: tuple[RuntimeImport, ...] = ()
 
 
-@dataclass(frozen=True)
-class PackageView:
-    """The ament_python package around the node. Raw values: the package
-    templates escape each one for its file (XML, Python)."""
-
-    config: str
-    package: str
-    node_module: str
-    executable: str
-    node_name: str
-    description: str
-    depends: tuple[str, ...]
-    launch_file: str
-    parameters: tuple[tuple[str, object], ...]
-
-
 # --------------------------------------------------------------------------
 # names
-
-
-def _identifier(name: str, what: str) -> str:
-    """``name`` if it is a Python identifier that is no keyword."""
-    if not name.isidentifier() or keyword.iskeyword(name) or not name.isascii():
-        raise LoweringError(f"{what} {name!r} is not a Python identifier")
-    return name
-
-
-def split_type(msg_type: str) -> tuple[str, str]:
-    """``pkg/Name`` or ``pkg/msg/Name`` -> (pkg, Name), both checked."""
-    parts = msg_type.split("/")
-    if len(parts) == 3 and parts[1] == "msg":
-        parts = [parts[0], parts[2]]
-    if len(parts) != 2 or not _PKG.match(parts[0]) or not _MSG_NAME.match(parts[1]) \
-            or keyword.iskeyword(parts[0]):
-        raise LoweringError(f"{msg_type!r} is not a ROS message type name (pkg/Name)")
-    return parts[0], parts[1]
-
-
-def ros2_type_name(msg_type: str) -> str:
-    pkg, name = split_type(msg_type)
-    return f"{pkg}/msg/{name}"
 
 
 def msg_alias(msg_type: str) -> str:
     """The name the node imports a message class as: ``ros_<pkg>_<Name>``;
     the prefix keeps it clear of every name of the runtime."""
     pkg, name = split_type(msg_type)
-    return _identifier(f"ros_{pkg}_{name}", "message class")
-
-
-def package_name(module: str) -> str:
-    """A ROS package name (REP 144: lower case, digits, single `_`) for ``module``."""
-    name = re.sub(r"_+", "_", re.sub(r"[^a-z0-9_]", "_", module.lower())).strip("_")
-    if not name or not name[0].isalpha():
-        name = "ybg_" + name
-    return name
+    return identifier(f"ros_{pkg}_{name}", "message class")
 
 
 def _attr(expr: str, name: str) -> str:
@@ -233,29 +189,6 @@ def _literal_text(value, base: str) -> str:
     return py_literal(v)
 
 
-def _check_size(typ: ir.TypeRef, n: int, what: str) -> None:
-    if typ.array == "fixed" and typ.size is not None and n != typ.size:
-        raise LoweringError(f"{what}: {n} values for the fixed-size field {typ}")
-    if typ.array == "sequence" and typ.size is not None and n > typ.size:
-        raise LoweringError(f"{what}: {n} values for the bounded field {typ}")
-
-
-def slice_stop(program: ir.Program, ref: ir.MuxRef, typ: ir.TypeRef, name: str) -> int | None:
-    """The end of the mux slice ``ref`` into the array field ``name`` of type
-    ``typ`` when the mux's width is known (else None: it is known at run
-    time); the slice is checked against the mux and the field's size."""
-    width = program.mux(ref.mux).width
-    if width is None:
-        if ref.stop is not None:
-            _check_size(typ, ref.stop - ref.start, f"field {name}")
-        return None
-    stop = width if ref.stop is None else ref.stop
-    if stop > width or ref.start > stop:
-        raise LoweringError(f"field {name}: elements [{ref.start}, {stop}) of a mux of {width}")
-    _check_size(typ, stop - ref.start, f"field {name}")
-    return stop
-
-
 class _MessageBuilder:
     """Writes the body of ``build_message`` for a typed ROS 2 message: one
     assignment per field that the config sets (the others keep the
@@ -289,7 +222,7 @@ class _MessageBuilder:
         try:
             self._field(f, target, prefix)
         except LoweringError as e:
-            raise e.at("field", prefix + f.name)
+            raise e.at(f.span)
 
     def _field(self, f: ir.Field, target: str, prefix: str) -> None:
         name = prefix + f.name
@@ -315,7 +248,7 @@ class _MessageBuilder:
         """One new message per element, then each element's fields."""
         if typ.array is None or not typ.is_message or typ.base != src.msg_type:
             raise LoweringError(f"field {name}: an array of {src.msg_type} for a {typ} field")
-        _check_size(typ, len(src.elements), f"field {name}")
+        check_size(typ, len(src.elements), f"field {name}")
         if src.msg_type not in self.element_types:
             self.element_types.append(src.msg_type)
         cls = msg_alias(src.msg_type)
@@ -389,7 +322,7 @@ class _MessageBuilder:
             return _literal_text(lit.values[0], typ.base)
         if typ.array is None:
             raise LoweringError(f"field {name}: a list for the scalar field {typ}")
-        _check_size(typ, len(lit.values), f"field {name}")
+        check_size(typ, len(lit.values), f"field {name}")
         return "[" + ", ".join(_literal_text(v, typ.base) for v in lit.values) + "]"
 
     def mux_ref(self, ref: ir.MuxRef, typ: ir.TypeRef, name: str) -> str:
@@ -428,37 +361,6 @@ class _MessageBuilder:
 # the node
 
 
-def _message_types(struct: ir.Struct, out: set[str]) -> None:
-    if struct.msg_type:
-        out.add(struct.msg_type)
-    for f in struct.fields:
-        if f.type is not None and f.type.is_message:
-            out.add(f.type.base)
-        if isinstance(f.source, ir.Struct):
-            _message_types(f.source, out)
-
-
-def used_packages(program: ir.Program) -> tuple[str, ...]:
-    """The ROS packages whose messages the node uses, sorted."""
-    types: set[str] = set()
-    if program.output.kind == "ros2":
-        if program.output.msg_type:
-            types.add(program.output.msg_type)
-        _message_types(program.message, types)
-    for m in program.muxes:
-        for i in m.inputs:
-            if i.kind == "ros2" and i.ros_type:
-                types.add(i.ros_type)
-    return tuple(sorted({split_type(t)[0] for t in types if t not in ("time", "duration")}))
-
-
-def node_name(program: ir.Program) -> str:
-    node = (program.output.node or "").strip("/") if program.output.kind == "ros2" else ""
-    if node and re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", node):
-        return node
-    return _identifier(program.module, "module name")
-
-
 def _lower_inputs(program: ir.Program):
     muxes: list[MuxView] = []
     topics: list[TopicInputView] = []
@@ -471,20 +373,20 @@ def _lower_inputs(program: ir.Program):
             width = "any number of numbers" if types is None else f"{len(types)} elements"
             if i.kind == "ros2":
                 if not i.ros_type:
-                    raise LoweringError(f"the ROS 2 input {i.name} has no message type", ("input", m.name, i.name))
+                    raise LoweringError(f"the ROS 2 input {i.name} has no message type", i.span)
                 if not i.fields:
-                    raise LoweringError(f"the ROS 2 input {i.name} names no numeric field", ("input", m.name, i.name))
+                    raise LoweringError(f"the ROS 2 input {i.name} names no numeric field", i.span)
                 try:
                     for leaf in i.fields:
                         for part in leaf.split("."):
-                            _identifier(part, f"field of {i.ros_type}")
+                            identifier(part, f"field of {i.ros_type}")
                 except LoweringError as e:
-                    raise e.at("input", m.name, i.name)
+                    raise e.at(i.span)
                 alias = msg_alias(i.ros_type)
                 pkg, name = split_type(i.ros_type)
                 imports[alias] = MsgImport(f"{pkg}.msg", name, alias)
                 if i.each is not None:
-                    _identifier(i.each, f"field of {i.ros_type}")
+                    identifier(i.each, f"field of {i.ros_type}")
                 topics.append(TopicInputView(py_literal(m.name), k, alias, py_literal(tuple(i.fields)),
                                              py_literal(i.each)))
                 desc = f"ROS 2 topic {i.name} ({ros2_type_name(i.ros_type)} {', '.join(i.fields)}): {width}"
@@ -498,8 +400,7 @@ def _lower_inputs(program: ir.Program):
                 if i.accepts:
                     desc += f"; also from {', '.join(i.accepts)}"
             else:
-                raise LoweringError(f"the ros2 backend cannot read a {i.kind!r} input ({i.name})",
-                                    ("input", m.name, i.name))
+                raise LoweringError(f"the ros2 backend cannot read a {i.kind!r} input ({i.name})", i.span)
             inputs.append(InputView(
                 mux=py_literal(m.name), index=k, source=py_literal(i.name), kind=py_literal(i.kind),
                 types=py_literal(types), timeout=py_literal(float(i.timeout)),
@@ -509,17 +410,6 @@ def _lower_inputs(program: ir.Program):
         muxes.append(MuxView(py_literal(m.name), tuple(inputs), convs, py_literal(bool(m.verbose)),
                              py_literal(m.element_types), m.rows))
     return tuple(muxes), tuple(topics), imports, runtime_imports(used)
-
-
-def _lower_yarp_output(program: ir.Program) -> OutputView:
-    out = program.output
-    desc = f"YARP port {out.name}"
-    if out.connect_to:
-        desc += f", connected to {out.connect_to}"
-    desc = (f"{out.msg_type} on the " if out.msg_type else "untyped Bottles on the ") + desc
-    return OutputView(kind=py_literal("yarp"), port=py_literal(out.name),
-                      connect_to=py_literal(out.connect_to), msg_type=py_literal(out.msg_type),
-                      description=py_literal(desc))
 
 
 def lower(program: ir.Program) -> NodeView:
@@ -542,7 +432,7 @@ def lower(program: ir.Program) -> NodeView:
             alias = msg_alias(msg_type)
             pkg, name = split_type(msg_type)
         except LoweringError as e:
-            raise e.at("type")
+            raise e.at(out.type_span)
         imports[alias] = MsgImport(f"{pkg}.msg", name, alias)
         qos = out.qos or ir.QoS()
         if qos.reliability not in RELIABILITY or qos.durability not in DURABILITY or qos.depth < 1:
@@ -559,7 +449,7 @@ def lower(program: ir.Program) -> NodeView:
         builder, needed = tuple(mb.lines), tuple(mb.muxes)
         desc = f"{ros2_type_name(msg_type)} on the ROS 2 topic {out.name}"
     elif out.kind == "yarp":
-        yarp_output = _lower_yarp_output(program)
+        yarp_output = bottle_output(program, "ros2")
         bb = BottleBuilder(program)
         bb.struct(program.message, program.message.msg_type or out.msg_type, 1, "return ", "")
         builder, needed = tuple(bb.lines), tuple(bb.muxes)
@@ -573,21 +463,16 @@ def lower(program: ir.Program) -> NodeView:
         raise LoweringError(f"the ros2 backend cannot publish to a {out.kind!r} output")
 
     n_in = sum(len(m.inputs) for m in program.muxes)
-    timing = ("event-driven (publishes when " +
-              ("every needed input has" if program.timing.trigger == "all" else "any needed input has") +
-              " new data)") if program.timing.rate is None else (
-                  f"at {program.timing.rate:g} Hz" + (", new data only" if program.timing.publish == "new" else ""))
     name = node_name(program)
     summary = (
         py_literal(f"ROS 2 node {name}: {n_in} input(s) in {len(program.muxes)} mux(es)"),
         py_literal(desc),
-        py_literal(f"publishing {timing}, on_stale={program.policy.on_stale}, "
-                   f"on_nan={program.policy.on_nan}"),
+        py_literal(timing_summary(program)),
     )
     config_name = os.path.basename(program.source) if program.source else program.module
     rate = program.timing.rate
     return NodeView(
-        filename=f"{_identifier(program.module, 'module name')}_node.py",
+        filename=f"{identifier(program.module, 'module name')}_node.py",
         config=py_literal(config_name),
         module=py_literal(program.module),
         node_name=py_literal(name),
@@ -611,19 +496,6 @@ def lower(program: ir.Program) -> NodeView:
         builder=builder,
         uses_rows=uses_rows,
         runtime_imports=rt_imports,
-    )
-
-
-def node_parameters(program: ir.Program) -> tuple[tuple[str, object], ...]:
-    """The node's parameters a launch file gives, with their defaults from the
-    config (the rclpy node's and the native C++ module's alike)."""
-    rate = program.timing.rate
-    return (
-        ("rate", 0.0 if rate is None else float(rate)),
-        ("timeout", 0.0),
-        ("prefix", "/" + program.module),
-        ("verbose", False),
-        ("diagnostics", True),
     )
 
 

@@ -78,7 +78,7 @@ def _converters(ctx: Context, mux: ir.Mux, entry: ast.Entry) -> list[ir.AnyConve
         ok, conv = _converter(ctx, mux, item, width, types, not failed)
         failed = failed or not ok
         if conv is not None:
-            out.append(conv)
+            out.append(dataclasses.replace(conv, span=item.span))
     return None if failed else out
 
 

@@ -22,7 +22,7 @@ import math
 
 from ybg.compiler import ast, ir
 from ybg.compiler.diagnostics import Edit, Fix, Span, did_you_mean
-from ybg.compiler.legacy import converted_name
+from ybg.compiler.names import converted_name
 from ybg.compiler.msgtypes import MsgDef, numeric_leaves
 from ybg.compiler.names import identifier_problem
 from ybg.compiler.passes.context import Context, FieldPath
