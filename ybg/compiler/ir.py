@@ -138,20 +138,36 @@ class Converter:
         return self.scale == 1.0 and self.offset == 0.0 and not self.to_float
 
 
-#: geometry converter -> (elements it takes, elements it gives); the
-#: runtime's GEOMETRY_WIDTHS (ybg/runtime/geometry.py) agree (a test checks)
-GEOMETRY_WIDTHS: dict[str, tuple[int, int]] = {
-    "euler_to_quat": (3, 4),
-    "quat_to_euler": (4, 3),
-    "axis_angle_to_quat": (4, 4),
-    "quat_to_axis_angle": (4, 4),
-    "matrix_to_quat": (9, 4),
-    "transform_to_pose": (16, 7),
-    "quat_normalize": (4, 4),
+@dataclass(frozen=True)
+class GeometryKind:
+    """What the checker and every backend know of one geometry converter:
+    the elements it takes and gives, whether its last four results are a
+    quaternion, and how a hint writes it. Adding a geometry converter is an
+    entry here, its function in the runtime (``ybg/runtime/geometry.py``,
+    whose widths a test holds to these) and in the C++ runtime (the
+    ``ybgc::Geometry`` enumerator named by :attr:`cpp_name`), and its line
+    in docs/config.md."""
+
+    width_in: int
+    width_out: int
+    quaternion: bool
+    example: str
+
+
+#: the geometry converters, by name
+GEOMETRY: dict[str, GeometryKind] = {
+    "euler_to_quat": GeometryKind(3, 4, True, "euler_to_quat(xyz, deg)[0:3]"),
+    "quat_to_euler": GeometryKind(4, 3, False, "quat_to_euler(xyz, rad)[3:7]"),
+    "axis_angle_to_quat": GeometryKind(4, 4, True, "axis_angle_to_quat[3:7]"),
+    "quat_to_axis_angle": GeometryKind(4, 4, False, "quat_to_axis_angle[3:7]"),
+    "matrix_to_quat": GeometryKind(9, 4, True, "matrix_to_quat[0:9]"),
+    "transform_to_pose": GeometryKind(16, 7, True, "transform_to_pose[0:16]"),
+    "quat_normalize": GeometryKind(4, 4, True, "quat_normalize[3:7]"),
 }
+#: geometry converter -> (elements it takes, elements it gives)
+GEOMETRY_WIDTHS: dict[str, tuple[int, int]] = {name: (g.width_in, g.width_out) for name, g in GEOMETRY.items()}
 #: the converters whose results are a quaternion at their last four elements
-QUATERNION_RESULTS = frozenset({"euler_to_quat", "axis_angle_to_quat", "matrix_to_quat",
-                                "transform_to_pose", "quat_normalize"})
+QUATERNION_RESULTS = frozenset(name for name, g in GEOMETRY.items() if g.quaternion)
 #: Euler axis orders (fixed axes, the first rotation first); ROS's rpy is xyz
 EULER_AXES = ("xyz", "xzy", "yxz", "yzx", "zxy", "zyx")
 
@@ -650,7 +666,7 @@ def from_json(text: str) -> Program:
 
 __all__ = [
     "ElementGroup", "Input", "Converter", "GeometryConverter", "ExprNode", "ExprConverter", "AnyConverter",
-    "GEOMETRY_WIDTHS", "QUATERNION_RESULTS", "EULER_AXES", "EXPR_FUNCTIONS", "Mux", "TypeRef", "Literal", "MuxRef",
+    "GeometryKind", "GEOMETRY", "GEOMETRY_WIDTHS", "QUATERNION_RESULTS", "EULER_AXES", "EXPR_FUNCTIONS", "Mux", "TypeRef", "Literal", "MuxRef",
     "Counter", "Timestamp", "Seconds", "Default", "Field", "Struct", "MessageArray", "QoS",
     "DEFAULT_QUEUE", "Output", "Timing", "Policy", "Program", "to_dict", "to_json", "from_dict",
     "from_json", "IR_VERSION", "NUMERIC_TYPES", "INTEGER_TYPES", "FLOAT_TYPES",

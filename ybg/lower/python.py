@@ -137,8 +137,6 @@ class OutputView:
 #: expression function -> the runtime's Python function (geometry.py)
 _PY_FUNCTIONS = {"abs": "fabs", "min": "min_of", "max": "max_of", "clamp": "clamp", "sqrt": "sqrt",
                  "sin": "sin", "cos": "cos", "atan2": "atan2"}
-#: the Geometry names of the runtime, by converter
-GEOMETRY_SPEC_NAMES = {name: name for name in ir.GEOMETRY_WIDTHS}
 
 
 def py_expression(node: ir.ExprNode, used: set[str], top: bool = True) -> str:
@@ -177,7 +175,7 @@ def converter_views(mux: ir.Mux, used: set[str]) -> tuple[ConverterView, ...]:
             used.add("GeometrySpec")
             args = (c.axes, c.degrees) if c.axes is not None else ()
             out.append(ConverterView(py_literal(c.text), spec=(
-                f"GeometrySpec({py_literal(c.text)}, {py_literal(GEOMETRY_SPEC_NAMES[c.name])}, "
+                f"GeometrySpec({py_literal(c.text)}, {py_literal(c.name)}, "
                 f"{py_literal(args)}, start={py_literal(int(c.start))})")))
         elif isinstance(c, ir.ExprConverter):
             used.add("EachSpec")
@@ -409,5 +407,5 @@ PYTHON_FILTERS = {
 
 
 __all__ = ["PYTHON_FILTERS", "int_literal_filter", "py_literal", "py_types", "py_expression", "InputView", "ConverterView", "RuntimeImport", "MuxView",
-           "OutputView", "GEOMETRY_SPEC_NAMES", "converter_views", "runtime_imports", "BottleBuilder",
+           "OutputView", "converter_views", "runtime_imports", "BottleBuilder",
            "bottle_output", "timing_summary"]

@@ -117,12 +117,12 @@ class ModuleView:
 # helpers
 
 
-#: geometry converter -> the runtime's ybgc::Geometry
-_GEOMETRY = {
-    "euler_to_quat": "EulerToQuat", "quat_to_euler": "QuatToEuler", "axis_angle_to_quat": "AxisAngleToQuat",
-    "quat_to_axis_angle": "QuatToAxisAngle", "matrix_to_quat": "MatrixToQuat",
-    "transform_to_pose": "TransformToPose", "quat_normalize": "QuatNormalize",
-}
+def geometry_enumerator(name: str) -> str:
+    """The runtime's ``ybgc::Geometry`` enumerator of a geometry converter:
+    its name in CamelCase (``quat_normalize`` -> ``QuatNormalize``)."""
+    return "".join(part.capitalize() for part in name.split("_"))
+
+
 #: expression function -> C++ function (the runtime's where C++ has none)
 _CPP_FUNCTIONS = {"abs": "std::fabs", "min": "ybgc::minOf", "max": "ybgc::maxOf", "clamp": "ybgc::clamp",
                   "sqrt": "std::sqrt", "sin": "std::sin", "cos": "std::cos", "atan2": "std::atan2"}
@@ -154,7 +154,7 @@ def _converter(target: str, c) -> str:
     """The call of converter ``c`` on the mux (or row) ``target``."""
     if isinstance(c, ir.GeometryConverter):
         axes = cpp_string(c.axes or "xyz")
-        return (f"ybgc::convertGeometry({target}, ybgc::Geometry::{_GEOMETRY[c.name]}, {index_text(c.start)}, "
+        return (f"ybgc::convertGeometry({target}, ybgc::Geometry::{geometry_enumerator(c.name)}, {index_text(c.start)}, "
                 f"{axes}, {'true' if c.degrees else 'false'});  // {comment(c.text)}")
     if isinstance(c, ir.ExprConverter):
         return (f"ybgc::convertEach({target}, []([[maybe_unused]] double x) {{ return {cpp_expression(c.body)}; }}, "

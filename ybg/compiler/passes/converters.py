@@ -34,16 +34,6 @@ CONVERTERS: dict[str, tuple[int, float, float, bool]] = {
     "offset": (1, 1.0, 0.0, True),
 }
 
-#: what a geometry converter's range holds, for the hints
-_GEOMETRY_EXAMPLES = {
-    "euler_to_quat": "euler_to_quat(xyz, deg)[0:3]",
-    "quat_to_euler": "quat_to_euler(xyz, rad)[3:7]",
-    "axis_angle_to_quat": "axis_angle_to_quat[3:7]",
-    "quat_to_axis_angle": "quat_to_axis_angle[3:7]",
-    "matrix_to_quat": "matrix_to_quat[0:9]",
-    "transform_to_pose": "transform_to_pose[0:16]",
-    "quat_normalize": "quat_normalize[3:7]",
-}
 _EULER = ("euler_to_quat", "quat_to_euler")
 #: the parameters of an Euler converter: the axis orders (`rpy` is `xyz`), the units
 AXES = (*ir.EULER_AXES, "rpy")
@@ -188,7 +178,7 @@ def _geometry(ctx: Context, mux: ir.Mux, item: ast.Item, name: str, args, start:
     """A geometry converter on [start, stop), whose width must be its own."""
     s = ctx.sink
     need = ir.GEOMETRY_WIDTHS[name][0]
-    example = _GEOMETRY_EXAMPLES[name]
+    example = ir.GEOMETRY[name].example
     axes, degrees = None, False
     if name in _EULER:
         words = [a[0].text if len(a) == 1 and isinstance(a[0], ast.Word) else None for a in args]
