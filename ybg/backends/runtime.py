@@ -6,9 +6,10 @@ The runtime is plain code in this repository: the Python package
 tests. A module holds only what its config says and uses the runtime:
 
 - by default the runtime files are written beside the module, in the output
-  folder, as ``ybgc_runtime/`` (Python) or ``ybgc_runtime.hpp`` and
-  ``ybgc_runtime.cpp`` (C++), each headed by a line saying that ybgc wrote
-  it and of which version; the module refuses a runtime of another version;
+  folder, as ``ybgc_runtime/`` (Python) or ``ybgc_runtime.hpp`` and the
+  ``ybgc_*.cpp`` sources with their private header (C++), each headed by a
+  line saying that ybgc wrote it and of which version; the module refuses a
+  runtime of another version;
 - with ``--single-file`` the runtime is inlined into the module, one file
   with nothing beside it (the output of ybgc before the runtime library).
 
@@ -32,12 +33,17 @@ CPP_DIR = RUNTIME_DIR / "cpp"
 PY_PACKAGE = "ybgc_runtime"
 #: the Python runtime's modules, in the order they are inlined
 PY_MODULES = ("geometry", "core", "yarp_io", "ros2_io")
-#: the C++ runtime's files
+#: the C++ runtime's files: the header a module includes, the header its
+#: sources share (not for modules), and its sources, one concern a file, in
+#: the order they are built and inlined
 CPP_HEADER = "ybgc_runtime.hpp"
-CPP_SOURCE = "ybgc_runtime.cpp"
+CPP_INTERNAL_HEADER = "ybgc_internal.hpp"
+CPP_SOURCES = ("ybgc_runtime.cpp", "ybgc_inputs.cpp", "ybgc_bottles.cpp", "ybgc_connections.cpp",
+               "ybgc_convert.cpp", "ybgc_totals.cpp", "ybgc_options.cpp")
 #: the C++ runtime's ROS 2 side (rcl), beside a module that publishes to ROS 2
+#: or reads a ROS 2 topic
 CPP_ROS2_HEADER = "ybgc_ros2.hpp"
-CPP_ROS2_SOURCE = "ybgc_ros2.cpp"
+CPP_ROS2_SOURCES = ("ybgc_ros2.cpp", "ybgc_ros2_params.cpp")
 
 #: marks the lines of a runtime file that import another runtime file (left
 #: out when the runtime is inlined into a module)
@@ -77,7 +83,9 @@ def python_inline(modules: tuple[str, ...] = PY_MODULES) -> str:
 
 
 def _cpp_names(ros2: bool) -> tuple[str, ...]:
-    return (CPP_HEADER, CPP_SOURCE) + ((CPP_ROS2_HEADER, CPP_ROS2_SOURCE) if ros2 else ())
+    """The C++ runtime's files, headers first (the order they are inlined in)."""
+    return ((CPP_HEADER, CPP_INTERNAL_HEADER, *CPP_SOURCES)
+            + ((CPP_ROS2_HEADER, *CPP_ROS2_SOURCES) if ros2 else ()))
 
 
 def is_runtime_file(name: str) -> bool:
@@ -88,17 +96,23 @@ def is_runtime_file(name: str) -> bool:
 
 
 def cpp_files(ros2: bool = False) -> dict[str, str]:
-    """The C++ runtime's header and source, beside a module (``ros2``: and
-    its ROS 2 side, for a module that publishes to ROS 2)."""
+    """The C++ runtime's headers and sources, beside a module (``ros2``: and
+    its ROS 2 side, for a module that publishes to ROS 2 or reads a ROS 2
+    topic)."""
     return {name: _banner("//") + _read(CPP_DIR / name) for name in _cpp_names(ros2)}
 
 
 def cpp_inline(ros2: bool = False) -> str:
-    """The C++ runtime as one block of a module (``--single-file``)."""
-    return (f"// {'=' * 75}\n// ybgc runtime {VERSION}, inlined (--single-file): the same code as\n"
-            f"// {CPP_HEADER} and {CPP_SOURCE}, which ybgc writes beside a module by default.\n"
-            f"// {'=' * 75}\n"
-            + "\n".join(_without_internal_imports(_read(CPP_DIR / name)) for name in _cpp_names(ros2)))
+    """The C++ runtime as one block of a module (``--single-file``): its
+    files one after the other, headers first, in one translation unit (so
+    no two of them define the same helper)."""
+    parts = [f"// {'=' * 75}\n// ybgc runtime {VERSION}, inlined (--single-file): the same code as the\n"
+             f"// files that ybgc writes beside a module by default ({CPP_HEADER} and the\n"
+             f"// others below), one after the other.\n// {'=' * 75}\n"]
+    for name in _cpp_names(ros2):
+        parts.append(f"\n// --- {name} {'-' * (70 - len(name))}\n")
+        parts.append(_without_internal_imports(_read(CPP_DIR / name)))
+    return "".join(parts)
 
 
 @dataclass(frozen=True)
@@ -131,6 +145,6 @@ def runtime_text_filter(text) -> str:
     return text.rstrip("\n")
 
 
-__all__ = ["RuntimeView", "runtime_view", "runtime_text_filter", "VERSION", "PY_PACKAGE", "PY_MODULES", "CPP_HEADER", "CPP_SOURCE",
-           "CPP_ROS2_HEADER", "CPP_ROS2_SOURCE",
+__all__ = ["RuntimeView", "runtime_view", "runtime_text_filter", "VERSION", "PY_PACKAGE", "PY_MODULES", "CPP_HEADER",
+           "CPP_INTERNAL_HEADER", "CPP_SOURCES", "CPP_ROS2_HEADER", "CPP_ROS2_SOURCES",
            "python_files", "python_inline", "cpp_files", "cpp_inline", "is_runtime_file"]

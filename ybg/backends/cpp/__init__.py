@@ -27,7 +27,7 @@ import jinja2
 from ybg.backends.base import Backend, RenderOptions
 from ybg.backends.cpp.lower import lower
 from ybg.backends.cpp.package import lower_launch, lower_package
-from ybg.backends.runtime import CPP_ROS2_SOURCE, CPP_SOURCE, cpp_files, runtime_text_filter, runtime_view
+from ybg.backends.runtime import CPP_ROS2_SOURCES, CPP_SOURCES, cpp_files, runtime_text_filter, runtime_view
 from ybg.lower import yarpmanager
 from ybg.lower.errors import LoweringError
 from ybg.lower.package import launch_file
@@ -69,9 +69,9 @@ class CppBackend(Backend):
         files = {
             view.filename: env.get_template("module.cpp.j2").render(m=view, rt=rt),
             "CMakeLists.txt": env.get_template("CMakeLists.txt.j2").render(
-                m=view, runtime_source=CPP_SOURCE if beside else None,
+                m=view, runtime_sources=list(CPP_SOURCES) if beside else None,
                 runtime_library=runtime_library() if beside else None,
-                ros2_source=CPP_ROS2_SOURCE if beside and ros2 else None, package=pkg,
+                ros2_sources=list(CPP_ROS2_SOURCES) if beside and ros2 else None, package=pkg,
                 project=pkg.package if pkg is not None else view.target,
                 launch_file=f"launch/{launch.launch_file}" if launch else None,
                 launch_file_name=launch.launch_file if launch else None),

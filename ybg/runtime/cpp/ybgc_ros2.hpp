@@ -8,8 +8,11 @@
 // line as an rclcpp or rclpy node does: remappings, use_sim_time and the
 // qos_overrides.* parameters. The helpers below are what a builder's lines call: they convert a mux element to the
 // field's C type as the Python ROS 2 node does, and size strings and
-// sequences with rosidl_runtime_c's functions. ybgc writes this file and
-// ybgc_ros2.cpp beside a module that publishes to ROS 2.
+// sequences with rosidl_runtime_c's functions. ybgc writes this file,
+// ybgc_ros2.cpp (rcl: the node, the publisher, the subscriptions) and
+// ybgc_ros2_params.cpp (ROS arguments, parameters, QoS overrides, the
+// statuses of /diagnostics) beside a module that publishes to ROS 2 or reads
+// a ROS 2 topic.
 #ifndef YBGC_ROS2_HPP
 #define YBGC_ROS2_HPP
 

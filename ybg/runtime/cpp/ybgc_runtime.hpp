@@ -1,10 +1,14 @@
 // The runtime library of the C++ modules ybgc generates (docs/runtime.md):
 // what a module's own code uses. A module holds its spec tables (BridgeSpec),
-// its gather/compute/buildMessage functions and main(), which calls run();
-// the behaviour is in ybgc_runtime.cpp (inputs, layout checks, freshness,
-// matching, converters, timing, connections, shutdown), plain code with its
-// own tests (tests/runtime/). ybgc writes both files beside each module it
-// generates, or inlines them into it with --single-file.
+// its gather/compute/buildMessage functions and main(), which calls run().
+// The behaviour is plain code with its own tests (tests/runtime/), one
+// concern a file: ybgc_runtime.cpp (run(): the loop, timing, start-up and
+// shutdown), ybgc_inputs.cpp (the input ports, freshness, matching),
+// ybgc_bottles.cpp (Bottles written and checked, the YARP output),
+// ybgc_connections.cpp, ybgc_convert.cpp (converters), ybgc_totals.cpp
+// (messages, the RPC port), ybgc_options.cpp (the command line); what they
+// share is in ybgc_internal.hpp. ybgc writes these files beside each module
+// it generates, or inlines them into it with --single-file.
 #ifndef YBGC_RUNTIME_HPP
 #define YBGC_RUNTIME_HPP
 

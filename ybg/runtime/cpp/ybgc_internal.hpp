@@ -1,0 +1,268 @@
+// The internals that the C++ runtime's source files share, not for modules
+// (what a module uses is ybgc_runtime.hpp): the input ports, the watcher of
+// connections, the YARP output, the RPC port and the command-line options,
+// which the bridge (ybgc_runtime.cpp) puts together.
+#ifndef YBGC_INTERNAL_HPP
+#define YBGC_INTERNAL_HPP
+
+#include "ybgc_runtime.hpp"  // ybgc:runtime-import
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include <yarp/os/Bottle.h>
+#include <yarp/os/BufferedPort.h>
+#include <yarp/os/ConnectionReader.h>
+#include <yarp/os/ConnectionWriter.h>
+#include <yarp/os/Contact.h>
+#include <yarp/os/PortReader.h>
+#include <yarp/os/Portable.h>
+#include <yarp/os/RpcServer.h>
+#include <yarp/os/TypedReaderCallback.h>
+#include <yarp/os/Value.h>
+
+namespace ybgc {
+
+// --- the input ports (ybgc_inputs.cpp) ----------------------------------------------
+
+class Input;
+
+/// Told of every accepted Bottle, in the input's callback thread, with
+/// Shared::mutex held.
+class ArrivalListener
+{
+public:
+    virtual ~ArrivalListener() = default;
+    virtual void arrived(Input& input, bool wasFresh) = 0;
+};
+
+/// What the input callbacks and the loop share; guarded by `mutex`.
+struct Shared
+{
+    std::mutex mutex;
+    std::condition_variable wake;  // stop, or an input became fresh (new stale deadline)
+    bool stopping = false;
+    bool dropNan = false;
+    std::size_t queue = 1;  // unused Bottles kept per input (BridgeSpec::queue)
+    ArrivalListener* listener = nullptr;
+    std::function<void()> foreign;  // an input refused a Bottle of another port: the watcher closes its connection
+};
+
+/// An input Bottle with the name of the port that sent it: YARP's name for
+/// the connection's remote end (what YARP prints as "Receiving input from"),
+/// which is the sender's own name, whatever name the connection was asked for.
+class SourcedBottle : public yarp::os::Portable
+{
+public:
+    bool read(yarp::os::ConnectionReader& connection) override
+    {
+        source = connection.getRemoteContact().getName();
+        return bottle.read(connection);
+    }
+
+    bool write(yarp::os::ConnectionWriter& connection) const override { return bottle.write(connection); }
+
+    yarp::os::Bottle bottle;
+    std::string source;
+};
+
+/// An admin command to the port at `where` (its contact: no name server
+/// needed); false when it does not answer.
+bool admin(const yarp::os::Contact& where, const std::string& command, yarp::os::Bottle& reply);
+
+/// One input: its own port, read by YARP's callback thread, keeping only
+/// the newest accepted Bottle with its arrival time and envelope. Each
+/// Bottle comes with the name of the port that sent it: from a YARP port
+/// input, a Bottle of any port it does not accept is refused, never used.
+class Input : public InputState, public yarp::os::TypedReaderCallback<SourcedBottle>
+{
+public:
+    Input(Shared& shared, const InputSpec& spec, std::string local, double timeout);
+
+    bool open();
+    void interrupt();
+    void close();
+
+    /// The ports connected to its port, by YARP's names for them.
+    std::vector<std::string> sources();
+
+    /// Closes the connection from port `name` to its port (an admin `del`
+    /// to its own port, which needs no name server: `name` may be a port
+    /// the name server does not know).
+    void drop(const std::string& name);
+
+    using yarp::os::TypedReaderCallback<SourcedBottle>::onRead;
+
+    void onRead(SourcedBottle& in) override;
+
+    /// One message read by an InputFeed (its thread): checked against the
+    /// layout (each row of it: one that does not check drops it whole), then
+    /// as a Bottle.
+    void deliver(Reading& reading);
+
+    /// Its port's name and address, once open.
+    yarp::os::Contact where() const;
+
+    /// A connection of port `other`, which it does not accept: said once.
+    void refuseConnection(const std::string& other);
+
+    const std::string local;  // this module's own port
+    std::string registered;   // its name in the name server (topic-@node for ROS)
+
+private:
+    /// A message read (accepted when `ok`, else refused for `why`), under
+    /// the lock; `rows`: its rows (moved out), for an array of messages.
+    void take(bool ok, Mux& values, bool hasEnvelope, double envelope, const std::string& why,
+              SteadyClock::time_point now, Rows* rows = nullptr);
+
+    Shared& shared_;
+    yarp::os::BufferedPort<SourcedBottle> port_;
+    Mux scratch_;  // only touched by the callback thread
+    std::vector<const yarp::os::Value*> items_;
+};
+
+// --- connections (ybgc_connections.cpp) -----------------------------------------------
+
+/// A connection the watcher keeps up: to an input's port from its source
+/// (`input` set), or from the output to a port it connects to.
+struct Link
+{
+    std::string source;
+    std::string destination;
+    Input* input = nullptr;
+};
+
+/// Every 0.5 s, connects each link whose source exists and that is not
+/// connected, so that a source that starts late or is restarted is picked
+/// up. An input's port reports its connections itself (no network traffic):
+/// one from its source (or a port it accepts) leaves it alone; one from any
+/// other port is closed (said once); the network is asked only about a
+/// missing one, and once a period whether the name server still knows the
+/// module's first port (registerAgain). What YARP connected is the port that
+/// answered at the address the name server gave: it is said by its own name,
+/// and when it is another port its Bottles are refused and its connection
+/// closed; that address is then connected again only once the port there
+/// answers as the source. Its own thread: the loop never waits for it. Its
+/// state is shared with the thread, so that a thread held up by a peer that
+/// does not answer can be left behind at exit.
+class Watcher
+{
+public:
+    /// `own`: the module's own ports, kept registered with the name server.
+    Watcher(std::vector<Link> links, std::vector<yarp::os::Contact> own);
+
+    void start();
+
+    /// What wakes it at once (an input refused a Bottle: its connection is
+    /// closed now); callable from any thread, also once it has stopped.
+    std::function<void()> waker() const;
+
+    /// Stops the thread; false if it did not end within `limit`.
+    bool stop(std::chrono::milliseconds limit);
+
+private:
+    struct State;
+
+    static void run(State& s);
+    static void registerAgain(const State& s);
+    static void checkInput(State& s, std::size_t k);
+    static void check(State& s, std::size_t k);
+    static bool listsInput(const std::string& port, const std::string& source);
+
+    std::shared_ptr<State> state_;
+    std::thread thread_;
+};
+
+// --- the output (ybgc_bottles.cpp) ------------------------------------------------------
+
+/// The YARP output: each message, a Bottle built by `make`, written on a
+/// BufferedPort (a ROS 1 topic's too), never waiting for a slow reader.
+std::unique_ptr<MessageSink> yarpOutput(const OutputSpec& spec, MakeMessage make);
+
+// --- the RPC port (ybgc_totals.cpp) -----------------------------------------------------
+
+/// The rate achieved: messages published per second since the previous
+/// reading (the first: since the meter was made, at start).
+class RateMeter
+{
+public:
+    explicit RateMeter(SteadyClock::time_point now) : then_(now) {}
+
+    double read(SteadyClock::time_point now, std::uint64_t published);
+
+private:
+    SteadyClock::time_point then_;
+    std::uint64_t before_ = 0;
+};
+
+/// The module's RPC port `<prefix>/rpc:i`, as YARP modules have one (`yarp
+/// rpc /<module>/rpc:i`): `help`, `stats`, `quit` (also `exit`, `bye`: the
+/// RFModule convention). Each command is answered in YARP's own thread for
+/// the port, the totals read under the bridge's lock; the loop and the
+/// inputs never wait for it.
+class RpcPort : public yarp::os::PortReader
+{
+public:
+    /// `rate`: the configured rate in Hz, 0 for event-driven.
+    RpcPort(std::string name, std::function<Totals()> totals, std::function<void()> quit, double rate);
+
+    bool open();
+
+    /// Closed; after a `quit` it asked for, once its `bye` is on its way:
+    /// YARP sends a reply when read() has returned, so a port closed at once
+    /// could drop it (the caller would not know the module heard it).
+    void close();
+
+    bool read(yarp::os::ConnectionReader& connection) override;
+
+    const std::string name;
+
+private:
+    /// `reply` to `command`; false for an unknown one.
+    bool respond(const yarp::os::Bottle& command, yarp::os::Bottle& reply);
+
+    std::function<Totals()> totals_;
+    std::function<void()> quit_;
+    const double rate_;
+    std::atomic<bool> reading_{false};
+    std::atomic<bool> quitAsked_{false};
+    std::mutex meterMutex_;
+    RateMeter meter_;
+    yarp::os::RpcServer port_;
+};
+
+// --- the command line (ybgc_options.cpp) ------------------------------------------------
+
+struct Options
+{
+    std::string prefix;
+    std::string from;     // --from FILE
+    std::string context;  // --context CTX
+    double rate = 0.0;
+    bool hasTimeout = false;
+    double timeout = 0.0;
+    bool verbose = false;
+    std::vector<std::pair<std::string, std::string>> accept;  // --accept: (input's source, other port)
+};
+
+/// A number as the start-up line and --help say it (printf's %g).
+std::string formatNumber(double x);
+
+/// Parses argv into `opt`: -1 to go on, else the exit status (0 after
+/// --help). `--from` / `--context`: the options in that YARP config file
+/// come first, so that the command line wins over the file and the file
+/// over the config.
+int parseOptions(const BridgeSpec& spec, int argc, char* argv[], Options& opt);
+
+}  // namespace ybgc
+
+#endif  // YBGC_INTERNAL_HPP

@@ -1,0 +1,188 @@
+// What the C++ runtime says (ybgc_runtime.hpp, ybgc_internal.hpp): the
+// messages printed, each mux printed with --verbose, and the RPC port that
+// answers help, stats (the totals) and quit.
+#include "ybgc_internal.hpp"  // ybgc:runtime-import
+
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <functional>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <utility>
+
+#include <yarp/os/Bottle.h>
+#include <yarp/os/ConnectionReader.h>
+#include <yarp/os/ConnectionWriter.h>
+
+namespace ybgc {
+
+const char* gModule = "";
+
+std::mutex& printMutex()
+{
+    static std::mutex m;
+    return m;
+}
+
+/// Prints "<module>: <text>" on stdout, at once.
+void say(const std::string& text)
+{
+    std::lock_guard<std::mutex> lock(printMutex());
+    std::fprintf(stdout, "%s: %s\n", gModule, text.c_str());
+    std::fflush(stdout);
+}
+
+/// Prints lines as they are (totals, verbose values).
+void printLines(const std::string& text)
+{
+    std::lock_guard<std::mutex> lock(printMutex());
+    std::fputs(text.c_str(), stdout);
+    std::fflush(stdout);
+}
+
+/// Prints every element of a mux: "[<mux>] <index>: <value>".
+void printMux(const char* name, const Mux& mux)
+{
+    std::string out;
+    for (std::size_t k = 0; k < mux.size(); ++k) {
+        out += "[" + std::string(name) + "] " + std::to_string(k) + ": " + mux[k].repr() + "\n";
+    }
+    printLines(out);
+}
+
+void printMux(const char* name, const Rows& rows)
+{
+    std::string out;
+    for (std::size_t k = 0; k < rows.size(); ++k) {
+        out += "[" + std::string(name) + "] " + std::to_string(k) + ": [";
+        for (std::size_t j = 0; j < rows[k].size(); ++j) {
+            out += (j > 0 ? ", " : "") + rows[k][j].repr();
+        }
+        out += "]\n";
+    }
+    printLines(out);
+}
+
+// --- the RPC port (the convention of YARP modules) ------------------------------------------
+
+/// What `help` answers on the RPC port, one line a command.
+const char* const kRpcHelp[] = {
+    "help: this list",
+    "stats: the totals so far: per input (input SOURCE received N dropped N stale N unused N refused N), "
+    "(published N skipped N failures N), (rate ACHIEVED configured HZ|event-driven)",
+    "quit: stop the module (it closes its ports and exits 0, as on SIGINT)",
+};
+
+/// A rate achieved as `stats` gives it: messages per second, two decimals.
+std::string rateText(double rate)
+{
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.2f", rate);
+    return buf;
+}
+
+double RateMeter::read(SteadyClock::time_point now, std::uint64_t published)
+{
+    const double seconds = std::chrono::duration<double>(now - then_).count();
+    const double rate = seconds > 0 ? static_cast<double>(published - before_) / seconds : 0.0;
+    then_ = now;
+    before_ = published;
+    return rate;
+}
+
+RpcPort::RpcPort(std::string name, std::function<Totals()> totals, std::function<void()> quit, double rate) :
+        name(std::move(name)), totals_(std::move(totals)), quit_(std::move(quit)), rate_(rate),
+        meter_(SteadyClock::now())
+{
+}
+
+bool RpcPort::open()
+{
+    port_.setReader(*this);
+    return port_.open(name);
+}
+
+void RpcPort::close()
+{
+    if (quitAsked_) {
+        const SteadyClock::time_point deadline = SteadyClock::now() + std::chrono::milliseconds(500);
+        while (reading_ && SteadyClock::now() < deadline) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));  // read() returned: the reply is sent
+    }
+    port_.interrupt();
+    port_.close();
+}
+
+bool RpcPort::read(yarp::os::ConnectionReader& connection)
+{
+    reading_ = true;
+    yarp::os::Bottle command;
+    if (!command.read(connection)) {
+        reading_ = false;
+        return false;
+    }
+    yarp::os::Bottle reply;
+    respond(command, reply);
+    yarp::os::ConnectionWriter* writer = connection.getWriter();
+    if (writer != nullptr) {
+        reply.write(*writer);
+    }
+    reading_ = false;
+    return true;
+}
+
+bool RpcPort::respond(const yarp::os::Bottle& command, yarp::os::Bottle& reply)
+{
+    const std::string word = command.size() > 0 ? command.get(0).toString() : std::string();
+    if (word == "help") {
+        reply.addVocab32("many");
+        for (const char* line : kRpcHelp) {
+            reply.addString(line);
+        }
+    } else if (word == "stats") {
+        const Totals totals = totals_();
+        reply.addVocab32("many");
+        for (const Totals::PerInput& in : totals.inputs) {
+            yarp::os::Bottle& item = reply.addList();
+            item.addString("input");
+            item.addString(in.source);
+            for (const auto& [key, n] : {std::pair<const char*, std::uint64_t>{"received", in.received},
+                                         {"dropped", in.dropped}, {"stale", in.stale}, {"unused", in.unused},
+                                         {"refused", in.refused}}) {
+                item.addString(key);
+                item.addInt64(static_cast<std::int64_t>(n));
+            }
+        }
+        yarp::os::Bottle& counts = reply.addList();
+        for (const auto& [key, n] : {std::pair<const char*, std::uint64_t>{"published", totals.published},
+                                     {"skipped", totals.skipped}, {"failures", totals.failures}}) {
+            counts.addString(key);
+            counts.addInt64(static_cast<std::int64_t>(n));
+        }
+        // the rates as text, with the digits that mean something (a float64
+        // prints with 21 digits)
+        yarp::os::Bottle& rate = reply.addList();
+        rate.addString("rate");
+        {
+            std::lock_guard<std::mutex> lock(meterMutex_);
+            rate.addString(rateText(meter_.read(SteadyClock::now(), totals.published)));
+        }
+        rate.addString("configured");
+        rate.addString(rate_ > 0 ? reprFloat(rate_) : std::string("event-driven"));
+    } else if (word == "quit" || word == "exit" || word == "bye") {
+        say("asked to quit on the RPC port");
+        quitAsked_ = true;
+        quit_();
+        reply.addVocab32("bye");
+    } else {
+        reply.addString("unknown command '" + word + "'; the commands: help, stats, quit");
+        return false;
+    }
+    return true;
+}
+
+}  // namespace ybgc
