@@ -5,8 +5,9 @@ refuse from the backend's one declaration (``ybg.backends.registry``) and its
 lowering, so they agree by construction; this test holds them to it.
 
 Both commands run in this process, as a user runs them (``ybg.cli.main``),
-the generation into a folder of its own; ``--package`` and
-``--single-file`` generations agree too.
+the generation into a folder of its own. (``--package`` and
+``--single-file`` render what the same lowering decided: ``Backend.lower``
+makes the package's decisions too.)
 """
 
 from __future__ import annotations
@@ -49,10 +50,9 @@ def test_every_source_of_configs_is_found():
 def test_check_passes_exactly_when_generation_succeeds(config: Path, tmp_path: Path):
     for backend in backend_names():
         checked, said = run("check", str(config), "--backend", backend)
-        for extra in ((), ("--package",), ("--single-file",)):
-            out = tmp_path / f"{backend}{''.join(extra)}"
-            generated, told = run("generate", str(config), "--backend", backend, "-o", str(out), *extra)
-            assert checked == generated, (
-                f"{backend} {' '.join(extra)}: check {'passes' if checked == 0 else 'fails'} but generation "
-                f"{'succeeds' if generated == 0 else 'fails'}\n--- check:\n{said}\n--- generate:\n{told}")
-            assert (generated == 0) == out.is_dir(), told  # nothing written for a refused config
+        out = tmp_path / backend
+        generated, told = run("generate", str(config), "--backend", backend, "-o", str(out))
+        assert checked == generated, (
+            f"{backend}: check {'passes' if checked == 0 else 'fails'} but generation "
+            f"{'succeeds' if generated == 0 else 'fails'}\n--- check:\n{said}\n--- generate:\n{told}")
+        assert (generated == 0) == out.is_dir(), told  # nothing written for a refused config

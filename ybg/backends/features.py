@@ -14,6 +14,7 @@ FEATURES: dict[str, str] = {
     "fixed_array": "a fixed-size array field",
     "message_array": "an array of messages",
     "rows": "a ROS 2 input read a row for each element of an array of messages",
+    "image": "camera images",
 }
 
 
@@ -30,6 +31,8 @@ def _uses(program: ir.Program) -> Iterator[tuple[str, Span | None]]:
         for i in m.inputs:
             if i.each is not None:
                 yield "rows", i.span
+            if i.image is not None:
+                yield "image", i.span
     yield from _struct(program.message)
 
 

@@ -37,10 +37,11 @@ REGISTRY: dict[str, BackendInfo] = {
         Builds(
             outputs=frozenset({"yarp", "ros1", "ros2"}),
             inputs=frozenset({"yarp", "ros1", "ros2"}),
-            features={"yarp": frozenset({"fixed_array", "message_array", "rows"}),
+            features={"yarp": frozenset({"fixed_array", "message_array", "rows", "image"}),
                       "ros1": frozenset({"fixed_array", "message_array", "rows"}),
-                      "ros2": frozenset({"fixed_array", "message_array"})},
-            why={("ros2", "rows"): "a ROS 2 message is not filled from rows"},
+                      "ros2": frozenset({"fixed_array", "message_array", "image"})},
+            why={("ros2", "rows"): "a ROS 2 message is not filled from rows",
+                 ("ros1", "image"): "camera images are bridged to and from ROS 2"},
         )),
     "py": BackendInfo(
         "ybg.backends.py:PyBackend",
@@ -53,7 +54,9 @@ REGISTRY: dict[str, BackendInfo] = {
             why={("ros1", "fixed_array"): "YARP's Bottle translation sends a length before it, which ROS 1 "
                                           "reads as its first values, and " + _PY_TO_ROS1,
                  ("ros1", "message_array"): "YARP translates a Bottle to ROS 1 by a map that has no arrays of "
-                                            "messages, and " + _PY_TO_ROS1},
+                                            "messages, and " + _PY_TO_ROS1,
+                 ("yarp", "image"): "a camera image goes to or comes from ROS 2, which the py module does not "
+                                    "speak"},
         )),
     "ros2": BackendInfo(
         "ybg.backends.ros2:Ros2Backend",
@@ -61,8 +64,8 @@ REGISTRY: dict[str, BackendInfo] = {
         Builds(
             outputs=frozenset({"ros2", "yarp"}),
             inputs=frozenset({"yarp", "ros2"}),
-            features={"yarp": frozenset({"fixed_array", "message_array", "rows"}),
-                      "ros2": frozenset({"fixed_array", "message_array"})},
+            features={"yarp": frozenset({"fixed_array", "message_array", "rows", "image"}),
+                      "ros2": frozenset({"fixed_array", "message_array", "image"})},
             why={("ros2", "rows"): "a ROS 2 message is not filled from rows"},
         )),
 }

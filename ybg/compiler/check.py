@@ -16,13 +16,13 @@ from ybg.compiler import ast, ir
 from ybg.compiler.diagnostics import Sink
 from ybg.compiler.options import Options
 from ybg.compiler.passes import (bottles, converters, cuts, dialect, inputs, message, output, program,
-                                 sections, spans, typed)
+                                 images, sections, spans, typed)
 from ybg.compiler.passes.context import Context
 
 #: the passes, in the order they run
 PASSES = (
     sections.run, dialect.run, inputs.run, converters.run, output.run,
-    message.run, typed.run, bottles.run, cuts.run, program.run, spans.run,
+    message.run, typed.run, bottles.run, images.run, cuts.run, program.run, spans.run,
 )
 
 

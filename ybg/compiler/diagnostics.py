@@ -137,6 +137,12 @@ CODES: dict[str, str] = {
     "E331": "index beyond a fixed-size or bounded array",
     "E332": "gap in the indices of an array",
     "E333": "array of messages given a value",
+    # camera images (E340-E349)
+    "E340": "image where it cannot go",
+    "E341": "image input badly declared",
+    "E342": "encoding other than the frame's",
+    "E343": "image mixed with what its frame gives",
+    "E344": "camera calibration file cannot be read",
     # names
     "E401": "invalid YARP port name",
     "E402": "invalid ROS topic name",

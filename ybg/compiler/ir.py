@@ -47,6 +47,23 @@ NUMERIC_TYPES = frozenset(
 INTEGER_TYPES = NUMERIC_TYPES - {"float32", "float64"}
 FLOAT_TYPES = frozenset({"float32", "float64"})
 ELEMENT_TYPES = NUMERIC_TYPES | {"bool", "string"}
+#: the encodings of camera images (sensor_msgs/Image, REP 118 for depth) that
+#: YARP has a pixel type for: encoding -> the YARP pixel code's name
+IMAGE_ENCODINGS: dict[str, str] = {
+    "rgb8": "VOCAB_PIXEL_RGB", "bgr8": "VOCAB_PIXEL_BGR", "rgba8": "VOCAB_PIXEL_RGBA",
+    "bgra8": "VOCAB_PIXEL_BGRA", "mono8": "VOCAB_PIXEL_MONO", "mono16": "VOCAB_PIXEL_MONO16",
+    "16UC1": "VOCAB_PIXEL_MONO16", "32FC1": "VOCAB_PIXEL_MONO_FLOAT",
+}
+#: what a config may write for a pixel type: YARP's names, and the encodings
+PIXEL_NAMES: dict[str, str] = {
+    **{e: e for e in IMAGE_ENCODINGS},
+    "rgb": "rgb8", "bgr": "bgr8", "rgba": "rgba8", "bgra": "bgra8", "mono": "mono8",
+    "float": "32FC1", "PixelRgb": "rgb8", "PixelBgr": "bgr8", "PixelRgba": "rgba8", "PixelBgra": "bgra8",
+    "PixelMono": "mono8", "PixelMono16": "mono16", "PixelFloat": "32FC1",
+}
+#: an image input of ROS 2: each message's own encoding
+ANY_ENCODING = "any"
+
 #: the element type of an undeclared port's elements in an untyped Bottle:
 #: each as it came (an integer stays an integer)
 NUMBER = "number"
@@ -88,6 +105,10 @@ class Input:
     ``accepts`` (YARP ports): the other ports whose Bottles this input takes
     too (a replay under another name); a Bottle from any other port than
     ``name`` and these is refused at run time (docs/runtime.md, "Reading").
+    ``image``: a camera image input, not a Bottle: for a YARP port, the
+    encoding its frames are declared in (:data:`IMAGE_ENCODINGS`: a frame of
+    another pixel type is refused at run time); for a ROS 2
+    ``sensor_msgs/Image`` topic, :data:`ANY_ENCODING`. It has no layout.
     """
 
     name: str
@@ -100,6 +121,7 @@ class Input:
     reads: int | None = None
     each: str | None = None
     accepts: tuple[str, ...] = ()
+    image: str | None = None
     span: Span | None = field(default=None, compare=False, repr=False)
 
     @property
@@ -254,6 +276,12 @@ class Mux:
     span: Span | None = field(default=None, compare=False, repr=False)
 
     @property
+    def image(self) -> str | None:
+        """The encoding of the mux's frames when it is an image mux (its one
+        input a camera image), else None."""
+        return self.inputs[0].image if len(self.inputs) == 1 else None
+
+    @property
     def rows(self) -> bool:
         """Does the mux hold one row per element of an array of messages
         (an input with ``each``), each row converted alike?"""
@@ -406,7 +434,18 @@ class MessageArray:
     msg_type: str
 
 
-Source = Union[Literal, MuxRef, Counter, Timestamp, Seconds, Default, "Struct", MessageArray]
+@dataclass(frozen=True)
+class ImageFrame:
+    """The frame of the image mux ``mux``, in ``encoding``: the source of the
+    ``data`` of a ``sensor_msgs/Image``, which gives its ``height``,
+    ``width``, ``encoding``, ``is_bigendian`` and ``step`` too (those fields
+    are left :class:`Default`: a backend fills all six from the frame)."""
+
+    mux: str
+    encoding: str
+
+
+Source = Union[Literal, MuxRef, Counter, Timestamp, Seconds, Default, "Struct", MessageArray, ImageFrame]
 
 
 @dataclass(frozen=True)
@@ -445,6 +484,19 @@ class QoS:
 
 
 @dataclass(frozen=True)
+class CameraInfo:
+    """A ``sensor_msgs/CameraInfo`` published on ``topic`` beside each image,
+    with the image's header. ``message``: its fields (its ``header`` left
+    :class:`Default`); when its ``width`` and ``height`` are set and a frame
+    has another size, the run time scales the focal lengths and principal
+    point of ``k`` and ``p`` to the frame and publishes the frame's size."""
+
+    topic: str
+    message: "Struct"
+    span: Span | None = field(default=None, compare=False, repr=False)
+
+
+@dataclass(frozen=True)
 class Output:
     """Where the message goes.
 
@@ -461,6 +513,10 @@ class Output:
     node: str | None = None
     qos: QoS | None = None
     connect_to: str | None = None
+    #: a YARP port of camera images: the image mux whose frames it writes
+    image: str | None = None
+    #: a ROS 2 image's camera calibration, published beside it
+    camera_info: CameraInfo | None = None
     span: Span | None = field(default=None, compare=False, repr=False)
     #: where the message type is written (else the output's line)
     type_span: Span | None = field(default=None, compare=False, repr=False)
@@ -534,6 +590,7 @@ _SOURCE_KINDS = {
     "default": Default,
     "struct": Struct,
     "message_array": MessageArray,
+    "image": ImageFrame,
 }
 _KIND_OF = {cls: kind for kind, cls in _SOURCE_KINDS.items()}
 _CONVERTER_KINDS = {"geometry": GeometryConverter, "expr": ExprConverter}
@@ -625,7 +682,7 @@ def from_dict(d: dict[str, Any]) -> Program:
         fields_ = None if x["fields"] is None else tuple(x["fields"])
         positions = None if x.get("positions") is None else tuple(tuple(p) for p in x["positions"])
         return Input(x["name"], x["kind"], layout, x["ros_type"], fields_, x["timeout"], positions,
-                     x.get("reads"), x.get("each"), tuple(x.get("accepts") or ()), _span(x))
+                     x.get("reads"), x.get("each"), tuple(x.get("accepts") or ()), x.get("image"), _span(x))
 
     def node(x):
         return ExprNode(x["op"], _tuple(x["args"], node), x["value"])
@@ -645,8 +702,10 @@ def from_dict(d: dict[str, Any]) -> Program:
     )
     o = d["output"]
     output = Output(o["kind"], o["name"], o["msg_type"], o["node"],
-                    None if o["qos"] is None else QoS(**o["qos"]), o["connect_to"], _span(o),
-                    _span(o, "type_span"))
+                    None if o["qos"] is None else QoS(**o["qos"]), o["connect_to"], o.get("image"),
+                    None if o.get("camera_info") is None else CameraInfo(
+                        o["camera_info"]["topic"], _struct(o["camera_info"]["message"]), _span(o["camera_info"])),
+                    _span(o), _span(o, "type_span"))
     return Program(
         module=d["module"],
         source=d["source"],
@@ -667,7 +726,8 @@ def from_json(text: str) -> Program:
 __all__ = [
     "ElementGroup", "Input", "Converter", "GeometryConverter", "ExprNode", "ExprConverter", "AnyConverter",
     "GeometryKind", "GEOMETRY", "GEOMETRY_WIDTHS", "QUATERNION_RESULTS", "EULER_AXES", "EXPR_FUNCTIONS", "Mux", "TypeRef", "Literal", "MuxRef",
-    "Counter", "Timestamp", "Seconds", "Default", "Field", "Struct", "MessageArray", "QoS",
+    "Counter", "Timestamp", "Seconds", "Default", "Field", "Struct", "MessageArray", "QoS", "ImageFrame",
+    "CameraInfo", "IMAGE_ENCODINGS", "PIXEL_NAMES", "ANY_ENCODING",
     "DEFAULT_QUEUE", "Output", "Timing", "Policy", "Program", "to_dict", "to_json", "from_dict",
     "from_json", "IR_VERSION", "NUMERIC_TYPES", "INTEGER_TYPES", "FLOAT_TYPES",
     "ELEMENT_TYPES",

@@ -10,6 +10,8 @@ function ``run(ctx)`` over one shared :class:`~ybg.compiler.passes.context.Conte
     message     the [message] entries by field path
     typed       the message tree of a known message type
     bottles     the untyped Bottle tree (YARP output, unknown type)
+    images      a YARP port of camera images; the CameraInfo beside a ROS 2 image
     cuts        what the message reads of an undeclared port it cuts (W511)
     program     unused muxes, .msg problems, timing and policy -> Program
+    spans       where each element of the Program came from
 """

@@ -49,6 +49,10 @@ def run(ctx: Context) -> None:
         if entry is None:
             checked[name] = mux
             continue
+        if mux.image is not None:
+            ctx.sink.error("E343", f"mux `{name}` reads a camera image: its frames are not converted",
+                           entry.span, "remove `convert`")
+            continue
         converters = _converters(ctx, mux, entry)
         if converters is not None:
             checked[name] = dataclasses.replace(mux, converters=tuple(converters))

@@ -63,6 +63,10 @@ def _mux(ctx: Context, name: str, sec: ast.Section, keys: dict[str, ast.Entry]) 
             ok = False
         else:
             inputs.append(inp)
+    if len(inputs) > 1 and any(i.image for i in inputs):
+        s.error("E343", f"mux `{name}` reads a camera image: it reads no other input", entry.span,
+                "read the other inputs in a mux of their own")
+        return None
     if len(inputs) > 1 and any(i.each for i in inputs):
         s.error("E208", f"mux `{name}` reads the elements of an array of messages, one row each: "
                 "it reads no other input", entry.span, "read the other inputs in a mux of their own")
@@ -105,6 +109,12 @@ def _input(ctx: Context, item: ast.Item, is_topic: bool, via: str, timeout: floa
         layout = None
         positions = None
         each = None
+        if decl and _is_image_topic(decl):
+            if via != "ros2":
+                s.error("E341", "camera images are read from ROS 2 topics: set `via = ros2` in the mux",
+                        item.span)
+                return None
+            return ir.Input(name, via, None, "sensor_msgs/Image", None, timeout, image=ir.ANY_ENCODING)
         if decl:
             ros_type, fields, layout, each = _topic_decl(ctx, name, decl, item.span, via)
             if ros_type is None:
@@ -123,11 +133,41 @@ def _input(ctx: Context, item: ast.Item, is_topic: bool, via: str, timeout: floa
                 "e.g. `/icub/left_arm/state:o`")
         return None
     layout = None
+    if decl and decl[0] and isinstance(decl[0][0], ast.Word) and decl[0][0].text == "image":
+        encoding = _pixel_type(ctx, decl, item.span)
+        if encoding is None:
+            return None
+        return ir.Input(name, "yarp", None, None, None, timeout, image=encoding)
     if decl is not None:
         layout = _layout(ctx, decl, item.span)
         if layout is None:
             return None
     return ir.Input(name, "yarp", layout, None, None, timeout)
+
+
+def _is_image_topic(decl) -> bool:
+    """Is the topic declared `(sensor_msgs/Image)`, the whole frame?"""
+    return (len(decl) == 1 and len(decl[0]) == 1 and isinstance(decl[0][0], ast.Word)
+            and decl[0][0].text in ("sensor_msgs/Image", "sensor_msgs/msg/Image"))
+
+
+def _pixel_type(ctx: Context, decl, span: Span) -> str | None:
+    """The encoding of a port declared `(image <pixel type>)`: a ROS encoding
+    (`rgb8`, `mono16`, `32FC1` ...) or YARP's name for it (`rgb`, `PixelRgb`)."""
+    s = ctx.sink
+    words = decl[0]
+    if len(decl) != 1 or len(words) != 2 or not isinstance(words[1], ast.Word):
+        s.error("E341", "an image port is declared `(image <pixel type>)`, e.g. `(image rgb8)`",
+                words[0].span if words else span, f"pixel types: {', '.join(ir.IMAGE_ENCODINGS)}")
+        return None
+    word = words[1]
+    encoding = ir.PIXEL_NAMES.get(word.text)
+    if encoding is None:
+        s.error("E341", f"unknown pixel type `{word.text}`", word.span,
+                did_you_mean(word.text, list(ir.IMAGE_ENCODINGS)) or did_you_mean(word.text, list(ir.PIXEL_NAMES)) or
+                f"pixel types: {', '.join(ir.IMAGE_ENCODINGS)} (REP 118 depth: 16UC1 millimetres, 32FC1 metres)")
+        return None
+    return encoding
 
 
 def _accepts(ctx: Context, mux: str, entry: ast.Entry | None,

@@ -42,6 +42,13 @@ def timestamp(ctx: Context, item: ast.Item) -> ir.Timestamp:
     return ir.Timestamp("wall", None, style)
 
 
+def image_misplaced(ctx: Context, name: str, span: Span) -> None:
+    ctx.sink.error("E340", f"mux `{name}` reads camera images: a frame fills the `data` of a "
+                   "`sensor_msgs/Image`, not this", span,
+                   f"publish `type = sensor_msgs/Image` with `data = {name}` (a ROS 2 image), or write a YARP "
+                   f"image port with `image = {name}` in [output]")
+
+
 def unknown_mux(ctx: Context, name: str, span: Span) -> None:
     if name in ctx.mux_sections:  # defined, but broken: already reported
         return
@@ -70,6 +77,9 @@ def mux_slice(ctx: Context, item: ast.Item):
         return None
     ctx.used_muxes.add(name)
     mux = ctx.muxes[name]
+    if mux.image is not None:
+        image_misplaced(ctx, name, item.span)
+        return None
     width = mux.width
     if (index is not None and index < 0) or start < 0 or (stop is not None and stop < 0):
         s.error("E316", "mux positions count from 0 and are not negative", item.span)

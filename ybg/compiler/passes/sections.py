@@ -19,9 +19,11 @@ from ybg.compiler.values import check_keys
 SECTION_KEYS: dict[str, tuple[str, ...]] = {
     "module": ("name", "distro"),
     "output": ("topic", "port", "connect", "type", "via", "node", "rate", "trigger", "queue",
-               "on_stale", "on_nan", "publish", "timeout", "reliability", "durability", "depth"),
+               "on_stale", "on_nan", "publish", "timeout", "reliability", "durability", "depth", "image"),
     "mux": ("ports", "topics", "via", "convert", "verbose", "timeout", "accept"),
     "message": (),
+    # fields of sensor_msgs/CameraInfo, and `topic`, `calibration`: checked by the images pass
+    "camera_info": (),
 }
 
 #: key -> the words it takes
@@ -46,7 +48,7 @@ def run(ctx: Context) -> None:
     for sec in ctx.doc.sections:
         if sec.name not in SECTION_KEYS:
             s.error("E201", f"unknown section [{sec.title}]", sec.span,
-                    did_you_mean(sec.name, SECTION_KEYS) or "sections: [module], [output], [mux <name>], [message]")
+                    did_you_mean(sec.name, SECTION_KEYS) or "sections: [module], [output], [mux <name>], [message], [camera_info]")
             continue
         if sec.name == "mux":
             if sec.label is None:
@@ -66,7 +68,8 @@ def run(ctx: Context) -> None:
                     f"first given on line {out[sec.name].span.line}")
             continue
         out[sec.name] = sec
-    for need in ("output", "message"):
+    image_port = "output" in out and any(e.key == "image" for e in out["output"].entries)
+    for need in ("output",) if image_port else ("output", "message"):
         if need not in out:
             s.error("E203", f"missing section [{need}]", None,
                     "a named config has [output], one or more [mux <name>] and [message]")

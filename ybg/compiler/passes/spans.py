@@ -36,6 +36,12 @@ def with_spans(program: ir.Program, doc: ast.Document) -> ir.Program:
         inputs=tuple(dataclasses.replace(i, span=where.input(m.name, i.name)) for i in m.inputs))
         for m in program.muxes)
     output = dataclasses.replace(program.output, span=where.output(), type_span=where.type())
+    info = output.camera_info
+    if info is not None:
+        sec = doc.section("camera_info")
+        found = Positions(doc, "camera_info")
+        output = dataclasses.replace(output, camera_info=dataclasses.replace(
+            info, message=found.struct(info.message, "", sec.span if sec is not None else None)))
     message = where.struct(program.message, "", where.message())
     return dataclasses.replace(program, muxes=muxes, output=output, message=message)
 
@@ -43,9 +49,9 @@ def with_spans(program: ir.Program, doc: ast.Document) -> ir.Program:
 class Positions:
     """The spans of one document's parts, found by name."""
 
-    def __init__(self, doc: ast.Document):
+    def __init__(self, doc: ast.Document, message: str = "message"):
         self.doc = doc
-        sec = doc.section("message")
+        sec = doc.section(message)
         self.message_section = sec
         self.entries = {e.key: e for e in sec.entries} if sec is not None else {}
 

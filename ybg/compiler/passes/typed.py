@@ -27,7 +27,11 @@ from ybg.compiler.msgtypes import MsgDef, numeric_leaves
 from ybg.compiler.names import identifier_problem
 from ybg.compiler.passes.context import Context, FieldPath
 from ybg.compiler.passes.message import written
-from ybg.compiler.passes.muxrefs import is_mux_ref, is_timestamp, mux_slice, slice_types, timestamp, unknown_mux
+from ybg.compiler.passes.muxrefs import (image_misplaced, is_mux_ref, is_timestamp, mux_slice, slice_types, timestamp,
+                                         unknown_mux)
+
+#: the fields of a sensor_msgs/Image that its frame gives
+IMAGE_FIELDS = ("height", "width", "encoding", "is_bigendian", "step", "data")
 
 #: sequences of a message that must be empty or of one length
 SAME_LENGTH = {
@@ -50,7 +54,15 @@ def run(ctx: Context) -> None:
         return
     struct = _struct(ctx, ctx.msgdef, (), ctx.message_entries, ctx.below)
     _check_lengths(ctx, ctx.msgdef, struct, ctx.message_entries)
+    if ctx.msgdef.name == "sensor_msgs/Image":
+        struct = _image_message(ctx, struct, ctx.message_entries)
     ctx.message = struct
+
+
+def build_struct(ctx: Context, msgdef: MsgDef, entries: Entries, below: dict[FieldPath, Entries]) -> ir.Struct:
+    """The message of type ``msgdef`` that ``entries`` set (another section
+    than [message]: [camera_info])."""
+    return _struct(ctx, msgdef, (), entries, below)
 
 
 def _struct(ctx: Context, msgdef: MsgDef, prefix: FieldPath, entries: Entries,
@@ -197,6 +209,13 @@ def _value(ctx: Context, e: ast.Entry, t: ir.TypeRef):
     s = ctx.sink
     items = e.items
     span = e.span
+    image = _image_mux(ctx, items)
+    if image is not None:
+        if ctx.msgdef is not None and ctx.msgdef.name == "sensor_msgs/Image" and e.key == "data":
+            ctx.used_muxes.add(image.name)
+            return ir.ImageFrame(image.name, image.image or "")
+        image_misplaced(ctx, image.name, items[0].span)
+        return ir.Default()
     if t.is_message and t.array is not None and not any(is_mux_ref(ctx, i) for i in items):
         return _whole_message_array(ctx, e, t)
     if t.is_message and t.array is None and t.base not in ("builtin_interfaces/Time",):
@@ -259,6 +278,53 @@ def _value(ctx: Context, e: ast.Entry, t: ir.TypeRef):
     if t.array == "sequence" and t.size is not None and len(values) > t.size:
         s.error("E310", f"`{e.key}` is {t}: at most {t.size} values, not {len(values)}", span)
     return ir.Literal(tuple(values), t.base, True)
+
+
+def _image_mux(ctx: Context, items) -> ir.Mux | None:
+    """The image mux that ``items`` name on their own (`data = eye`), if any."""
+    if len(items) != 1 or not isinstance(items[0], ast.Word):
+        return None
+    mux = ctx.muxes.get(items[0].text)
+    return mux if mux is not None and mux.image is not None else None
+
+
+def _image_message(ctx: Context, struct: ir.Struct, entries: Entries) -> ir.Struct:
+    """A sensor_msgs/Image whose `data` is a frame: the frame gives `height`,
+    `width`, `encoding`, `is_bigendian` and `step` (E343 when the config sets
+    them; `encoding` may be written, and must then be the frame's: E342), and
+    `header.stamp`, unless set, is the frame's envelope (`timestamp(<mux>)`)."""
+    fields = {f.name: f for f in struct.fields}
+    frame = fields["data"].source if "data" in fields else None
+    if not isinstance(frame, ir.ImageFrame):
+        return struct
+    out = []
+    for f in struct.fields:
+        e = entries.get((f.name,))
+        if f.name in IMAGE_FIELDS[:-1] and e is not None:
+            if f.name == "encoding" and isinstance(f.source, ir.Literal):
+                if f.source.values[0] != frame.encoding:
+                    ctx.sink.error("E342", f"`encoding = \"{f.source.values[0]}\"`, but mux `{frame.mux}` reads "
+                                   f"{frame.encoding} frames", e.span,
+                                   f"declare the port `(image {f.source.values[0]})`, or remove the line: the "
+                                   "frame gives the encoding")
+            elif f.name != "encoding" or not isinstance(f.source, ir.Default):
+                ctx.sink.error("E343", f"`{f.name}` comes from the frame of mux `{frame.mux}`: a "
+                               "sensor_msgs/Image is its frame, with a header", e.span,
+                               "remove the line (set only `header.frame_id`, `header.stamp`)")
+            f = ir.Field(f.name, ir.Default(), f.type)
+        if f.name == "header" and isinstance(f.source, ir.Struct):
+            f = ir.Field(f.name, _stamped(ctx, f.source, frame.mux), f.type)
+        out.append(f)
+    return ir.Struct(tuple(out), struct.msg_type)
+
+
+def _stamped(ctx: Context, header: ir.Struct, mux: str) -> ir.Struct:
+    """``header`` with the envelope of ``mux``'s frames as its stamp, unless set."""
+    return ir.Struct(tuple(
+        ir.Field(f.name, ir.Timestamp("envelope", mux, "ros2" if ctx.ros == "ros2" else "ros1"), f.type)
+        if f.name == "stamp" and (isinstance(f.source, ir.Default) or isinstance(f.source, ir.Struct) and all(
+            isinstance(x.source, ir.Default) for x in f.source.fields)) else f
+        for f in header.fields), header.msg_type)
 
 
 def _whole_message_array(ctx: Context, e: ast.Entry, t: ir.TypeRef):
