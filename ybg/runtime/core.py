@@ -222,6 +222,7 @@ class Bridge:
         self.verbose = options.verbose
         self.cond = threading.Condition(threading.RLock())
         self.stopping = False
+        self.quit_asked = False  # `quit` on the RPC port: the port closes once its reply is sent
         self.publishing = False  # event-driven, once the output is open
         self.published = 0
         self.skipped_cycles = 0

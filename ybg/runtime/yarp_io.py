@@ -1000,7 +1000,7 @@ class RpcPort(yarp.PortReader):
         binding call keeps the interpreter lock: closing while YARP's thread
         waits for it to answer would deadlock)."""
         end = time.monotonic() + 0.3
-        if getattr(self.bridge, "quit_asked", False):
+        if self.bridge.quit_asked:
             # its `bye` is sent once read() has returned: not dropped by a
             # port closed at once (the caller would not know it was heard)
             end = time.monotonic() + 0.5
