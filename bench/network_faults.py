@@ -29,22 +29,24 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 sys.path.insert(0, str(ROOT))
 
-import middleware  # noqa: E402  (tests/middleware.py)
-import netns  # noqa: E402
-import test_backend_cpp  # noqa: E402
 import test_network as net  # noqa: E402
-from behaviour import relay_program  # noqa: E402
+from harness import netns  # noqa: E402  (tests/harness/)
+from harness.build import Builds  # noqa: E402
+from harness.env import yarp_install  # noqa: E402
+from harness.procs import tmp_root  # noqa: E402
+from harness.programs import relay_program  # noqa: E402
+from harness.yarp import require_yarp  # noqa: E402
 
 RESULTS = ROOT / "bench" / "results" / "network_faults.json"
 
 
 def run(backends, rounds: int) -> dict:
-    install = middleware.yarp_install(net.VERSION)
-    middleware.require_yarp(install)
-    work = Path(tempfile.mkdtemp(prefix="ybg-netbench-", dir=middleware.tmp_root()))
+    install = yarp_install(net.VERSION)
+    require_yarp(install)
+    work = Path(tempfile.mkdtemp(prefix="ybg-netbench-", dir=tmp_root()))
     builds = None
     if "cpp" in backends:
-        builds = test_backend_cpp.Builds(work / "cpp", install)
+        builds = Builds(work / "cpp", install)
         builds.add("relay_bridge", relay_program(), optimize=True)
     out: dict = {}
     for r in range(rounds):

@@ -25,9 +25,9 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import harness as h  # noqa: E402
+import blocks as h  # noqa: E402
 import run as bench  # noqa: E402
-from harness import mw  # noqa: E402
+from blocks import mw  # noqa: E402
 
 
 def top_collapsed(path: Path, n: int) -> str:

@@ -12,7 +12,7 @@
                                              messages), for the tests
 
 Everything runs on 127.0.0.1 with its own yarpserver and ROS 2 domain (the test
-suite's helpers, tests/middleware.py). The producer and the consumer are C++
+suite's helpers, tests/harness/). The producer and the consumer are C++
 programs against YARP 3.5 (bench/tools/), built once with CMake like a
 generated module; the ROS 2 peers are rclpy (bench/peers/).
 
@@ -49,8 +49,8 @@ from typing import Optional
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import harness as h  # noqa: E402
-from harness import BenchError, mw  # noqa: E402
+import blocks as h  # noqa: E402
+from blocks import BenchError, mw  # noqa: E402
 
 ROOT = h.ROOT
 BENCH = h.BENCH

@@ -1,18 +1,18 @@
-"""Shared pytest setup: real middleware fixtures (see tests/middleware.py),
-the YARP version matrix, the ``--update-goldens`` option, the ``slow`` marker
-and a default timeout.
+"""Shared pytest setup: real middleware fixtures (the helpers are the
+harness's, tests/harness/), the YARP version matrix, the ``--update-goldens``
+option, the ``slow`` marker and a default timeout.
 
 The YARP matrix: every test that uses the ``yarp`` fixture (directly, or
 through ``yarp_server``, or through a fixture of its own that asks for
 ``yarp``) runs once per YARP version of ``--yarp`` (default: every version of
-``middleware.MATRIX``: PyPI's 3.5, 3.12.3, 4.0.0), with the test id
+``harness.env.MATRIX``: PyPI's 3.5, 3.12.3, 4.0.0), with the test id
 ``[yarp<version>]``. Tests of YARP's ROS 1 support (``yarp_ros_server``) run
 on the versions that have it (before 3.10). A version that is not built is a
 skip saying how to build it, except in CI (``CI`` set), where it fails.
 
 Fixtures
     yarp              session scope, one per matrix version: the YarpInstall,
-                      made the active one (middleware.use_yarp) for the test.
+                      made the active one (harness.env.use_yarp) for the test.
     yarp_server       function scope: a YarpServer on 127.0.0.1:<free port>;
                       use ``yarp_server.env`` for every YARP process.
     yarp_ros_server   module scope: roscore + ``yarpserver --ros`` + the type
@@ -24,12 +24,23 @@ Fixtures
                       rewrite their expected files instead of comparing.
     ybgc              the ybgc command run in-process in ``tmp_path``:
                       ``ybgc(*args) -> (exit status, stderr)``.
+    builds            session scope, one per matrix version: every C++ module
+                      of the tests (harness.programs.build_programs) in one
+                      CMake project, built on first use, once for the run
+                      (harness.build.session_builds).
 """
 import os
 
 import pytest
 
-import middleware
+# the harness's asserts say what they compared, as the tests' own do
+pytest.register_assert_rewrite("harness")
+
+from harness import env, procs  # noqa: E402
+from harness.build import Builds, session_builds, use_ccache  # noqa: E402
+from harness.ros1 import YarpRosStack  # noqa: E402
+from harness.ros2 import Ros2Domain  # noqa: E402
+from harness.yarp import YarpServer, require_yarp  # noqa: E402
 
 DEFAULT_TIMEOUT = 180  # seconds per test, when pytest-timeout is installed
 
@@ -37,7 +48,7 @@ DEFAULT_TIMEOUT = 180  # seconds per test, when pytest-timeout is installed
 def pytest_addoption(parser):
     parser.addoption("--update-goldens", action="store_true", default=False,
                      help="rewrite the golden files instead of comparing against them")
-    parser.addoption("--yarp", default=os.environ.get("YBG_YARP_MATRIX", ",".join(middleware.MATRIX)),
+    parser.addoption("--yarp", default=os.environ.get("YBG_YARP_MATRIX", ",".join(env.MATRIX)),
                      help="comma-separated YARP versions to run the YARP-facing tests on "
                           "(default: %(default)s; also YBG_YARP_MATRIX)")
 
@@ -51,40 +62,17 @@ def pytest_generate_tests(metafunc):
         return
     versions = matrix_versions(metafunc.config)
     if "yarp_ros_server" in metafunc.fixturenames:
-        versions = [v for v in versions if middleware.yarp_install(v).has_ros1]
+        versions = [v for v in versions if env.yarp_install(v).has_ros1]
     oldest = metafunc.definition.get_closest_marker("yarp_min")
     if oldest is not None:  # a tool that older YARP releases lack: those are not in the matrix
-        versions = [v for v in versions if middleware.yarp_install(v).key >= tuple(oldest.args[0])]
+        versions = [v for v in versions if env.yarp_install(v).key >= tuple(oldest.args[0])]
     metafunc.parametrize("yarp", versions, indirect=True, scope="session",
                          ids=[f"yarp{v}" for v in versions])
 
 
-def _compile_once() -> None:
-    """The tests build many small CMake projects, each compiling a module and
-    the runtime library beside it: ccache (when installed, as the setup
-    does) compiles each distinct source once, in ~/.cache/ybgc/ccache (its
-    paths made relative to the temp folder, where the builds are, so that
-    one runtime library beside two modules is one entry). Set in the
-    environment, so every cmake the tests run (and the processes they
-    start) configures with it."""
-    import shutil
-    import tempfile
-
-    if os.environ.get("YBG_NO_CCACHE") or not shutil.which("ccache"):
-        return
-    os.environ.setdefault("CMAKE_CXX_COMPILER_LAUNCHER", "ccache")
-    os.environ.setdefault("CMAKE_C_COMPILER_LAUNCHER", "ccache")
-    os.environ.setdefault("CCACHE_DIR", str(middleware.YARP_CACHE / "ccache"))
-    os.environ.setdefault("CCACHE_BASEDIR", os.path.realpath(tempfile.gettempdir()))
-    os.environ.setdefault("CCACHE_NOHASHDIR", "1")
-    # the sources are written just before they are compiled
-    os.environ.setdefault("CCACHE_SLOPPINESS", "include_file_mtime,include_file_ctime,time_macros")
-    os.environ.setdefault("CCACHE_MAXSIZE", "3G")
-
-
 @pytest.hookimpl(tryfirst=True)
 def pytest_configure(config):
-    _compile_once()
+    use_ccache()
     config.addinivalue_line("markers", "yarp_min(version): run on the YARP releases of the matrix "
                                        "from `version` (a tuple) on only")
     config.addinivalue_line("markers", "slow: a long test (real middleware, seconds or more); "
@@ -98,7 +86,7 @@ def pytest_configure(config):
 
 
 def pytest_unconfigure(config):
-    middleware.stop_all()
+    procs.stop_all()
 
 
 # --- where the time goes: the seconds of each test file (setup, call and
@@ -151,7 +139,7 @@ def update_goldens(request) -> bool:
 @pytest.fixture(scope="session")
 def yarp(request):
     """The YARP install of this matrix version, made the active one."""
-    install = middleware.yarp_install(getattr(request, "param", "3.5"))
+    install = env.yarp_install(getattr(request, "param", "3.5"))
     missing = install.missing()
     if missing and install.python_path is not None:  # a release built from its sources
         msg = (f"YARP {install.version} is not built here (missing {missing[0]}). "
@@ -159,35 +147,43 @@ def yarp(request):
         if os.environ.get("CI"):
             pytest.fail(msg, pytrace=False)
         pytest.skip(msg)
-    middleware.require_yarp(install)
-    middleware.use_yarp(install)
+    require_yarp(install)
+    env.use_yarp(install)
     yield install
-    middleware.use_yarp(middleware.DEFAULT_YARP)
+    env.use_yarp(env.DEFAULT_YARP)
 
 
 @pytest.fixture(autouse=True)
 def _active_yarp(request):
     """Each test sees its own matrix version as the active YARP (others: 3.5)."""
     if "yarp" in request.fixturenames:
-        middleware.use_yarp(request.getfixturevalue("yarp"))
+        env.use_yarp(request.getfixturevalue("yarp"))
     else:
-        middleware.use_yarp(middleware.DEFAULT_YARP)
+        env.use_yarp(env.DEFAULT_YARP)
     yield
 
 
 @pytest.fixture
 def yarp_server(yarp):
-    with middleware.YarpServer(install=yarp) as server:
+    with YarpServer(install=yarp) as server:
         yield server
 
 
 @pytest.fixture(scope="module")
 def yarp_ros_server(yarp):
-    with middleware.YarpRosStack() as stack:
+    with YarpRosStack() as stack:
         yield stack
 
 
 @pytest.fixture
 def ros2_domain():
-    with middleware.Ros2Domain() as domain:
+    with Ros2Domain() as domain:
         yield domain
+
+
+@pytest.fixture(scope="session")
+def builds(tmp_path_factory, yarp) -> Builds:
+    """Every C++ module of the tests, built against the matrix version
+    ``yarp``: once for the run, shared by the pytest-xdist workers whose
+    programs are the same."""
+    return session_builds(tmp_path_factory, yarp)

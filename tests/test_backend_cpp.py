@@ -2,24 +2,23 @@
 (``-Wall -Wextra -Werror``), run against real YARP (and ROS 1).
 
 Every module the tests run is generated into one temporary folder and built
-once per session (one CMake project that adds each module's own folder, so
-each module's generated CMakeLists.txt is the one used): the programs of the
-behaviour harness (tests/behaviour.py, ``PROGRAMS``), every example and
-legacy config this backend supports, and this module's own. To keep the
-session short, only the module whose timing is measured is optimized like a
-user's default build (-O2, which also checks the warnings GCC finds only
-when it optimizes); the others are built without optimization; all with
--Wall -Wextra -Werror.
+once per session (the ``builds`` fixture: one CMake project that adds each
+module's own folder, so each module's generated CMakeLists.txt is the one
+used; tests/harness/build.py): the programs of the behaviour harness
+(tests/harness/programs.py, ``PROGRAMS``), every example and legacy config
+this backend supports, and this file's own. To keep the session short, only
+the module whose timing is measured is optimized like a user's default
+build (-O2, which also checks the warnings GCC finds only when it
+optimizes); the others are built without optimization; all with -Wall
+-Wextra -Werror.
 
 What a module does is tested once for every backend by the harness:
 ``TestCppBehaviour`` says how a C++ module is started. The rest of this file
-is the C++ backend's own: escaping and literals, golden files, generation,
-lowering errors, the CMake build, its install rule.
+is the C++ backend's own: escaping and literals, generation, lowering
+errors, the CMake build, its install rule, its golden files.
 """
 from __future__ import annotations
 
-import dataclasses
-import hashlib
 import json
 import math
 import os
@@ -34,316 +33,30 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from behaviour import (DEG, PROGRAMS, ROS1_PROGRAMS, TIMED, BridgeBehaviour, Launcher,
-                       Module, ModuleCommandLine, Ros1Behaviour, config_program, escape_program,
-                       needs_ros1, relay_program, supported_configs, values_program)
-from generated import without_runtime
-from middleware import VENV, Ros2Publisher, YarpProducer, held, run_folder
-from ybg.backends import check_result, get_backend
+from harness.behaviour import BridgeBehaviour, ModuleCommandLine
+from harness.behaviour_ros1 import Ros1Behaviour
+from harness.differential import Differential
+from harness.launchers import CppModules
+from harness.module import Module
+from harness.generated import without_runtime
+from harness.programs import (CPP_GOLDEN_PROGRAMS, DEG, build_programs, config_program, escape_program, relay_program,
+                              ros1_input_program, supported_configs)
+from harness.ros2 import Ros2Publisher, ros2_environment, subscriber_for
+from harness.yarp import YarpProducer
+from ybg.backends import get_backend
 from ybg.backends.cpp import CppBackend, runtime_library
 from ybg.backends.cpp.escape import (CPP_KEYWORDS, cpp_comment, cpp_float, cpp_identifier, cpp_int,
                                      cpp_std_string, cpp_string, mangle)
 from ybg.backends.cpp.lower import WIRE_ROS1, WIRE_YARP, LoweringError
 from ybg.compiler import ir
-from ybg.compiler.pipeline import compile_text
-from ybg.compiler.ir import (Default, ElementGroup, Field, Input, Literal, Mux, MuxRef, Output, Program,
-                             Struct, TypeRef)
+from ybg.compiler.ir import Default, Field, Input, Literal, Mux, MuxRef, Output, Program, Struct, TypeRef
 
 ROOT = Path(__file__).resolve().parents[1]
 GOLDEN = Path(__file__).resolve().parent / "golden" / "cpp"
 
 
 # --------------------------------------------------------------------------
-# programs of this backend's own tests (the harness's: tests/behaviour.py)
-
-
-def ros1_input_program() -> Program:
-    """A typed ROS 1 topic read through YARP: the point of a
-    geometry_msgs/PointStamped (its header is not part of the mux)."""
-    return Program(
-        module="typed_ros_input", source="typed_ros_input.ini",
-        muxes=(Mux("g", (Input("/ybg_goal", kind="ros1", layout=(ElementGroup("float64", 3),),
-                               ros_type="geometry_msgs/PointStamped",
-                               fields=("point.x", "point.y", "point.z"),
-                               positions=((1, 0), (1, 1), (1, 2))),)),),
-        message=Struct((Field("label", Literal(("xyz",), "string")), Field("p", MuxRef("g", splice=True)))),
-        output=Output("yarp", "/typed_ros_input/out:o"), ros="ros1", distro="noetic")
-
-
-DIFF_NATIVE = """\
-[module]
-name = diff_native
-
-[output]
-topic = /diff/battery
-type = sensor_msgs/BatteryState
-via = ros2
-depth = 100
-
-[mux b]
-ports = /diff/battery:o (float64 x4, uint8 x2, bool x1)
-convert = scale(1.5)[0:2], offset(-0.25)[2:3]
-
-[message]
-header.stamp = timestamp(b)
-header.frame_id = "bat \\"q\\" ; #"
-voltage = b[0]
-current = b[1]
-charge = b[2]
-capacity = b[3]
-power_supply_status = b[4]
-power_supply_health = b[5]
-present = b[6]
-cell_voltage = b[0:4]
-cell_temperature = 1.5, -2, 1e-40
-location = "left"
-"""
-
-
-DIFF_TF = """\
-[module]
-name = diff_tf
-
-[output]
-topic = /diff/tf
-type = tf2_msgs/TFMessage
-via = ros2
-depth = 100
-
-[mux hand]
-ports = /diff/hand:o (float64 x6)
-convert = euler_to_quat(rpy, deg)[3:6]
-
-[mux tool]
-ports = /diff/tool:o (float64 x7)
-convert = axis_angle_to_quat[3:7], expr(clamp(x, -2, 2) * 0.5)[0:3]
-
-[message]
-transforms[0].header.stamp = timestamp(hand)
-transforms[0].header.frame_id = "root_link"
-transforms[0].child_frame_id = "r_hand"
-transforms[0].transform.translation = hand[0:3]
-transforms[0].transform.rotation = hand[3:7]
-transforms[1].header.stamp = timestamp(tool)
-transforms[1].header.frame_id = "r_hand"
-transforms[1].child_frame_id = "r_tool"
-transforms[1].transform.translation.x = tool[0]
-transforms[1].transform.translation.z = tool[2]
-transforms[1].transform.rotation = tool[3:7]
-"""
-
-def diff_program(text: str, name: str) -> Program:
-    result = check_result(compile_text(text, name), "cpp")
-    assert result.ok, [str(d) for d in result.diagnostics]
-    return result.program
-
-
-def diff_native_program() -> Program:
-    """A ROS 2 output of float32, uint8, bool and string fields, for the
-    differential test of the native module and the rclpy node."""
-    return diff_program(DIFF_NATIVE, "diff_native.ini")
-
-
-def diff_tf_program() -> Program:
-    """tf2_msgs/TFMessage: two transforms from two muxes, each with a geometry
-    converter (Euler angles, an axis-angle to a quaternion), one with an
-    expression too."""
-    return diff_program(DIFF_TF, "diff_tf.ini")
-
-
-HAND_PROGRAMS = {
-    "values_bridge": values_program,
-    "relay_bridge": relay_program,
-    "escape_bridge": escape_program,
-    "typed_ros_input": ros1_input_program,
-}
-
-SUPPORTED = supported_configs("cpp")
-
-
-def _build_programs() -> dict:
-    """Every program of the session's one build, by key: the harness's,
-    the typed ROS 1 input above, every supported config (by its stem)."""
-    programs = {key: make for key, make in {**PROGRAMS, **ROS1_PROGRAMS}.items()}
-    programs["typed_ros_input"] = ros1_input_program
-    programs["diff_native"] = diff_native_program
-    programs["diff_tf"] = diff_tf_program
-    for path in SUPPORTED:
-        programs[path.stem] = lambda path=path: config_program(path, "cpp")
-    return programs
-
-
-BUILD_PROGRAMS = _build_programs()
-
-
-# --------------------------------------------------------------------------
-# building: every module of the session in one CMake project
-
-
-def ros2_wheels_option() -> str:
-    """The CMake option that builds a module publishing to ROS 2 against the
-    ROS 2 wheels of the test environment (docs/ros2-native.md)."""
-    return f"-DYBGC_ROS2_PYTHON_ENV={VENV}"
-
-
-class Builds:
-    """The modules of this test session, generated and built on first use."""
-
-    def __init__(self, root: Path, install):
-        self.root = root
-        self.install = install
-        self.programs: dict[str, Program] = {}
-        self.optimized: set[str] = set()
-        self.built = False
-        self.log = ""
-
-    def add(self, key: str, program: Program, optimize: bool = False) -> None:
-        # one CMake project holds every module: a module named as one added
-        # before (examples/ros2_to_yarp_gaze.ini and the legacy config it
-        # comes from) gets a name, and a target, of its own
-        if any(p.module == program.module for p in self.programs.values()):
-            program = dataclasses.replace(program, module=f"{program.module}_{key}")
-        self.programs[key] = program
-        if optimize:
-            self.optimized.add(key)
-
-    def refused(self, key: str) -> bool:
-        """Its generated CMakeLists refuses this YARP (ROS 1 on YARP 4): it is
-        left out of the one build and configured alone by the tests."""
-        return needs_ros1(self.programs[key]) and self.install.key >= (4,)
-
-    def configure_alone(self, key: str) -> subprocess.CompletedProcess:
-        """Configures the module's own folder by itself, as its user would."""
-        self.build()
-        folder = self.root / "src" / key
-        return subprocess.run(["cmake", "-S", str(folder), "-B", str(self.root / f"alone_{key}_{os.getpid()}"),
-                               f"-DCMAKE_PREFIX_PATH={self.install.cmake_prefix_path()}"],
-                              capture_output=True, text=True)
-
-    def build(self) -> None:
-        if self.built:
-            return
-        self.built = True
-        # the pytest-xdist workers of a run share one build (run_folder): the
-        # first builds it, the others wait for it and read its log
-        self.root.mkdir(parents=True, exist_ok=True)
-        with held(self.root / ".build.lock"):
-            done = self.root / ".build.log"
-            if done.exists():
-                self.log = done.read_text(encoding="utf-8")
-                return
-            self._build()
-            done.write_text(self.log, encoding="utf-8")
-
-    def _build(self) -> None:
-        src = self.root / "src"
-        src.mkdir(parents=True, exist_ok=True)
-        backend = CppBackend()
-        subdirs = []
-        for key, program in sorted(self.programs.items()):
-            folder = src / key
-            folder.mkdir(exist_ok=True)
-            for name, text in backend.render(program).items():
-                (folder / name).write_text(text, encoding="utf-8")
-            if not self.refused(key):
-                subdirs.append(key)
-        # YARP found once up front: each module's own find_package() then
-        # costs nothing (found per folder, it takes 2 s each)
-        (src / "CMakeLists.txt").write_text(
-            "cmake_minimum_required(VERSION 3.16)\nproject(ybgc_cpp_tests CXX)\n"
-            "find_package(YARP REQUIRED COMPONENTS os)\nfind_package(Threads REQUIRED)\n"
-            + "".join(f"add_subdirectory({k})\n" for k in subdirs)
-            + "".join(f"target_compile_options({self.programs[k].module} PRIVATE -O2)\n"
-                      for k in sorted(self.optimized) if k in subdirs)
-            # the runtime library all of them share (built once), optimized as theirs
-            + (f"target_compile_options({runtime_library()} PRIVATE -O2)\n" if self.optimized & set(subdirs) else ""))
-        build = self.root / "build"
-        env = dict(os.environ)
-        # a build type of no flags at all (the modules default to Release only when none is given)
-        cfg = subprocess.run(["cmake", "-S", str(src), "-B", str(build), f"-DCMAKE_PREFIX_PATH={self.install.cmake_prefix_path()}",
-                              "-DCMAKE_CXX_FLAGS=-Werror", "-DCMAKE_BUILD_TYPE=Tests", ros2_wheels_option()],
-                             capture_output=True, text=True, env=env)
-        self.log = cfg.stdout + cfg.stderr
-        if cfg.returncode != 0:
-            return
-        jobs = str(min(2, os.cpu_count() or 1))
-        b = subprocess.run(["cmake", "--build", str(build), "-j", jobs, "--", "-k"],
-                           capture_output=True, text=True, env=env)
-        self.log += b.stdout + b.stderr
-
-    def exe(self, key: str) -> Path:
-        """The built executable of ``key`` (fails the test with the compiler's
-        output if it did not build)."""
-        self.build()
-        program = self.programs[key]
-        path = self.root / "build" / key / program.module
-        if not path.exists():
-            errors = [line for line in self.log.splitlines() if key in line or "error" in line]
-            pytest.fail(f"{key} did not build:\n" + "\n".join(errors[-60:]), pytrace=False)
-        return path
-
-
-@pytest.fixture(scope="session")
-def builds(tmp_path_factory, yarp) -> Builds:
-    """Every module of these tests, built against the matrix version ``yarp``:
-    once for the run, shared by the pytest-xdist workers whose programs are
-    the same (the folder is named by their digest: a worker that drew other
-    programs, hypothesis' strings say, builds its own)."""
-    b = Builds(Path(), yarp)
-    for key, make in BUILD_PROGRAMS.items():
-        b.add(key, make(), optimize=key == TIMED)
-    digest = hashlib.sha256(repr(sorted(b.programs.items())).encode()).hexdigest()[:16]
-    b.root = run_folder(tmp_path_factory, f"cpp_modules_{yarp.version}_{digest}")
-    return b
-
-
-# --------------------------------------------------------------------------
-# the behaviour harness: how a C++ module is started
-
-
-def ros2_environment(env: dict, domain) -> dict:
-    """``env`` with the ROS 2 domain's variables (a module publishing to ROS 2)."""
-    return {**env, **domain.ros_env, "ROS_HOME": domain.env["ROS_HOME"], "ROS_LOG_DIR": domain.env["ROS_LOG_DIR"]}
-
-
-class CppModules(Launcher):
-    """The built executable of a program, run with its command line (a
-    module that publishes to ROS 2: in the test's ROS 2 domain)."""
-
-    backend = "cpp"
-
-    def __init__(self, builds: Builds, request=None):
-        self.builds = builds
-        self.request = request
-
-    def environment(self, env: dict) -> dict:
-        return ros2_environment(env, self.request.getfixturevalue("ros2_domain"))
-
-    def subscriber(self, env: dict, program: Program):
-        from test_backend_ros2 import subscriber_for  # the rclpy subscriber of the ros2 node's tests
-
-        return subscriber_for(env, program)
-
-    @staticmethod
-    def key(key) -> str:
-        return key.stem if isinstance(key, Path) else key
-
-    def program(self, key) -> Program:
-        return self.builds.programs[self.key(key)]
-
-    def module(self, key, env, *args, gate_output=False) -> Module:
-        exe = self.builds.exe(self.key(key))
-        return Module([exe, *args], env=env, name=exe.name, gate_output=gate_output)
-
-    def refuses_ros1(self, key, env) -> None:
-        """YARP 4 refuses a ROS 1 module at configure time; YARP 3.10 to 3.12
-        build it, and it stops at start saying why (without YARP's
-        yarp-ros plugins)."""
-        if self.builds.refused(self.key(key)):
-            r = self.builds.configure_alone(self.key(key))
-            assert r.returncode != 0 and "`via = ros2`" in " ".join(r.stderr.split()), r.stderr[-2000:]
-            return
-        super().refuses_ros1(key, env)
+# the behaviour harness on the C++ modules (its Launcher: harness/launchers.py)
 
 
 class TestCppBehaviour(BridgeBehaviour, Ros1Behaviour, ModuleCommandLine):
@@ -482,7 +195,7 @@ def render(program) -> dict[str, str]:
     return CppBackend().render(program)
 
 
-GOLDEN_CASES = [(k, f) for k, f in HAND_PROGRAMS.items()] + [(p.stem, p) for p in SUPPORTED]
+GOLDEN_CASES = [(k, f) for k, f in CPP_GOLDEN_PROGRAMS.items()] + [(p.stem, p) for p in supported_configs("cpp")]
 
 
 @pytest.mark.parametrize("key,what", GOLDEN_CASES, ids=[k for k, _ in GOLDEN_CASES])
@@ -512,8 +225,9 @@ def test_generated_text_is_deterministic_and_marked():
     program = escape_program()
     files = render(program)
     assert files == render(escape_program())
-    code = ("import sys, json; sys.path.insert(0, %r); from test_backend_cpp import escape_program, render; "
-            "print(json.dumps(render(escape_program())))" % str(Path(__file__).parent))
+    code = ("import sys, json; sys.path.insert(0, %r); from harness.programs import escape_program; "
+            "from ybg.backends import get_backend; print(json.dumps(get_backend('cpp').render(escape_program())))"
+            % str(Path(__file__).parent))
     other = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                            env={**os.environ, "PYTHONHASHSEED": "12345", "PYTHONPATH": str(ROOT)}, check=True)
     assert json.loads(other.stdout) == files
@@ -566,7 +280,7 @@ def test_ros1_input_fields_are_found_by_path():
 # the first of these builds every module of the session (two jobs, about two
 # minutes on a quiet machine): more time than a single test gets
 @pytest.mark.timeout(900)
-@pytest.mark.parametrize("key", sorted(BUILD_PROGRAMS))
+@pytest.mark.parametrize("key", sorted(build_programs()))
 def test_builds_with_werror(builds, key):
     if builds.refused(key):
         # YARP 4 has no ROS 1: the module's CMakeLists says so, with the fix
@@ -600,82 +314,12 @@ def test_install_rule(builds, tmp_path):
 # ROS 2 through rcl: the native module and the rclpy node are the same bridge
 
 
-def float_bits(value):
-    """A message as JSON gives it, each float replaced by its exact bits."""
-    if isinstance(value, float):
-        return value.hex()
-    if isinstance(value, list):
-        return [float_bits(v) for v in value]
-    if isinstance(value, dict):
-        return {k: float_bits(v) for k, v in value.items()}
-    return value
-
-
 def diff_values(rng: random.Random) -> list:
     """One Bottle of /diff/battery:o: float64 x4 (float32 fields too, so within
     float32's range, with NaN, -0.0, tiny and large values), uint8 x2, bool."""
     reals = [rng.choice([rng.uniform(-1e6, 1e6), rng.uniform(-1, 1) * 1e-30, -0.0, math.nan,
                          float(rng.randint(-5, 5)), 3.0e38, 1e-45]) for _ in range(4)]
     return reals + [rng.randint(0, 255), rng.randint(0, 255), rng.random() < 0.5]
-
-
-class Differential:
-    """The native module of ``key`` and the rclpy node of the same program
-    (--backend ros2, on a topic of its own), fed the same YARP streams, each
-    with an rclpy subscriber."""
-
-    def __init__(self, builds, key: str, env: dict, tmp_path: Path):
-        from test_backend_ros2 import subscriber_for, write_node
-
-        self.program = program = builds.programs[key]
-        node_program = dataclasses.replace(program, module=f"{program.module}_node",
-                                           output=dataclasses.replace(program.output,
-                                                                      name=program.output.name + "_node"))
-        self.native = Module([builds.exe(key)], env=env, name=key)
-        self.node = Module([VENV / "bin" / "python", write_node(node_program, tmp_path)], env=env,
-                           name=node_program.module)
-        self.subs = [subscriber_for(env, p) for p in (program, node_program)]
-        self.producers = {i.name: YarpProducer(env, i.name) for m in program.muxes for i in m.inputs}
-        self.procs = [self.native, self.node, *self.subs, *self.producers.values()]
-
-    def __enter__(self) -> "Differential":
-        try:
-            for p in self.procs:
-                p.start()
-            self.native.wait_log("event-driven")
-            self.node.wait_log("event-driven")
-            for producer in self.producers.values():
-                producer.wait_outputs(2)
-            for s in self.subs:
-                s.wait_publishers(1)
-        except BaseException:
-            self.__exit__()
-            raise
-        return self
-
-    def __exit__(self, *exc) -> None:
-        for p in reversed(self.procs):
-            p.stop()
-
-    def round(self, k: int, bottles: dict, rng: random.Random) -> None:
-        """Writes one Bottle to each port (in the config's order, each with an
-        envelope), then waits for message k + 1 of both."""
-        for port, values in bottles.items():
-            self.producers[port].write(values, stamp=[k, 1.7e9 + rng.uniform(0, 1e6)])
-        for s in self.subs:
-            s.wait_for(k + 1)
-
-    def messages(self, rounds: int) -> list:
-        """The messages of both, the same bit for bit (the native module's);
-        SIGINT ends the native module with 0 within 2 s, its totals said."""
-        native_msgs, node_msgs = ([float_bits(m.msg) for m in s.messages] for s in self.subs)
-        assert len(native_msgs) == len(node_msgs) == rounds
-        assert native_msgs == node_msgs
-        rc, elapsed = self.native.interrupt(signal.SIGINT)
-        assert rc == 0 and elapsed < 2.0, self.native.log_text()[-2000:]
-        log = self.native.log_text()
-        assert f"published {rounds} messages" in log and "Traceback" not in log, log[-2000:]
-        return native_msgs
 
 
 def test_ros2_output_publishes_what_the_ros2_node_publishes(builds, yarp_server, ros2_domain, tmp_path):
@@ -737,8 +381,6 @@ def test_ros2_output_use_sim_time_stamps_with_the_clock_topic(builds, yarp_serve
     """`--ros-args -p use_sim_time:=true`, as for every ROS 2 node: the stamps
     are the simulated time of /clock; the module's own options still work
     after `--`."""
-    from test_backend_ros2 import subscriber_for
-
     program = builds.programs["vizzy_rviz_joint_states"]
     env = ros2_environment(yarp_server.env, ros2_domain)
     clock = Ros2Publisher(env, "/clock", "rosgraph_msgs/msg/Clock",

@@ -2,8 +2,8 @@
 Python against real YARP (and ROS 1).
 
 What a module does is tested once for every backend by the harness
-(tests/behaviour.py): ``TestPyBehaviour`` says how a Python module is
-started. The rest of this file is the Python backend's own: golden files,
+(tests/harness/behaviour.py): ``TestPyBehaviour`` says how a Python module
+is started. The rest of this file is the Python backend's own: golden files,
 imports, escaping, the module imported and its data, the float64 fast path
 of the runtime, lowering errors, every supported config's golden file.
 """
@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import ast
 import json
-import math
 import os
 import re
 import subprocess
@@ -20,29 +19,29 @@ from pathlib import Path
 
 import pytest
 
-from behaviour import (BridgeBehaviour, Launcher, Module, ModuleCommandLine, Ros1Behaviour,
-                       simple_program, supported_configs)
-from generated import load_module, module_file, without_runtime, write_generated
-from middleware import VENV_PYTHON, require_yarp
+from harness.behaviour import BridgeBehaviour, ModuleCommandLine
+from harness.behaviour_ros1 import Ros1Behaviour
+from harness.env import VENV_PYTHON
+from harness.generated import load_module, module_file, without_runtime
+from harness.launchers import PyModules, write_module
+from harness.programs import DEG, PY_EVIL as EVIL, PY_GOLDEN_PROGRAMS as GOLDEN_PROGRAMS, simple_program, \
+    supported_configs
+from harness.programs import py_escape_program as escape_program
+from harness.yarp import require_yarp
 import ybg
 from ybg.backends import RenderOptions, check_result, get_backend
 from ybg.backends.py import PyBackend
 from ybg.backends.py.lower import LoweringError, py_literal
 from ybg.compiler.pipeline import compile_text
-from ybg.compiler.ir import (Converter, Counter, Default, ElementGroup, Field, Input, Literal,
-                             Mux, MuxRef, Output, Program, Seconds, Struct, Timestamp,
-                             Timing, TypeRef)
+from ybg.compiler.ir import (Converter, Counter, Default, Field, Input, Literal, Mux, MuxRef, Output, Program,
+                             Struct, Timestamp, TypeRef)
 
 GOLDEN = Path(__file__).resolve().parent / "golden" / "py"
-DEG = math.pi / 180.0
-
-#: a string that breaks naive code generation in every way we know of
-EVIL = ("q\"uo'te \\back\\slash\\\nnew line */ /* ''' \"\"\" # ; {{ x }} {% raw %} "
-        "\t tab ünïcødé 日本語 \u2028 end\\")
 
 
 # --------------------------------------------------------------------------
-# programs of this backend's own tests (the harness's: tests/behaviour.py)
+# a program of this backend's own tests (the harness's, and those of its golden
+# files: tests/harness/programs.py)
 
 
 def jointstate(module="thesis_figure5_rviz", names=None, frame="0"):
@@ -71,75 +70,6 @@ def jointstate(module="thesis_figure5_rviz", names=None, frame="0"):
         ros="ros1", distro="noetic")
 
 
-def values_program(rate=None, trigger="all"):
-    """Two muxes (undeclared degrees; declared int32, int32, float64) into an
-    untyped Bottle using every kind of source."""
-    return Program(
-        module="values_bridge", source="values_bridge.ini",
-        muxes=(
-            Mux("arm", (Input("/test/arm:o"),), (Converter("deg_to_rad", scale=DEG),)),
-            Mux("sens", (Input("/test/sens:o", layout=(ElementGroup("int32", 2),
-                                                         ElementGroup("float64", 1))),),
-                (Converter("scale", scale=2.0, offset=1.0, start=2, stop=3),)),
-        ),
-        message=Struct((
-            Field("label", Literal(("hello",), "string")),
-            Field("count", Counter("int32")),
-            Field("stamp", Timestamp()),
-            Field("seconds", Seconds()),
-            Field("arm", MuxRef("arm")),
-            Field("first", MuxRef("sens", index=0, element_type="int32")),
-            Field("spliced", MuxRef("sens", splice=True)),
-            Field("nested", Struct((
-                Field("k", Literal((1, 2, 3), "int32", True)),
-                Field("pt", MuxRef("arm", 0, 3, into_fields=("x", "y", "z"),
-                                   into_types=("float64",) * 3)),
-            ))),
-            Field("empty", Literal((), "float64", True)),
-        )),
-        output=Output("yarp", "/values_bridge/out:o"),
-        timing=Timing(rate=rate, trigger=trigger))
-
-
-def escape_program():
-    """Config strings full of quotes, backslashes, newlines, comment and
-    template delimiters and non-ASCII text, in every place a string goes."""
-    return Program(
-        module="escape_bridge", source="we'ird \"name\"\n# ''' ü.ini",
-        muxes=(Mux("m", (Input("/test/esc:o"),)),),
-        message=Struct((
-            Field(EVIL, Literal((EVIL,), "string")),
-            Field("list" + EVIL, Literal((EVIL, "", "'", '"', "\\"), "string", True)),
-            Field("values", MuxRef("m")),
-        )),
-        output=Output("yarp", "/escape_bridge/out:o"))
-
-
-def legacy_splice_program():
-    """The legacy untyped YARP output (to_ros = false): literals then the mux
-    elements appended flat, as the tutorial's rpc command `set pos ...`."""
-    return Program(
-        module="tutorial_rpc", source="tutorial_example_ros_yarp.ini",
-        muxes=(Mux("mux1", (Input("/fakebot_motor_control_ros"),), verbose=True),),
-        message=Struct((
-            Field("1", Literal(("set",), "string")),
-            Field("2", Literal(("pos",), "string")),
-            Field("3", MuxRef("mux1", splice=True)),
-        )),
-        output=Output("yarp", "/tutorial_rpc/out:o", connect_to="/fakebot/motor/rpc:i"),
-        timing=Timing(rate=60.0))
-
-
-GOLDEN_PROGRAMS = {
-    "values_bridge": values_program,
-    "escape_bridge": escape_program,
-    "tutorial_rpc": legacy_splice_program,
-    "fixed_rate_hold": lambda: simple_program("fixed_rate_hold", rate=50.0, on_stale="hold",
-                                              layout=(ElementGroup("float64", 3),),
-                                              on_nan="drop", envelope=True),
-}
-
-
 # --------------------------------------------------------------------------
 # helpers
 
@@ -149,30 +79,8 @@ def render(program) -> tuple[str, str]:
     return module_file(PyBackend().render(program), ".py")
 
 
-def write_module(program, folder: Path) -> Path:
-    """The module and its runtime written in ``folder``; the module's path."""
-    files = PyBackend().render(program)
-    write_generated(folder, files)
-    return folder / module_file(files, ".py")[0]
-
-
 # --------------------------------------------------------------------------
-# the behaviour harness: how a Python module is started
-
-
-class PyModules(Launcher):
-    """The generated module (its runtime beside it) in a folder of its own,
-    run as a script by the venv's Python."""
-
-    backend = "py"
-
-    def __init__(self, folder: Path):
-        self.folder = folder
-
-    def module(self, key, env, *args, gate_output=False) -> Module:
-        program = self.program(key)
-        path = write_module(program, self.folder / program.module)
-        return Module([VENV_PYTHON, path, *args], env=env, name=program.module, gate_output=gate_output)
+# the behaviour harness on the Python module (its Launcher: harness/launchers.py)
 
 
 class TestPyBehaviour(BridgeBehaviour, Ros1Behaviour, ModuleCommandLine):
@@ -355,20 +263,11 @@ def test_queue_setting_reaches_the_module():
 # every example and legacy config this backend supports, from the real file
 
 
-def _compile(path):
-    from ybg.compiler.pipeline import compile_path
-    return check_result(compile_path(path), "py")
-
-
 try:
     SUPPORTED = supported_configs("py")
     COLLECT_ERROR = None
 except Exception as e:  # the front end is broken: one failing test says so
     SUPPORTED, COLLECT_ERROR = [], e
-
-
-def _id(path):
-    return path.stem
 
 
 def test_configs_found():
@@ -379,7 +278,12 @@ def test_configs_found():
             "fixation_point_goal"} <= stems
 
 
-@pytest.mark.parametrize("path", SUPPORTED, ids=_id)
+def _compile(path):
+    from ybg.compiler.pipeline import compile_path
+    return check_result(compile_path(path), "py")
+
+
+@pytest.mark.parametrize("path", SUPPORTED, ids=lambda path: path.stem)
 def test_config_golden(path, update_goldens):
     program = _compile(path).program
     files = PyBackend().render(program)
@@ -393,7 +297,6 @@ def test_config_golden(path, update_goldens):
         assert golden.read_text(encoding="utf-8") == text, f"{golden} differs"
         if name.endswith(".py"):  # not the yarpmanager application beside it
             compile(text, name, "exec")
-
 
 
 def test_counter_wraps_like_its_ros_type(tmp_path):

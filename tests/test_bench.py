@@ -9,7 +9,8 @@ import subprocess
 
 import pytest
 
-from middleware import ROOT, VENV_PYTHON, base_env, require_yarp
+from harness.env import ROOT, VENV_PYTHON, base_env
+from harness.yarp import require_yarp
 
 
 @pytest.mark.timeout(180)

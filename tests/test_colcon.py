@@ -19,11 +19,12 @@ from pathlib import Path
 
 import pytest
 
-import middleware
-from generated import ybgc
-from middleware import VENV_PYTHON, Proc, YarpProducer
-from test_backend_ros2 import Node, QosSubscriber, stop_clean, totals
-from test_diagnostics import yarp_and_ros2
+from harness.env import VENV_PYTHON, yarp_install
+from harness.generated import ybgc
+from harness.module import Node, stop_clean, totals
+from harness.procs import Proc
+from harness.ros2 import QosSubscriber, yarp_and_ros2
+from harness.yarp import YarpProducer
 
 ROOT = Path(__file__).resolve().parents[1]
 TUTORIAL = ROOT.parent / "shared" / "legacy" / "tutorial_example_yarp_ros.ini"
@@ -161,7 +162,7 @@ def test_native_module_package_built_by_colcon(mw, tmp_path):
     assert r.returncode == 0, r.stderr
     xml = (src / "package.xml").read_text()
     assert "<depend>ybg_demo_msgs</depend>" in xml and "<build_type>ament_cmake</build_type>" in xml
-    yarp = middleware.yarp_install("3.5")
+    yarp = yarp_install("3.5")
     venv = Path(VENV_PYTHON).parent.parent
     # ament_cmake from the wheels (found through the venv, with its Python), as in a sourced ROS 2
     env = dict(mw.env, AMENT_PREFIX_PATH=str(venv))

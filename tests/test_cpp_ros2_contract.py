@@ -4,7 +4,7 @@ crashed or overloaded robot part would) makes its input stale and nothing is
 published until it returns; a ROS 2 subscriber that stops reading does not
 hold the module up; a signal ends it with 0 within 2 s and its totals. The
 module is the native one of `--backend cpp`; the same contract for YARP
-outputs is the behaviour harness's (tests/behaviour.py), for every backend.
+outputs is the behaviour harness's (tests/harness/behaviour.py), for every backend.
 
 Built against the newest YARP of the matrix: what differs between YARP
 releases (reading Bottles) is covered on each of them by the harness.
@@ -27,11 +27,11 @@ import time
 
 import pytest
 
-from behaviour import Module, totals
-from generated import generate
-from middleware import ROOT, VENV, YarpProducer
-from test_backend_cpp import ros2_environment
-from test_backend_ros2 import QosSubscriber
+from harness.env import ROOT, VENV
+from harness.generated import generate
+from harness.module import Module, totals
+from harness.ros2 import QosSubscriber, ros2_environment
+from harness.yarp import YarpProducer
 
 CONFIG = """\
 [module]

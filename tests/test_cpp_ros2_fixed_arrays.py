@@ -16,9 +16,11 @@ from pathlib import Path
 
 import pytest
 
-from middleware import VENV
-from test_backend_cpp import Builds, Differential, float_bits, ros2_environment
-from test_backend_ros2 import require_message_packages
+from harness.build import Builds
+from harness.differential import Differential, float_bits
+from harness.env import VENV
+from harness.launchers import require_message_packages
+from harness.ros2 import ros2_environment
 from ybg.backends import check_result
 from ybg.compiler.options import Options
 from ybg.compiler.pipeline import compile_text

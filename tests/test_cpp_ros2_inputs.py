@@ -24,15 +24,17 @@ import time
 
 import pytest
 
-from behaviour import Module, config_program
-from middleware import VENV, Ros2Publisher, YarpProducer, YarpReader
-from test_backend_cpp import ROOT, Builds, ros2_environment
-from test_backend_ros2 import subscriber_for, totals, write_node
+from harness.build import Builds
+from harness.env import EXAMPLES, VENV
+from harness.launchers import write_node
+from harness.module import Module, totals
+from harness.programs import config_program, text_program
+from harness.ros2 import Ros2Publisher, ros2_environment, ros2_type, subscriber_for
+from harness.yarp import YarpProducer, YarpReader
 from ybg.backends import LoweringError, check_result
 from ybg.backends.cpp import CppBackend
-from ybg.compiler.pipeline import compile_path, compile_text
+from ybg.compiler.pipeline import compile_path
 
-EXAMPLES = ROOT / "examples"
 POSE = "ros2_pose_goal_to_icub"
 GAZE = "ros2_to_yarp_gaze"
 MOVEIT = "moveit_trajectory_to_yarp"
@@ -70,14 +72,8 @@ def built(tmp_path_factory, yarp) -> Builds:
     b = Builds(tmp_path_factory.mktemp(f"cpp_ros2_inputs_{yarp.version}"), yarp)
     for stem in (POSE, GAZE, MOVEIT):
         b.add(stem, config_program(EXAMPLES / f"{stem}.ini", "cpp"))
-    b.add("shared_node", compiled(SHARED_NODE, "arm_and_goal.ini"))
+    b.add("shared_node", text_program(SHARED_NODE, "arm_and_goal.ini", "cpp"))
     return b
-
-
-def compiled(text: str, name: str):
-    result = check_result(compile_text(text, name), "cpp")
-    assert result.ok, [str(d) for d in result.diagnostics]
-    return result.program
 
 
 # the first test builds the modules (two jobs: seconds on a quiet machine,
@@ -88,11 +84,6 @@ def test_modules_build_with_werror(built):
     of the topics it reads, with a YARP output too; built with -Werror."""
     for key in built.programs:
         assert os.access(built.exe(key), os.X_OK)
-
-
-def ros2_type(msg_type: str) -> str:
-    pkg, name = msg_type.split("/")
-    return f"{pkg}/msg/{name}"
 
 
 def bits(data):
@@ -344,7 +335,7 @@ def test_cpp_reads_ros2_inputs_and_refuses_rows_into_a_ros2_message():
     assert "ros2" in CppBackend.input_kinds
     for stem in (POSE, GAZE, MOVEIT):
         assert check_result(compile_path(EXAMPLES / f"{stem}.ini"), "cpp").ok
-    program = compiled(SHARED_NODE, "arm_and_goal.ini")
+    program = text_program(SHARED_NODE, "arm_and_goal.ini", "cpp")
     rows = dataclasses.replace(program.muxes[1].inputs[0], ros_type="trajectory_msgs/JointTrajectory",
                                fields=("positions",), layout=None, each="points")
     program = dataclasses.replace(program, muxes=(program.muxes[0], dataclasses.replace(program.muxes[1],

@@ -21,13 +21,12 @@ import time
 
 import pytest
 
-from behaviour import Module
-from generated import generate
-from middleware import Ros2Publisher, YarpProducer, YarpReader
-from test_backend_cpp import Builds, ros2_environment
-from test_backend_ros2 import Node, QosSubscriber
-from test_cpp_ros2_inputs import compiled
-from test_qos_overrides import CONFIG, READER, VALUE, wait_incompatible
+from harness.build import Builds
+from harness.generated import generate
+from harness.module import Module, Node
+from harness.programs import QOS_CONFIG as CONFIG, QOS_READER as READER, QOS_VALUE as VALUE, text_program
+from harness.ros2 import QosSubscriber, Ros2Publisher, ros2_environment, wait_incompatible
+from harness.yarp import YarpProducer, YarpReader
 from ybg.compiler.ir import QoS
 
 pytestmark = pytest.mark.yarp_min((4, 0))  # the ROS 2 side depends on no YARP release
@@ -56,9 +55,9 @@ stamp = timestamp
 @pytest.fixture(scope="module")
 def built(tmp_path_factory, yarp) -> Builds:
     b = Builds(tmp_path_factory.mktemp(f"cpp_ros2_qos_{yarp.version}"), yarp)
-    b.add("point", compiled(CONFIG, "qos_bridge.ini"))
-    b.add("reader", compiled(READER, "qos_reader.ini"))
-    b.add("sim", compiled(SIM_TIME, "sim_reader.ini"))
+    b.add("point", text_program(CONFIG, "qos_bridge.ini", "cpp"))
+    b.add("reader", text_program(READER, "qos_reader.ini", "cpp"))
+    b.add("sim", text_program(SIM_TIME, "sim_reader.ini", "cpp"))
     return b
 
 

@@ -8,33 +8,19 @@ off, and a bad period stops the module with the reason. The C++ statuses'
 texts are unit-tested beside the Python ones (tests/runtime/ros2/)."""
 from __future__ import annotations
 
-import contextlib
 import os
 import signal
 from types import SimpleNamespace
 
 import pytest
 
-import middleware
-from generated import generate
-from behaviour import Module
-from middleware import YarpProducer
-from test_backend_cpp import Builds
-from test_backend_ros2 import Node, QosSubscriber, stop_clean, totals
-from test_cpp_ros2_inputs import compiled
-
-
-@contextlib.contextmanager
-def yarp_and_ros2(ros2_domain):
-    """A YARP name server (PyPI's YARP 3.5: the node's ROS 2 side does not
-    depend on the YARP version, which test_backend_ros2 runs on every one)
-    and a ROS 2 domain, in one environment (``.env``)."""
-    with middleware.YarpServer(install=middleware.yarp_install("3.5")) as server:
-        env = dict(server.env)
-        env.update(ros2_domain.ros_env)
-        for key in ("ROS_HOME", "ROS_LOG_DIR"):
-            env[key] = ros2_domain.env[key]
-        yield SimpleNamespace(env=env, yarp=server, ros2=ros2_domain)
+from harness.build import Builds
+from harness.generated import generate
+from harness.module import Module, Node, stop_clean, totals
+from harness.env import yarp_install
+from harness.programs import text_program
+from harness.ros2 import QosSubscriber, statuses, yarp_and_ros2
+from harness.yarp import YarpProducer
 
 
 @pytest.fixture
@@ -73,16 +59,6 @@ OUTPUT = f"{NODE}: output /diag/point"
 OK, WARN, ERROR = 0, 1, 2
 
 
-def statuses(msg) -> dict:
-    """{name: (level, message, {key: value}, hardware_id)} of one DiagnosticArray."""
-    out = {}
-    for s in msg["status"]:
-        level = s["level"][0] if isinstance(s["level"], list) else s["level"]
-        out[s["name"]] = (level, s["message"], {kv["key"]: kv["value"] for kv in s["values"]},
-                          s["hardware_id"])
-    return out
-
-
 def wait_status(sub: QosSubscriber, pred, what: str, timeout: float = 60.0) -> dict:
     """The statuses of the first array received from now on that satisfies ``pred``."""
     start = len(sub.messages)
@@ -99,8 +75,8 @@ def wait_status(sub: QosSubscriber, pred, what: str, timeout: float = 60.0) -> d
 @pytest.fixture(scope="module")
 def native(tmp_path_factory) -> Builds:
     """CONFIG built with --backend cpp (against the name server's YARP)."""
-    b = Builds(tmp_path_factory.mktemp("cpp_diagnostics"), middleware.yarp_install("3.5"))
-    b.add("diag", compiled(CONFIG, f"{NODE}.ini"))
+    b = Builds(tmp_path_factory.mktemp("cpp_diagnostics"), yarp_install("3.5"))
+    b.add("diag", text_program(CONFIG, f"{NODE}.ini", "cpp"))
     return b
 
 

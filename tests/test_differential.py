@@ -23,7 +23,9 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
-from middleware import Proc, VENV_PYTHON, YarpProducer, YarpReader, YarpServer
+from harness.env import VENV_PYTHON
+from harness.procs import Proc
+from harness.yarp import YarpProducer, YarpReader, YarpServer
 
 ROOT = Path(__file__).resolve().parent.parent
 YBGC = str(Path(sys.executable).parent / "ybgc")

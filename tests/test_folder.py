@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from tests.generated import YBGC
+from harness.generated import YBGC
 
 ROOT = Path(__file__).resolve().parent.parent
 HAND = ROOT / "examples" / "mixed_types_yarp.ini"  # module `hand_status`

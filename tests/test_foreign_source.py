@@ -24,14 +24,12 @@ import signal
 
 import pytest
 
-from behaviour import Module, assert_clean_exit, relay_program
-from generated import generate
-from middleware import YarpProducer, YarpReader
-from test_backend_cpp import CppModules, builds  # noqa: F401 (the session's one CMake project)
-from test_backend_py import PyModules
-from test_backend_ros2 import QosSubscriber, Ros2Modules
-from test_diagnostics import statuses
-from test_rpc import rpc
+from harness.generated import generate
+from harness.launchers import CppModules, PyModules, Ros2Modules
+from harness.module import Module, assert_clean_exit
+from harness.programs import relay_program
+from harness.ros2 import QosSubscriber, statuses
+from harness.yarp import YarpProducer, YarpReader, rpc
 from ybg.backends import get_backend
 from ybg.compiler.pipeline import compile_text
 from ybg.runtime import core

@@ -1,7 +1,7 @@
 """The orientation and geometry converters and the element-wise expressions.
 
 - Python (ybg/runtime/geometry.py) against an independent reference,
-  scipy's Rotation (tests/geometry_reference.py), to 1e-12, on what
+  scipy's Rotation (tests/harness/geometry_reference.py), to 1e-12, on what
   hypothesis draws; round trips away from singularities.
 - C++ (ybgc_runtime.cpp, built with -ffp-contract=off as a module is) against
   Python bit for bit, on what hypothesis draws (finite or not): a small
@@ -24,9 +24,9 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-import geometry_reference
-import middleware
-from test_runtime_cpp import cmake_build
+from harness import geometry_reference
+from harness.build import cmake_build
+from harness.env import yarp_install
 from ybg.backends.cpp.lower import cpp_expression
 from ybg.backends.py.lower import py_expression
 from ybg.compiler import ir
@@ -216,7 +216,7 @@ def checked(text: str) -> ir.ExprNode:
 @pytest.fixture(scope="module")
 def cpp(tmp_path_factory):
     """The helper, running: a request in, a line of results out."""
-    install = middleware.yarp_install("3.5")
+    install = yarp_install("3.5")
     if install.missing():
         pytest.fail(f"YARP 3.5 is not installed: {install.missing()}")
     src = tmp_path_factory.mktemp("geometry_check")
@@ -359,7 +359,7 @@ num_fields = 2
 def test_fmt_to_named_keeps_an_expression(tmp_path):
     """A legacy `function` with an expression: `ybgc fmt --to named` writes
     a named config that checks clean and is the same program."""
-    from generated import ybgc
+    from harness.generated import ybgc
     from ybg.compiler.pipeline import compile_path
 
     old = tmp_path / "pose.ini"

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.generated import YBGC
+from harness.generated import YBGC
 from ybg.compiler import ir
 from ybg.compiler.pipeline import compile_path
 from ybg.graph import render

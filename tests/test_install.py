@@ -32,9 +32,11 @@ from pathlib import Path
 import pytest
 import yaml
 
-import middleware
-from behaviour import Module, assert_matches, config_program, expected, mux_values, sent_values, yarp_ports
-from middleware import YarpProducer, YarpReader, YarpServer
+from harness.env import DEFAULT_YARP, VENV
+from harness.module import Module
+from harness.programs import config_program
+from harness.reference import assert_matches, expected, mux_values, sent_values
+from harness.yarp import YarpProducer, YarpReader, YarpServer, require_yarp, yarp_ports
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"
@@ -118,7 +120,7 @@ def clean_env(venv: Path | None = None) -> dict:
     first on PATH, the project's venv off it."""
     env = {k: v for k, v in os.environ.items() if k not in _DROP}
     path = [p for p in env.get("PATH", "/usr/bin:/bin").split(os.pathsep)
-            if Path(p).resolve() != (middleware.VENV / "bin").resolve()]
+            if Path(p).resolve() != (VENV / "bin").resolve()]
     if venv is not None:
         env["VIRTUAL_ENV"] = str(venv)
         path.insert(0, str(venv / "bin"))
@@ -222,7 +224,7 @@ def written(folder: Path, exclude=frozenset()) -> dict:
 @pytest.fixture(scope="module")
 def source_outcome(tmp_path_factory) -> Outcome:
     """The commands run by the source tree's ybgc (the project's venv)."""
-    return run_commands(middleware.VENV / "bin" / "ybgc", tmp_path_factory.mktemp("source") / "run", clean_env())
+    return run_commands(VENV / "bin" / "ybgc", tmp_path_factory.mktemp("source") / "run", clean_env())
 
 
 def assert_same_outcome(got: Outcome, want: Outcome) -> None:
@@ -275,8 +277,8 @@ def test_cpp_module_from_the_wheel_builds_and_runs(wheel_install, tmp_path):
     """The C++ module the wheel's ybgc writes (its runtime beside it) builds
     against YARP 3.5 and relays real producers' Bottles as the reference
     says; SIGINT ends it cleanly."""
-    yarp = middleware.DEFAULT_YARP
-    middleware.require_yarp(yarp)
+    yarp = DEFAULT_YARP
+    require_yarp(yarp)
     shutil.copyfile(YARP_CONFIG, tmp_path / YARP_CONFIG.name)
     run([wheel_install.ybgc, YARP_CONFIG.name, "--backend", "cpp", "-o", "module"], cwd=tmp_path,
         env=wheel_install.env)

@@ -3,12 +3,16 @@ import dataclasses
 import math
 import os
 import time
+from pathlib import Path
 
 import pytest
 
-import middleware
-from middleware import (Proc, Ros2Publisher, Ros2Subscriber, RospySubscriber, YarpProducer,
-                        YarpReader, YarpServer)
+from harness import env as harness_env, ros2 as harness_ros2
+from harness.env import DEFAULT_YARP, yarp_install
+from harness.procs import Proc, live_processes
+from harness.ros1 import RospySubscriber, YarpRosStack, ros1_msg_files
+from harness.ros2 import Ros2Domain, Ros2Publisher, Ros2Subscriber, require_ros2, ros2_env
+from harness.yarp import YarpProducer, YarpReader, YarpServer, require_yarp, yarp_env
 
 pytestmark = pytest.mark.slow
 
@@ -66,9 +70,9 @@ def test_yarp_name_server_is_loopback_and_isolated(yarp_server, tmp_path):
     for line in listing.splitlines():
         if line.startswith("registration name /") and " ip " in line:
             assert " ip 127.0.0.1 " in line, line
-    assert (middleware.Path(yarp_server.env["YARP_CONFIG_HOME"]) / "yarp.conf").read_text() \
+    assert (Path(yarp_server.env["YARP_CONFIG_HOME"]) / "yarp.conf").read_text() \
         == f"127.0.0.1 {yarp_server.port} yarp\n"
-    env = middleware.yarp_env(tmp_path, 12345)
+    env = yarp_env(tmp_path, 12345)
     assert env["YARP_IP"] == "127.0.0.1"
     assert (tmp_path / "yarp.conf").read_text() == "127.0.0.1 12345 yarp\n"
 
@@ -150,14 +154,14 @@ def test_rclpy_stream_at_rate(ros2_domain):
 
 
 def test_ros2_domains_are_distinct():
-    with middleware.Ros2Domain() as a, middleware.Ros2Domain() as b:
+    with Ros2Domain() as a, Ros2Domain() as b:
         assert a.domain_id != b.domain_id
         assert 1 <= a.domain_id <= 100 and 1 <= b.domain_id <= 100
-    assert middleware.ros2_env()["ROS_DOMAIN_ID"] == middleware.ros2_env()["ROS_DOMAIN_ID"]
+    assert ros2_env()["ROS_DOMAIN_ID"] == ros2_env()["ROS_DOMAIN_ID"]
 
 
 def test_msg_dependencies():
-    files = middleware.ros1_msg_files(["sensor_msgs/JointState", "geometry_msgs/PoseStamped"])
+    files = ros1_msg_files(["sensor_msgs/JointState", "geometry_msgs/PoseStamped"])
     assert set(files) == {"sensor_msgs/JointState", "std_msgs/Header", "geometry_msgs/PoseStamped",
                           "geometry_msgs/Pose", "geometry_msgs/Point", "geometry_msgs/Quaternion"}
 
@@ -166,7 +170,7 @@ def test_everything_stopped_at_the_end():
     """Servers, peers and whole process groups are gone after their context."""
     procs = []
     ports = []
-    with middleware.YarpRosStack(msg_types=["sensor_msgs/JointState"]) as stack:
+    with YarpRosStack(msg_types=["sensor_msgs/JointState"]) as stack:
         procs += stack.procs()
         ports += [stack.port, stack.roscore.port]
         assert all(p.alive for p in procs)
@@ -176,7 +180,7 @@ def test_everything_stopped_at_the_end():
         with YarpReader(stack.env, "/end/in") as reader, \
                 RospySubscriber(stack.env, "/end") as sub:
             procs += [reader, sub]
-    with YarpServer() as server, middleware.Ros2Domain() as dom:
+    with YarpServer() as server, Ros2Domain() as dom:
         with Ros2Subscriber(dom.env, "/end") as sub2, YarpProducer(server.env, "/end/out") as p:
             procs += [server.proc, sub2, p]
             ports.append(server.port)
@@ -188,7 +192,7 @@ def test_everything_stopped_at_the_end():
     for p in procs:
         assert not p.alive, p
         assert not p.group_alive(), p
-    assert not set(procs) & set(middleware.live_processes())
+    assert not set(procs) & set(live_processes())
     # and no yarpserver / roscore / rosmaster with those ports anywhere
     for cmd in _cmdlines():
         words = cmd.split()
@@ -209,17 +213,17 @@ def _cmdlines():
 
 
 def test_missing_middleware_fails_with_install_hint(monkeypatch, tmp_path):
-    nowhere = dataclasses.replace(middleware.DEFAULT_YARP, bin=tmp_path / "nowhere")
+    nowhere = dataclasses.replace(DEFAULT_YARP, bin=tmp_path / "nowhere")
     with pytest.raises(pytest.fail.Exception, match="scripts/setup.sh"):
-        middleware.require_yarp(nowhere)
-    monkeypatch.setattr(middleware, "YARP_CACHE", tmp_path / "cache")
-    unbuilt = middleware.yarp_install("4.0.0")
+        require_yarp(nowhere)
+    monkeypatch.setattr(harness_env, "YARP_CACHE", tmp_path / "cache")
+    unbuilt = yarp_install("4.0.0")
     assert unbuilt.missing()
     with pytest.raises(pytest.fail.Exception, match=r"scripts/setup.sh --yarp 4\.0\.0"):
-        middleware.require_yarp(unbuilt)
-    monkeypatch.setattr(middleware, "VENV_PYTHON", tmp_path / "no-python")
+        require_yarp(unbuilt)
+    monkeypatch.setattr(harness_ros2, "VENV_PYTHON", tmp_path / "no-python")
     with pytest.raises(pytest.fail.Exception, match="scripts/setup.sh"):
-        middleware.require_ros2()
+        require_ros2()
 
 
 def test_update_goldens_option_defaults_to_false(update_goldens):

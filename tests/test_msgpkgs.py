@@ -17,10 +17,9 @@ from pathlib import Path
 
 import pytest
 
-import middleware
-from generated import ybgc
-from middleware import VENV_PYTHON
-from test_backend_ros2 import QosSubscriber
+from harness.env import VENV_PYTHON, base_env
+from harness.generated import ybgc
+from harness.ros2 import QosSubscriber
 
 ROOT = Path(__file__).resolve().parents[1]
 BUILD = ROOT / "scripts" / "build_msgpkg.sh"
@@ -147,7 +146,7 @@ USER_PACKAGE = {
 
 
 def build(pkg: Path, prefix: Path) -> subprocess.CompletedProcess:
-    env = dict(middleware.base_env(), YBG_VENV=str(VENV))
+    env = dict(base_env(), YBG_VENV=str(VENV))
     r = subprocess.run(["bash", str(BUILD), "--prefix", str(prefix), str(pkg)], env=env,
                        capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr[-4000:]
@@ -198,7 +197,7 @@ def test_a_package_that_does_not_build_is_a_clear_error(tmp_path):
         (pkg / name).parent.mkdir(parents=True, exist_ok=True)
         (pkg / name).write_text(textwrap.dedent(text).replace("my_robot_msgs", "broken_msgs"))
     (pkg / "msg" / "Grasp.msg").write_text("no_such_msgs/Thing thing\n")
-    env = dict(middleware.base_env(), YBG_VENV=str(VENV))
+    env = dict(base_env(), YBG_VENV=str(VENV))
     r = subprocess.run(["bash", str(BUILD), "--prefix", str(tmp_path / "install"), str(pkg)], env=env,
                        capture_output=True, text=True, timeout=600)
     assert r.returncode != 0

@@ -1,5 +1,5 @@
 """The bridge on a robot's network, with real middleware: four hosts
-(tests/netns.py: the YARP name server, the producers, the module, the
+(tests/harness/netns.py: the YARP name server, the producers, the module, the
 consumers, each a network namespace with its own address) and the faults of
 such a network. Every test here runs on YARP 4.0.0 only (today's), whatever
 ``--yarp`` says, to bound the suite's time. See docs/network.md.
@@ -25,15 +25,16 @@ from pathlib import Path
 
 import pytest
 
-import middleware
-import netns
-from behaviour import Module, assert_clean_exit, exactly, relay_program, sent_values, totals
-from middleware import YarpProducer, YarpReader
-from netns import Rig, rss_kb
-
-import test_backend_cpp
-import test_backend_py
-import test_backend_ros2
+from harness import netns
+from harness.build import Builds
+from harness.env import VENV_PYTHON, yarp_install
+from harness.launchers import CppModules, PyModules, Ros2Modules, write_node
+from harness.module import Module, assert_clean_exit, stop_clean, totals
+from harness.netns import Rig, rss_kb
+from harness.programs import relay_program, ros2_example
+from harness.reference import exactly, expected_message, sent_values, wait_matching, write_all
+from harness.ros2 import subscriber_for, wait_matched
+from harness.yarp import YarpProducer, YarpReader
 
 #: the YARP the rig runs
 VERSION = "4.0.0"
@@ -57,7 +58,7 @@ FLAT_KB = 8 * 1024
 
 def rig_install():
     """YARP 4.0.0, or the test fails (in CI) or skips saying how to build it."""
-    install = middleware.yarp_install(VERSION)
+    install = yarp_install(VERSION)
     missing = install.missing()
     if missing:
         msg = f"YARP {VERSION} is not built here (missing {missing[0]}). {install.build_hint()}"
@@ -89,7 +90,7 @@ def rig(install):
 @pytest.fixture(scope="module")
 def cpp_builds(install, tmp_path_factory):
     """The C++ relay, built once against YARP 4.0.0 (optimized, as a user's)."""
-    builds = test_backend_cpp.Builds(tmp_path_factory.mktemp("net_cpp"), install)
+    builds = Builds(tmp_path_factory.mktemp("net_cpp"), install)
     builds.add("relay_bridge", relay_program(), optimize=True)
     return builds
 
@@ -97,10 +98,10 @@ def cpp_builds(install, tmp_path_factory):
 def launcher(backend: str, folder: Path, cpp_builds=None):
     """How ``backend``'s module is started (the behaviour harness's Launcher)."""
     if backend == "cpp":
-        return test_backend_cpp.CppModules(cpp_builds)
+        return CppModules(cpp_builds)
     if backend == "py":
-        return test_backend_py.PyModules(folder)
-    return test_backend_ros2.Ros2Modules(folder, None)
+        return PyModules(folder)
+    return Ros2Modules(folder, None)
 
 
 @pytest.fixture(params=BACKENDS)
@@ -208,25 +209,24 @@ def test_yarp_to_ros2_across_hosts(rig, tmp_path):
     host found through the name server, an rclpy subscriber on the consumers
     host found by DDS discovery across the subnet (UDP only): the exact
     message the reference says, then new values; exit clean."""
-    r2 = test_backend_ros2
-    program = r2.example("vizzy_rviz_joint_states")
-    path = r2.write_node(program, tmp_path / "node")
+    program = ros2_example("vizzy_rviz_joint_states")
+    path = write_node(program, tmp_path / "node")
     with contextlib.ExitStack() as stack:
-        sub = stack.enter_context(rig.place("consumers", r2.subscriber_for(rig.env("consumers"), program)))
+        sub = stack.enter_context(rig.place("consumers", subscriber_for(rig.env("consumers"), program)))
         node = stack.enter_context(rig.place("module", Module(
-            [middleware.VENV_PYTHON, path], env=rig.env("module"), name="vizzy_node")))
+            [VENV_PYTHON, path], env=rig.env("module"), name="vizzy_node")))
         producers = [stack.enter_context(rig.place("producers", YarpProducer(rig.env("producers"), port)))
                      for port in sent_values(program)]
         node.wait_log("publishing")
         for p in producers:
             p.wait_outputs(1)
             assert rig.registered(p.port) == rig.ip("producers")
-        r2.wait_matched(node, sub, program)
+        wait_matched(node, sub, program)
         for offset in (0.0, 100.0):
-            sent, stamps, t_before = r2.write_all(program, producers, offset=offset)
-            r2.wait_matching(sub, t_before, r2.expected_message(program, sent, stamps))
-        log = r2.stop_clean(node)
-    t = r2.totals(log)
+            sent, stamps, t_before = write_all(program, producers, offset=offset)
+            wait_matching(sub, t_before, expected_message(program, sent, stamps))
+        log = stop_clean(node)
+    t = totals(log)
     for port in sent:
         assert t[port][:2] == (2, 0), t
     assert t["published"] >= 2 and t["failures"] == 0

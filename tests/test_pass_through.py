@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import pytest
 
-from generated import generate
-from middleware import YarpProducer, YarpReader
-from test_yarp_versions import module_proc, stop_within, wait_log
+from harness.generated import generate, module_proc
+from harness.module import stop_within, wait_log
+from harness.yarp import YarpProducer, YarpReader
 
 COMMAND = """\
 [module]

@@ -9,9 +9,9 @@ import re
 
 import pytest
 
-from generated import generate
-from middleware import YarpProducer, YarpReader
-from test_yarp_versions import module_proc, stop_within, wait_log
+from harness.generated import generate, module_proc
+from harness.module import stop_within, wait_log
+from harness.yarp import YarpProducer, YarpReader
 from ybg.compiler.pipeline import compile_text
 
 ROS_TO_YARP = """\

@@ -7,32 +7,15 @@ while a BEST_EFFORT one does; ``.subscription.`` overrides the QoS of a topic
 the node reads; a bad value is an error, not a traceback."""
 from __future__ import annotations
 
-import time
-
 import pytest
 
-from generated import generate
-from middleware import Ros2Publisher, YarpProducer
-from test_backend_ros2 import Node, QosSubscriber, stop_clean
-from test_diagnostics import statuses, yarp_and_ros2
+from harness.generated import generate
+from harness.module import Node, stop_clean
+from harness.programs import QOS_CONFIG as CONFIG, QOS_READER as READER, QOS_VALUE as VALUE
+from harness.ros2 import QosSubscriber, Ros2Publisher, statuses, wait_incompatible, yarp_and_ros2
+from harness.yarp import YarpProducer
 from ybg.compiler.ir import QoS
 
-CONFIG = """\
-[module]
-name = qos_bridge
-
-[output]
-topic = /qos/point
-type = geometry_msgs/Point
-
-[mux p]
-ports = /qos/p:o (float64 x3)
-
-[message]
-x = p[0]
-y = p[1]
-z = p[2]
-"""
 
 @pytest.fixture
 def mw(ros2_domain):
@@ -43,7 +26,6 @@ def mw(ros2_domain):
 NODE = "qos_bridge"
 TOPIC = "/qos/point"
 OUTPUT = f"{NODE}: output {TOPIC}"
-VALUE = {"x": 0.25, "y": -1.5, "z": 3.0}
 
 
 def start(mw, tmp_path, *overrides):
@@ -65,18 +47,6 @@ def published(diag) -> int:
     """The node's count of published messages, from the newest /diagnostics."""
     diag.wait_for(1)
     return int(statuses(diag.messages[-1].msg)[OUTPUT][2]["published"])
-
-
-def wait_incompatible(peer, policy, found="publisher discovered", verb="offering", timeout=60.0):
-    """rclpy's warning in a peer's log: the node's publisher (subscription)
-    was discovered and refused for ``policy``."""
-    end = time.monotonic() + timeout
-    text = f"New {found} on topic"
-    tail = f"{verb} incompatible QoS. No messages will be "
-    last = f"Last incompatible policy: {policy}"
-    while not all(t in peer.log_text() for t in (text, tail, last)):
-        assert time.monotonic() < end, f"no incompatible {policy} in:\n{peer.log_text()[-2000:]}"
-        time.sleep(0.05)
 
 
 def publish_one(producer, diag):
@@ -143,22 +113,6 @@ def test_a_bad_override_is_an_error(mw, tmp_path):
         assert "Traceback" not in log, log
     finally:
         node.stop()
-
-
-READER = """\
-[module]
-name = qos_reader
-
-[output]
-port = /qos_reader/out:o
-
-[mux goal]
-topics = /qos/goal (geometry_msgs/Point)
-via = ros2
-
-[message]
-point = goal
-"""
 
 
 @pytest.mark.parametrize("override", [True, False], ids=["transient_local", "config"])

@@ -23,8 +23,9 @@ from pathlib import Path
 
 import pytest
 
-import middleware
-from middleware import VENV
+from harness.env import VENV, yarp_install
+from harness.ros2 import require_ros2
+from harness.yarp import require_yarp
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
@@ -128,9 +129,9 @@ def test_quick_start_parsed():
 def test_quick_start_runs_as_written(tmp_path):
     """Every command of the quick start, in order, in one bash, exits 0; the
     modules it generates and builds are there and start."""
-    yarp = middleware.yarp_install("3.5")
-    middleware.require_yarp(yarp)
-    middleware.require_ros2()
+    yarp = yarp_install("3.5")
+    require_yarp(yarp)
+    require_ros2()
     name, config, cmds = quick_start()
     work = tmp_path / "repo"
     work.mkdir()

@@ -28,7 +28,8 @@ import pytest
 
 import ybg
 import ybg.runtime
-from generated import module_file, ybgc
+from harness.generated import module_file, ybgc
+from harness.procs import wait_until
 from ybg.backends import RenderOptions, get_backend
 from ybg.backends.runtime import CPP_DIR, cpp_files, python_files, python_inline
 from ybg.compiler.pipeline import compile_path
@@ -639,8 +640,6 @@ def test_watcher_registers_the_ports_again_with_a_restarted_name_server(yarp_ser
     """A name server killed and started again knows no port: the watcher
     registers the module's own ports again (at their address, said once),
     so that sources started since can be connected to them."""
-    import middleware
-
     env = dict(yarp_server.env)
     env["PYTHONPATH"] = os.pathsep.join(p for p in (str(ROOT), env.get("PYTHONPATH")) if p)
     log = tmp_path / "watcher.log"
@@ -648,13 +647,13 @@ def test_watcher_registers_the_ports_again_with_a_restarted_name_server(yarp_ser
         proc = subprocess.Popen([sys.executable, "-c", WATCHER_SCRIPT], env=env, stdin=subprocess.PIPE,
                                 stdout=out, stderr=subprocess.STDOUT, text=True)
     try:
-        middleware._wait_until(lambda: "ready" in log.read_text(), 30, "the watcher")
+        wait_until(lambda: "ready" in log.read_text(), 30, "the watcher")
         before = yarp_server.yarp("name", "query", "/rt/own:i").stdout
         assert "registration name /rt/own:i" in before
         yarp_server.proc.kill()
         yarp_server.proc.start()
-        middleware._wait_until(lambda: yarp_server.exists("/root"), 30, "the name server again")
-        middleware._wait_until(lambda: yarp_server.exists("/rt/own:i"), 30, "/rt/own:i registered again")
+        wait_until(lambda: yarp_server.exists("/root"), 30, "the name server again")
+        wait_until(lambda: yarp_server.exists("/rt/own:i"), 30, "/rt/own:i registered again")
         assert yarp_server.yarp("name", "query", "/rt/own:i").stdout == before  # the same address
         proc.communicate("\n", timeout=30)
     finally:

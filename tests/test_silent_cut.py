@@ -11,10 +11,10 @@ import re
 
 import pytest
 
-from generated import generate
-from behaviour import LEGACY_DIR
-from middleware import YarpProducer, YarpReader
-from test_yarp_versions import module_proc, stop_within, wait_log
+from harness.env import LEGACY_DIR
+from harness.generated import generate, module_proc
+from harness.module import stop_within, wait_log
+from harness.yarp import YarpProducer, YarpReader
 from ybg.compiler.pipeline import compile_path, compile_text
 
 BALL = """\

@@ -26,8 +26,8 @@ from pathlib import Path
 
 import pytest
 
-from generated import ybgc
-from middleware import VENV, VENV_PYTHON
+from harness.env import VENV, VENV_PYTHON
+from harness.generated import ybgc
 from ybg.compiler.msgtypes import VENDORED_DIR, TypeStore, load_store
 from ybg.compiler.typehash import type_description, type_hash, type_hashes
 

@@ -13,16 +13,18 @@ from __future__ import annotations
 
 import os
 import re
-import signal
 import subprocess
 import time
 from pathlib import Path
 
 import pytest
 
-import middleware
-from generated import generate, ybgc
-from middleware import VENV_PYTHON, Proc, YarpProducer, YarpReader, YarpServer
+from harness.build import build_cpp, configure
+from harness.env import DEFAULT_YARP, VENV_PYTHON, base_env, use_yarp, yarp_install
+from harness.generated import generate, module_proc, ybgc
+from harness.module import stop_within, wait_log
+from harness.procs import Proc
+from harness.yarp import YarpProducer, YarpReader, YarpServer
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -40,55 +42,6 @@ ports = /vv/src:o {decl}
 count = counter
 values = [data]
 """
-
-
-def configure(src: Path, install) -> subprocess.CompletedProcess:
-    return subprocess.run(["cmake", "-S", str(src), "-B", str(src / "build"),
-                           f"-DCMAKE_PREFIX_PATH={install.cmake_prefix_path()}"],
-                          capture_output=True, text=True, timeout=300)
-
-
-def build_cpp(src: Path, install) -> Path:
-    r = configure(src, install)
-    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
-    b = subprocess.run(["cmake", "--build", str(src / "build"), "-j2"], capture_output=True, text=True,
-                       timeout=600)
-    assert b.returncode == 0, b.stdout[-3000:] + b.stderr[-3000:]
-    exe = [p for p in (src / "build").iterdir() if p.is_file() and os.access(p, os.X_OK)]
-    assert len(exe) == 1, exe
-    return exe[0]
-
-
-def module_proc(env, backend: str, out: Path, name: str) -> Proc:
-    if backend == "py":
-        return Proc([VENV_PYTHON, out / f"{name}.py"], env=env, name=f"{name}_py")
-    return Proc([build_cpp(out, middleware.active_yarp())], env=env, name=f"{name}_cpp")
-
-
-def wait_log(proc: Proc, pattern: str, timeout: float = 60.0) -> str:
-    end = time.monotonic() + timeout
-    while True:
-        log = proc.log_text()
-        if re.search(pattern, log):
-            return log
-        if not proc.alive:
-            raise AssertionError(f"{proc.name} exited ({proc.returncode}) before {pattern!r}; log:\n{log[-3000:]}")
-        if time.monotonic() > end:
-            raise AssertionError(f"no {pattern!r} in the log of {proc.name} after {timeout} s:\n{log[-3000:]}")
-        time.sleep(0.05)
-
-
-def stop_within(proc: Proc, seconds: float = 2.0, sig=signal.SIGINT) -> tuple:
-    """(exit status, seconds): ``sig`` to the module alone, as a user's Ctrl-C."""
-    t0 = time.monotonic()
-    os.kill(proc.pid, sig)
-    try:
-        rc = proc.popen.wait(seconds + 5.0)
-    except subprocess.TimeoutExpired:
-        rc = None
-    took = time.monotonic() - t0
-    proc.stop()
-    return rc, took
 
 
 # --------------------------------------------------------------------------
@@ -204,7 +157,7 @@ def test_ros1_module_without_ros_refuses_to_start(yarp, yarp_server, tmp_path, b
 
 
 def _two(a: str, b: str):
-    installs = [middleware.yarp_install(v) for v in (a, b)]
+    installs = [yarp_install(v) for v in (a, b)]
     for i in installs:
         if i.missing():
             msg = f"YARP {i.version} is not built here. {i.build_hint()}"
@@ -227,11 +180,11 @@ def test_bottles_of_another_major_version_are_not_data(tmp_path, backend, produc
     (the reader lost its place in the stream), so the float64 Bottle is the
     last one written."""
     prod_install, mod_install = _two(producer_version, module_version)
-    middleware.use_yarp(mod_install)
+    use_yarp(mod_install)
     try:
         with YarpServer(install=mod_install) as server:
             env = server.env
-            prod_env = middleware.base_env(server.tmpdir, prod_install)
+            prod_env = base_env(server.tmpdir, prod_install)
             prod_env.update({k: v for k, v in env.items() if k.startswith("YARP_")})
             name = f"mix_{backend}"
             out = generate(tmp_path, RELAY.format(name=name, decl=""), name, backend)
@@ -253,7 +206,7 @@ def test_bottles_of_another_major_version_are_not_data(tmp_path, backend, produc
                 rc, _ = stop_within(module)
             log = module.log_text()
     finally:
-        middleware.use_yarp(middleware.DEFAULT_YARP)
+        use_yarp(DEFAULT_YARP)
     assert rc == 0, log[-3000:]
     assert got == [[0, [7.0, 8.0]]], log[-3000:]
     if mod_install.key >= (4,):

@@ -15,10 +15,11 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
-from generated import generate
-from middleware import Proc, YarpProducer, YarpReader
-from test_rpc import rpc, wait_stats
-from test_yarp_versions import build_cpp
+from harness.build import build_cpp
+from harness.generated import generate
+from harness.module import wait_stats
+from harness.procs import Proc
+from harness.yarp import YarpProducer, YarpReader, rpc
 
 NAME = "app_bridge"
 

@@ -18,7 +18,7 @@ the bridge down, as a pulled cable: the host keeps its address and routes,
 its packets go nowhere until ``Rig.restore``.
 
 Processes run inside a host with ``ip netns exec`` (``Rig.place`` prefixes
-any ``middleware.Proc`` or peer before it starts; the pid stays that of the
+any ``harness.procs.Proc`` or peer before it starts; the pid stays that of the
 command, so stopping and killing work as on loopback).
 
 Needs root (``ip netns add``); otherwise ``RigUnavailable`` says so and how
@@ -34,8 +34,11 @@ import threading
 from pathlib import Path
 from typing import Optional
 
-import middleware
-from middleware import Proc, YarpInstall
+from harness import procs
+from harness.env import YarpInstall, base_env
+from harness.procs import Proc, wait_until
+from harness.ros2 import ros2_env
+from harness.yarp import yarp_env
 
 SUBNET = "10.213.0"
 HOSTS = ("names", "producers", "module", "consumers")
@@ -84,7 +87,7 @@ class Rig:
         self.hub = f"{self.tag}-hub"
         self.made: list[str] = []
         self.name_server: Optional[Proc] = None
-        self.tmpdir = Path(middleware.tmp_root()) / f"rig-{self.tag}"
+        self.tmpdir = Path(procs.tmp_root()) / f"rig-{self.tag}"
 
     # -- the network
     def ns(self, host: str) -> str:
@@ -171,11 +174,11 @@ class Rig:
         """The environment of a YARP (or ROS 2) process on ``host``: the
         rig's name server in yarp.conf, ports registered with the host's
         address (YARP_IP), DDS discovery across the subnet."""
-        env = middleware.base_env(self.tmpdir, self.install)
-        env.update(middleware.yarp_env(self.tmpdir / "yarp", NAME_SERVER_PORT,
-                                       ip=self.ip("names")))
+        env = base_env(self.tmpdir, self.install)
+        env.update(yarp_env(self.tmpdir / "yarp", NAME_SERVER_PORT,
+                            ip=self.ip("names")))
         env["YARP_IP"] = self.ip(host)
-        env.update(middleware.ros2_env(1))
+        env.update(ros2_env(1))
         env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "SUBNET"
         # over the network only: Fast DDS would otherwise carry data through
         # shared memory (/dev/shm is the same for every namespace)
@@ -208,7 +211,7 @@ class Rig:
         return words[words.index("ip") + 1], int(words[words.index("port") + 1])
 
     def wait_port(self, port: str, timeout: float = 30.0, host: str = "names") -> None:
-        middleware._wait_until(lambda: self.exists(port, host), timeout, f"port {port} on the rig")
+        wait_until(lambda: self.exists(port, host), timeout, f"port {port} on the rig")
 
     def start_name_server(self, keep: bool = False) -> Proc:
         """``yarpserver`` on the names host (started again if it was stopped).
@@ -226,15 +229,15 @@ class Rig:
                 argv, env=self.env("names"), name="yarpserver", log_dir=self.tmpdir,
                 die_with_parent=True))
         self.name_server.start()
-        middleware._wait_until(lambda: self.exists("/root"), 30, "the rig's yarpserver",
-                               self.name_server)
+        wait_until(lambda: self.exists("/root"), 30, "the rig's yarpserver",
+                   self.name_server)
         return self.name_server
 
 
 def stop_all() -> None:
     """Remove every rig of this process (the atexit hook), once the
     processes the tests started are stopped."""
-    middleware.stop_all()
+    procs.stop_all()
     with _LIVE_LOCK:
         rigs = list(_LIVE)
     for rig in rigs:

@@ -1,7 +1,8 @@
 """Building blocks of the bridge benchmark (bench/run.py drives them).
 
 Processes are started with the test suite's real-middleware helpers
-(tests/middleware.py: YarpServer, Ros2Domain, Proc), each in its own process
+(tests/harness/, under the name tests/middleware.py gives them: YarpServer,
+Ros2Domain, Proc), each in its own process
 group, stopped on exit. The peers are bench/tools/producer.cpp and
 consumer.cpp (C++ against YARP 3.5) and bench/peers/ros2_*.py (rclpy); they
 take commands on stdin and answer one line each.
@@ -26,7 +27,7 @@ ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT / "bench"
 sys.path.insert(0, str(ROOT / "tests"))
 
-import middleware as mw  # noqa: E402  (tests/middleware.py)
+import middleware as mw  # noqa: E402  (tests/middleware.py: the helpers of tests/harness/)
 
 REC_FIELDS = 11          # recv, blocks, bad, (seq, t) x 4: see consumer.cpp
 CLK_TCK = os.sysconf("SC_CLK_TCK")
