@@ -15,7 +15,8 @@ optimizes); the others are built without optimization; all with -Wall
 What a module does is tested once for every backend by the harness:
 ``TestCppBehaviour`` says how a C++ module is started. The rest of this file
 is the C++ backend's own: escaping and literals, generation, lowering
-errors, the CMake build, its install rule, its golden files.
+errors, the CMake build, its install rule (its golden files:
+tests/test_golden.py).
 """
 from __future__ import annotations
 
@@ -38,9 +39,7 @@ from harness.behaviour_ros1 import Ros1Behaviour
 from harness.differential import Differential
 from harness.launchers import CppModules
 from harness.module import Module
-from harness.generated import without_runtime
-from harness.programs import (CPP_GOLDEN_PROGRAMS, DEG, build_programs, config_program, escape_program, relay_program,
-                              ros1_input_program, supported_configs)
+from harness.programs import DEG, build_programs, escape_program, relay_program, ros1_input_program
 from harness.ros2 import Ros2Publisher, ros2_environment, subscriber_for
 from harness.yarp import YarpProducer
 from ybg.backends import get_backend
@@ -52,7 +51,6 @@ from ybg.compiler import ir
 from ybg.compiler.ir import Default, Field, Input, Literal, Mux, MuxRef, Output, Program, Struct, TypeRef
 
 ROOT = Path(__file__).resolve().parents[1]
-GOLDEN = Path(__file__).resolve().parent / "golden" / "cpp"
 
 
 # --------------------------------------------------------------------------
@@ -193,32 +191,6 @@ def test_backend_registered():
 
 def render(program) -> dict[str, str]:
     return CppBackend().render(program)
-
-
-GOLDEN_CASES = [(k, f) for k, f in CPP_GOLDEN_PROGRAMS.items()] + [(p.stem, p) for p in supported_configs("cpp")]
-
-
-@pytest.mark.parametrize("key,what", GOLDEN_CASES, ids=[k for k, _ in GOLDEN_CASES])
-def test_golden_files(key, what, update_goldens):
-    program = config_program(what, "cpp") if isinstance(what, Path) else what()
-    files = render(program)
-    uses_rcl = program.output.kind == "ros2" or any(i.kind == "ros2" for m in program.muxes for i in m.inputs)
-    ros2 = {"ybgc_ros2.hpp", "ybgc_ros2.cpp"} if uses_rcl else set()
-    assert set(files) == {f"{program.module}.cpp", "CMakeLists.txt", f"{program.module}.xml", "ybgc_runtime.hpp",
-                          "ybgc_runtime.cpp"} | ros2
-    files = without_runtime(files)  # the runtime's own golden files: tests/test_runtime.py
-    folder = GOLDEN / key
-    if update_goldens or os.environ.get("YBG_UPDATE_GOLDENS") == "1":
-        folder.mkdir(parents=True, exist_ok=True)
-        for old in folder.iterdir():
-            old.unlink()
-        for name, text in files.items():
-            (folder / name).write_text(text, encoding="utf-8")
-        return
-    assert folder.is_dir(), f"no golden files for {key}: run pytest --update-goldens"
-    assert sorted(p.name for p in folder.iterdir()) == sorted(files)
-    for name, text in files.items():
-        assert (folder / name).read_text(encoding="utf-8") == text, f"{key}/{name} differs from its golden file"
 
 
 def test_generated_text_is_deterministic_and_marked():

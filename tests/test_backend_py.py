@@ -3,40 +3,37 @@ Python against real YARP (and ROS 1).
 
 What a module does is tested once for every backend by the harness
 (tests/harness/behaviour.py): ``TestPyBehaviour`` says how a Python module
-is started. The rest of this file is the Python backend's own: golden files,
-imports, escaping, the module imported and its data, the float64 fast path
-of the runtime, lowering errors, every supported config's golden file.
+is started. The rest of this file is the Python backend's own: imports,
+escaping, the module imported and its data, the float64 fast path of the
+runtime, lowering errors (its golden files, and every supported config's:
+tests/test_golden.py).
 """
 from __future__ import annotations
 
 import ast
 import json
-import os
 import re
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
 from harness.behaviour import BridgeBehaviour, ModuleCommandLine
 from harness.behaviour_ros1 import Ros1Behaviour
 from harness.env import VENV_PYTHON
-from harness.generated import load_module, module_file, without_runtime
+from harness.generated import load_module, module_file
 from harness.launchers import PyModules, write_module
 from harness.programs import DEG, PY_EVIL as EVIL, PY_GOLDEN_PROGRAMS as GOLDEN_PROGRAMS, simple_program, \
     supported_configs
 from harness.programs import py_escape_program as escape_program
 from harness.yarp import require_yarp
 import ybg
-from ybg.backends import RenderOptions, check_result, get_backend
+from ybg.backends import RenderOptions, get_backend
 from ybg.backends.py import PyBackend
 from ybg.backends.py.lower import LoweringError, py_literal
 from ybg.compiler.pipeline import compile_text
 from ybg.compiler.ir import (Converter, Counter, Default, Field, Input, Literal, Mux, MuxRef, Output, Program,
                              Struct, Timestamp, TypeRef)
-
-GOLDEN = Path(__file__).resolve().parent / "golden" / "py"
 
 
 # --------------------------------------------------------------------------
@@ -103,20 +100,6 @@ def test_backend_registered():
     assert isinstance(backend, PyBackend)
     assert backend.output_kinds == {"yarp", "ros1"}
     assert backend.input_kinds == {"yarp", "ros1"}
-
-
-@pytest.mark.parametrize("stem", sorted(GOLDEN_PROGRAMS))
-def test_golden_files(stem, update_goldens):
-    program = GOLDEN_PROGRAMS[stem]()
-    files = PyBackend().render(program)
-    assert files == PyBackend().render(program), "output is not deterministic"
-    for name, text in without_runtime(files).items():
-        path = GOLDEN / stem / name
-        if update_goldens or os.environ.get("YBG_UPDATE_GOLDENS") == "1":
-            path.parent.mkdir(parents=True, exist_ok=True)
-            path.write_text(text, encoding="utf-8")
-        assert path.exists(), f"missing golden file {path}; run pytest --update-goldens"
-        assert path.read_text(encoding="utf-8") == text, f"{path} differs from the generated file"
 
 
 def _imported(text: str) -> set[str]:
@@ -260,7 +243,8 @@ def test_queue_setting_reaches_the_module():
 
 
 # --------------------------------------------------------------------------
-# every example and legacy config this backend supports, from the real file
+# every example and legacy config this backend supports (their golden files:
+# tests/test_golden.py)
 
 
 try:
@@ -276,27 +260,6 @@ def test_configs_found():
     stems = {p.stem for p in SUPPORTED}
     assert {"thesis_figure5_rviz", "vizzy_upper_body", "rviz_joint_states_ros1",
             "fixation_point_goal"} <= stems
-
-
-def _compile(path):
-    from ybg.compiler.pipeline import compile_path
-    return check_result(compile_path(path), "py")
-
-
-@pytest.mark.parametrize("path", SUPPORTED, ids=lambda path: path.stem)
-def test_config_golden(path, update_goldens):
-    program = _compile(path).program
-    files = PyBackend().render(program)
-    assert files == PyBackend().render(_compile(path).program), "output is not deterministic"
-    for name, text in without_runtime(files).items():
-        golden = GOLDEN / path.stem / name
-        if update_goldens or os.environ.get("YBG_UPDATE_GOLDENS") == "1":
-            golden.parent.mkdir(parents=True, exist_ok=True)
-            golden.write_text(text, encoding="utf-8")
-        assert golden.exists(), f"missing golden file {golden}; run pytest --update-goldens"
-        assert golden.read_text(encoding="utf-8") == text, f"{golden} differs"
-        if name.endswith(".py"):  # not the yarpmanager application beside it
-            compile(text, name, "exec")
 
 
 def test_counter_wraps_like_its_ros_type(tmp_path):

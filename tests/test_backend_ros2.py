@@ -1,9 +1,10 @@
 """The ``ros2`` backend: generated rclpy nodes run against real YARP and real
 ROS 2 (separate producer, subscriber and publisher processes).
 
-- generation: golden files of every ROS 2 example, Python types of every
-  field (the generated module imported and its message builder called),
-  escaping, lowering errors, no name clash with the shared runtime;
+- generation (the golden files of every ROS 2 example: tests/test_golden.py):
+  Python types of every field (the generated module imported and its
+  message builder called), escaping, lowering errors, no name clash with
+  the shared runtime;
 - YARP -> ROS 2 end to end for every example that publishes to ROS 2, and
   ROS 2 -> YARP for every example that reads ROS 2 topics;
 - the thesis' legacy Rviz config converted with ``ybgc fmt --to named --ros2``;
@@ -27,7 +28,6 @@ import importlib.util
 import types
 import math
 import operator
-import os
 import re
 import signal
 import subprocess
@@ -42,7 +42,7 @@ import pytest
 
 from harness.behaviour import BridgeBehaviour
 from harness.env import EXAMPLES, LEGACY_DIR, ROOT, VENV_PYTHON
-from harness.generated import load_module, module_file, without_runtime, write_generated
+from harness.generated import load_module, module_file, write_generated
 from harness.launchers import Ros2Modules, require_message_packages, write_node
 from harness.module import Node, stop_clean, totals
 from harness.procs import wait_until
@@ -61,7 +61,6 @@ from ybg.compiler.ir import (Counter, Default, ElementGroup, Field, Input, Liter
                              MessageArray, MuxRef, Output, Program, QoS, Seconds, Struct, Timestamp, Timing,
                              TypeRef)
 
-GOLDEN = Path(__file__).resolve().parent / "golden" / "ros2"
 TOL = 1e-12
 
 #: a string that breaks naive code generation in every way we know of
@@ -180,37 +179,6 @@ def _source_uses_envelope(src) -> bool:
     if isinstance(src, MessageArray):
         return any(_source_uses_envelope(e) for e in src.elements)
     return False
-
-
-# --------------------------------------------------------------------------
-# golden files
-
-
-def golden_files(stem: str) -> dict[str, str]:
-    program = ros2_example(stem)
-    files = without_runtime(Ros2Backend().render(program))
-    if stem in ("vizzy_rviz_joint_states", "ros2_to_yarp_gaze"):
-        pkg = without_runtime(Ros2Backend().render(program, RenderOptions(package=True)))
-        for rel, text in pkg.items():
-            files[f"package/{rel}"] = text
-    return files
-
-
-@pytest.mark.parametrize("stem", ros2_examples())
-def test_golden(stem, update_goldens):
-    files = golden_files(stem)
-    folder = GOLDEN / stem
-    if update_goldens or os.environ.get("YBG_UPDATE_GOLDENS") == "1":
-        for rel, text in files.items():
-            path = folder / rel
-            path.parent.mkdir(parents=True, exist_ok=True)
-            path.write_text(text, encoding="utf-8", newline="\n")
-        return
-    on_disk = sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if p.is_file())
-    assert on_disk == sorted(files), "golden files differ in name; run pytest --update-goldens"
-    for rel, text in files.items():
-        want = (folder / rel).read_text(encoding="utf-8")
-        assert text == want, f"{stem}/{rel} differs from its golden file; run pytest --update-goldens"
 
 
 def test_output_is_deterministic_and_compiles():
