@@ -44,6 +44,10 @@ CPP_SOURCES = ("ybgc_runtime.cpp", "ybgc_inputs.cpp", "ybgc_bottles.cpp", "ybgc_
 #: or reads a ROS 2 topic
 CPP_ROS2_HEADER = "ybgc_ros2.hpp"
 CPP_ROS2_SOURCES = ("ybgc_ros2.cpp", "ybgc_ros2_params.cpp")
+#: the C++ runtime's camera images (YARP_sig), beside a module that reads or
+#: writes images (always one with ROS 2)
+CPP_IMAGES_HEADER = "ybgc_images.hpp"
+CPP_IMAGES_SOURCES = ("ybgc_images.cpp",)
 
 #: marks the lines of a runtime file that import another runtime file (left
 #: out when the runtime is inlined into a module)
@@ -82,34 +86,36 @@ def python_inline(modules: tuple[str, ...] = PY_MODULES) -> str:
     return "".join(parts)
 
 
-def _cpp_names(ros2: bool) -> tuple[str, ...]:
+def _cpp_names(ros2: bool, images: bool = False) -> tuple[str, ...]:
     """The C++ runtime's files, headers first (the order they are inlined in)."""
     return ((CPP_HEADER, CPP_INTERNAL_HEADER, *CPP_SOURCES)
-            + ((CPP_ROS2_HEADER, *CPP_ROS2_SOURCES) if ros2 else ()))
+            + ((CPP_ROS2_HEADER, *CPP_ROS2_SOURCES) if ros2 or images else ())
+            + ((CPP_IMAGES_HEADER, *CPP_IMAGES_SOURCES) if images else ()))
 
 
 def is_runtime_file(name: str) -> bool:
     """Is ``name`` (a path relative to a module's output folder) a file of the
     runtime library that ybgc writes beside a module, not of the module?"""
     parts = Path(name).parts
-    return PY_PACKAGE in parts[:-1] or (len(parts) == 1 and parts[0] in _cpp_names(True))
+    return PY_PACKAGE in parts[:-1] or (len(parts) == 1 and parts[0] in _cpp_names(True, True))
 
 
-def cpp_files(ros2: bool = False) -> dict[str, str]:
+def cpp_files(ros2: bool = False, images: bool = False) -> dict[str, str]:
     """The C++ runtime's headers and sources, beside a module (``ros2``: and
     its ROS 2 side, for a module that publishes to ROS 2 or reads a ROS 2
-    topic)."""
-    return {name: _banner("//") + _read(CPP_DIR / name) for name in _cpp_names(ros2)}
+    topic; ``images``: and its camera images, for a module that reads or
+    writes them)."""
+    return {name: _banner("//") + _read(CPP_DIR / name) for name in _cpp_names(ros2, images)}
 
 
-def cpp_inline(ros2: bool = False) -> str:
+def cpp_inline(ros2: bool = False, images: bool = False) -> str:
     """The C++ runtime as one block of a module (``--single-file``): its
     files one after the other, headers first, in one translation unit (so
     no two of them define the same helper)."""
     parts = [f"// {'=' * 75}\n// ybgc runtime {VERSION}, inlined (--single-file): the same code as the\n"
              f"// files that ybgc writes beside a module by default ({CPP_HEADER} and the\n"
              f"// others below), one after the other.\n// {'=' * 75}\n"]
-    for name in _cpp_names(ros2):
+    for name in _cpp_names(ros2, images):
         parts.append(f"\n// --- {name} {'-' * (70 - len(name))}\n")
         parts.append(_without_internal_imports(_read(CPP_DIR / name)))
     return "".join(parts)
@@ -128,13 +134,14 @@ class RuntimeView:
 
 
 def runtime_view(language: str, single_file: bool, python_modules: tuple[str, ...] = PY_MODULES,
-                 ros2: bool = False) -> RuntimeView:
+                 ros2: bool = False, images: bool = False) -> RuntimeView:
     """The runtime of a ``language`` ("py" or "cpp") module (``ros2``: a C++
-    module that publishes to ROS 2)."""
+    module that publishes to ROS 2; ``images``: one that reads or writes
+    camera images)."""
     literal = repr(VERSION) if language == "py" else '"' + VERSION + '"'
     inline = ""
     if single_file:
-        inline = python_inline(python_modules) if language == "py" else cpp_inline(ros2)
+        inline = python_inline(python_modules) if language == "py" else cpp_inline(ros2, images)
     return RuntimeView(VERSION, literal, single_file, inline)
 
 
@@ -146,5 +153,6 @@ def runtime_text_filter(text) -> str:
 
 
 __all__ = ["RuntimeView", "runtime_view", "runtime_text_filter", "VERSION", "PY_PACKAGE", "PY_MODULES", "CPP_HEADER",
-           "CPP_INTERNAL_HEADER", "CPP_SOURCES", "CPP_ROS2_HEADER", "CPP_ROS2_SOURCES",
+           "CPP_INTERNAL_HEADER", "CPP_SOURCES", "CPP_ROS2_HEADER", "CPP_ROS2_SOURCES", "CPP_IMAGES_HEADER",
+           "CPP_IMAGES_SOURCES",
            "python_files", "python_inline", "cpp_files", "cpp_inline", "is_runtime_file"]

@@ -11,7 +11,6 @@
 #include <cstring>
 #include <memory>
 #include <string>
-#include <thread>
 #include <utility>
 #include <vector>
 
@@ -551,18 +550,7 @@ public:
             prepared_->clear();
             prepared_->add(yarp::os::Value(bytes.data(), static_cast<int>(bytes.size())));
         }
-        if (port_.isWriting()) {
-            if (patient_) {
-                const SteadyClock::time_point deadline = SteadyClock::now() + std::chrono::milliseconds(50);
-                while (port_.isWriting() && SteadyClock::now() < deadline) {
-                    std::this_thread::sleep_for(std::chrono::microseconds(50));
-                }
-                patient_ = !port_.isWriting();
-            }
-        } else {
-            patient_ = true;
-        }
-        port_.write();
+        writePatiently(port_, patient_);
         return true;
     }
 

@@ -75,7 +75,8 @@ void refuse(InputState& in, const std::string& why)
     ++in.dropped;
     if (!in.reportedDrop) {
         in.reportedDrop = true;
-        say("input " + std::string(in.spec.source) + ": dropped a Bottle (" + why + "); further drops are only counted");
+        say("input " + std::string(in.spec.source) + ": dropped a " + (in.spec.image != nullptr ? "frame" : "Bottle")
+            + " (" + why + "); further drops are only counted");
     }
 }
 
@@ -284,10 +285,38 @@ Input::Input(Shared& shared, const InputSpec& spec, std::string local, double ti
 {
 }
 
+yarp::os::Contactable& Input::port()
+{
+    if (frames_ != nullptr) {
+        return frames_->port();
+    }
+    return port_;
+}
+
+const yarp::os::Contactable& Input::port() const
+{
+    if (frames_ != nullptr) {
+        return frames_->port();
+    }
+    return port_;
+}
+
 bool Input::open()
 {
     if (spec.kind == InputKind::Ros2) {
         return true;  // no port: the InputFeed delivers its values
+    }
+    if (spec.image != nullptr) {
+        if (shared_.frames == nullptr) {
+            say("input " + std::string(spec.source) + ": this module cannot read camera images");
+            return false;
+        }
+        frames_ = shared_.frames(*this);
+        if (frames_ == nullptr || !frames_->open(local, shared_.queue > 1)) {
+            return false;
+        }
+        registered = port().getName();
+        return true;
     }
     // queue > 1: every Bottle reaches onRead, in order (kBacklog bounds
     // it); 1: the newest only, as YARP reads by default
@@ -306,13 +335,15 @@ bool Input::open()
 void Input::interrupt()
 {
     if (spec.kind != InputKind::Ros2) {
-        port_.interrupt();
+        port().interrupt();
     }
 }
 
 void Input::close()
 {
-    if (spec.kind != InputKind::Ros2) {
+    if (frames_ != nullptr) {
+        frames_->close();
+    } else if (spec.kind != InputKind::Ros2) {
         port_.disableCallback();
         port_.close();
     }
@@ -321,29 +352,37 @@ void Input::close()
 std::vector<std::string> Input::sources()
 {
     InputSources report;
-    port_.getReport(report);
+    port().getReport(report);
     return report.names;
 }
 
 void Input::drop(const std::string& name)
 {
     yarp::os::Bottle reply;
-    admin(port_.where(), "del " + name, reply);
+    admin(port().where(), "del " + name, reply);
+}
+
+bool Input::fromAccepted(const std::string& source)
+{
+    if (spec.kind != InputKind::Yarp || accepts(*this, source)) {
+        return true;
+    }
+    std::function<void()> watcher;
+    {
+        std::lock_guard<std::mutex> lock(shared_.mutex);
+        refuseForeign(*this, source, true);
+        watcher = shared_.foreign;
+    }
+    if (watcher) {
+        watcher();  // closes the connection now, in its own thread
+    }
+    return false;
 }
 
 void Input::onRead(SourcedBottle& in)
 {
     const SteadyClock::time_point now = SteadyClock::now();
-    if (spec.kind == InputKind::Yarp && !accepts(*this, in.source)) {
-        std::function<void()> watcher;
-        {
-            std::lock_guard<std::mutex> lock(shared_.mutex);
-            refuseForeign(*this, in.source, true);
-            watcher = shared_.foreign;
-        }
-        if (watcher) {
-            watcher();  // closes the connection now, in its own thread
-        }
+    if (!fromAccepted(in.source)) {
         return;
     }
     const yarp::os::Bottle& bottle = in.bottle;
@@ -359,9 +398,31 @@ void Input::onRead(SourcedBottle& in)
     take(ok, scratch_, hasEnvelope, hasEnvelope ? stamp.getTime() : 0.0, why, now);
 }
 
+void Input::onFrame(const std::string& source, Frame& frame, bool hasEnvelope, double envelope, int pending,
+                    const std::string& why)
+{
+    const SteadyClock::time_point now = SteadyClock::now();
+    if (!fromAccepted(source)) {
+        return;
+    }
+    if (pending > kBacklog) {
+        std::lock_guard<std::mutex> lock(shared_.mutex);
+        ++received;  // far behind: skipped, so that the reader catches up
+        ++unused;
+        return;
+    }
+    scratch_.clear();
+    take(why.empty(), scratch_, hasEnvelope, envelope, why, now, nullptr, &frame);
+}
+
 void Input::deliver(Reading& reading)
 {
     const SteadyClock::time_point now = SteadyClock::now();
+    if (spec.image != nullptr) {  // a camera image: its frame, or why it has none
+        const std::string why = reading.frame != nullptr || !reading.refused.empty() ? reading.refused : "no frame";
+        take(why.empty(), reading.values, reading.hasEnvelope, reading.envelope, why, now, nullptr, &reading.frame);
+        return;
+    }
     std::string why;
     bool ok = reading.isRows || checkValues(reading.values, spec, shared_.dropNan, why);
     for (std::size_t k = 0; ok && reading.isRows && k < reading.rows.size(); ++k) {
@@ -376,7 +437,7 @@ void Input::deliver(Reading& reading)
 
 yarp::os::Contact Input::where() const
 {
-    return port_.where();
+    return port().where();
 }
 
 void Input::refuseConnection(const std::string& other)
@@ -386,7 +447,7 @@ void Input::refuseConnection(const std::string& other)
 }
 
 void Input::take(bool ok, Mux& values, bool hasEnvelope, double envelope, const std::string& why,
-                 SteadyClock::time_point now, Rows* rows)
+                 SteadyClock::time_point now, Rows* rows, Frame* frame)
 {
     std::lock_guard<std::mutex> lock(shared_.mutex);
     ++received;
@@ -397,6 +458,9 @@ void Input::take(bool ok, Mux& values, bool hasEnvelope, double envelope, const 
     const bool wasFresh = accept(*this, values, hasEnvelope, envelope, now, shared_.queue);
     if (rows != nullptr) {
         queue.back().data.rows.swap(*rows);
+    }
+    if (frame != nullptr) {
+        queue.back().data.frame = std::move(*frame);
     }
     if (shared_.listener != nullptr) {
         shared_.listener->arrived(*this, wasFresh);

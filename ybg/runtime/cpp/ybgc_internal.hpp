@@ -24,6 +24,7 @@
 #include <yarp/os/ConnectionReader.h>
 #include <yarp/os/ConnectionWriter.h>
 #include <yarp/os/Contact.h>
+#include <yarp/os/Contactable.h>
 #include <yarp/os/PortReader.h>
 #include <yarp/os/Portable.h>
 #include <yarp/os/RpcServer.h>
@@ -55,6 +56,7 @@ struct Shared
     std::size_t queue = 1;  // unused Bottles kept per input (BridgeSpec::queue)
     ArrivalListener* listener = nullptr;
     std::function<void()> foreign;  // an input refused a Bottle of another port: the watcher closes its connection
+    FramePorts frames = nullptr;    // makes the ports of the YARP camera image inputs (ybgc_images.cpp)
 };
 
 /// An input Bottle with the name of the port that sent it: YARP's name for
@@ -79,10 +81,29 @@ public:
 /// needed); false when it does not answer.
 bool admin(const yarp::os::Contact& where, const std::string& command, yarp::os::Bottle& reply);
 
+/// The port of a YARP camera image input (InputSpec::image), made by the
+/// image side of the runtime (ybgc_images.cpp, beside a module that reads
+/// images, which links YARP_sig): it reads frames of any pixel type, each
+/// with the name of the port that sent it, and hands each to its input
+/// (Input::onFrame) in YARP's callback thread.
+class FramePort
+{
+public:
+    virtual ~FramePort() = default;
+    /// Opens the port `name`; `strict`: every frame reaches the input, in order.
+    virtual bool open(const std::string& name, bool strict) = 0;
+    /// Stops the callbacks and closes it.
+    virtual void close() = 0;
+    /// The port, for what every port does (its name, its connections, interrupt).
+    virtual yarp::os::Contactable& port() = 0;
+};
+
 /// One input: its own port, read by YARP's callback thread, keeping only
 /// the newest accepted Bottle with its arrival time and envelope. Each
 /// Bottle comes with the name of the port that sent it: from a YARP port
 /// input, a Bottle of any port it does not accept is refused, never used.
+/// A camera image input reads frames instead, on a FramePort, through the
+/// same checks of the port that sent them, freshness and matching.
 class Input : public InputState, public yarp::os::TypedReaderCallback<SourcedBottle>
 {
 public:
@@ -104,6 +125,13 @@ public:
 
     void onRead(SourcedBottle& in) override;
 
+    /// A frame read by its FramePort (YARP's callback thread), sent by port
+    /// `source` (`pending`: the frames still unread behind it): taken as a
+    /// Bottle is, or dropped for `why` when not empty (a pixel type other
+    /// than the declared one); `frame` moved out when taken.
+    void onFrame(const std::string& source, Frame& frame, bool hasEnvelope, double envelope, int pending,
+                 const std::string& why);
+
     /// One message read by an InputFeed (its thread): checked against the
     /// layout (each row of it: one that does not check drops it whole), then
     /// as a Bottle.
@@ -120,12 +148,22 @@ public:
 
 private:
     /// A message read (accepted when `ok`, else refused for `why`), under
-    /// the lock; `rows`: its rows (moved out), for an array of messages.
+    /// the lock; `rows`: its rows (moved out), for an array of messages;
+    /// `frame`: its frame (moved out), for a camera image.
     void take(bool ok, Mux& values, bool hasEnvelope, double envelope, const std::string& why,
-              SteadyClock::time_point now, Rows* rows = nullptr);
+              SteadyClock::time_point now, Rows* rows = nullptr, Frame* frame = nullptr);
+
+    /// Is a Bottle or frame of port `source` one it takes? If not, it is
+    /// refused (counted, said once) and its connection closed.
+    bool fromAccepted(const std::string& source);
+
+    /// Its port: of Bottles, or of frames.
+    yarp::os::Contactable& port();
+    const yarp::os::Contactable& port() const;
 
     Shared& shared_;
     yarp::os::BufferedPort<SourcedBottle> port_;
+    std::unique_ptr<FramePort> frames_;  // a camera image input's port, once open
     Mux scratch_;  // only touched by the callback thread
     std::vector<const yarp::os::Value*> items_;
 };
@@ -187,6 +225,28 @@ private:
 /// The YARP output: each message, a Bottle built by `make`, written on a
 /// BufferedPort (a ROS 1 topic's too), never waiting for a slow reader.
 std::unique_ptr<MessageSink> yarpOutput(const OutputSpec& spec, MakeMessage make);
+
+/// Writes what `port` (a BufferedPort) has prepared. A message written while
+/// the previous one is still being sent is dropped for the connections that
+/// are still busy; so it waits for them a little (50 ms at most), unless a
+/// reader has already shown that it stalls (`patient` false: it then waits
+/// no more until the port is found idle again).
+template <class Port>
+void writePatiently(Port& port, bool& patient)
+{
+    if (port.isWriting()) {
+        if (patient) {
+            const SteadyClock::time_point deadline = SteadyClock::now() + std::chrono::milliseconds(50);
+            while (port.isWriting() && SteadyClock::now() < deadline) {
+                std::this_thread::sleep_for(std::chrono::microseconds(50));
+            }
+            patient = !port.isWriting();
+        }
+    } else {
+        patient = true;
+    }
+    port.write();
+}
 
 // --- the RPC port (ybgc_totals.cpp) -----------------------------------------------------
 

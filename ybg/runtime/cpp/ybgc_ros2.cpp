@@ -453,9 +453,6 @@ void Node::close()
 
 // --- the publisher --------------------------------------------------------------------
 
-namespace {
-
-/// The QoS the config gives a publisher.
 rmw_qos_profile_t configQos(const Ros2Spec& spec)
 {
     rmw_qos_profile_t qos = rmw_qos_profile_default;
@@ -466,8 +463,6 @@ rmw_qos_profile_t configQos(const Ros2Spec& spec)
                                          : RMW_QOS_POLICY_DURABILITY_VOLATILE;
     return qos;
 }
-
-}  // namespace
 
 struct Publisher::Rcl
 {
@@ -686,6 +681,8 @@ void Subscriptions::follow()
             while (!r.stopping && rcl_take(&r.subscriptions[k], r.messages[k], nullptr, nullptr) == RCL_RET_OK) {
                 reading.values.clear();
                 reading.rows.clear();
+                reading.frame.reset();
+                reading.refused.clear();
                 reading.envelope = 0.0;
                 t.read(r.messages[k], reading);
                 deliver_(t.input, reading);

@@ -342,6 +342,9 @@ struct Ros2Spec
     std::size_t depth;        // history: keep the last `depth`
 };
 
+/// The QoS the config gives a publisher (the qos_overrides apply on top of it).
+rmw_qos_profile_t configQos(const Ros2Spec& spec);
+
 /// The message type the generated module publishes: its type support and
 /// the C functions that create and destroy one message (with its defaults).
 struct MessageType
@@ -383,6 +386,8 @@ public:
     void close() override;
     void watch(TotalsSource totals) override;
     Node& node() { return node_; }
+    /// The message published last (its C struct; nullptr before open()).
+    const void* message() const { return msg_; }
 
 private:
     struct Rcl;
@@ -513,7 +518,9 @@ struct Topic
 /// The Topic of input `input` (topic `name`), a message of C struct Msg read
 /// by `Read`, the module's reader of the fields the config lists: into the
 /// input's values, `void (const Msg&, Mux&)`, or one row for each element of
-/// an array of messages, `void (const Msg&, Rows&)`.
+/// an array of messages, `void (const Msg&, Rows&)`; or the runtime's reader
+/// of a whole message, `void (const Msg&, Reading&)` (a camera image:
+/// ybgc_images.hpp).
 template <class Msg, Msg* (*Create)(), void (*Destroy)(Msg*), auto Read>
 Topic topic(std::size_t input, const char* name, const char* typeName,
             const rosidl_message_type_support_t* typeSupport)
@@ -521,7 +528,9 @@ Topic topic(std::size_t input, const char* name, const char* typeName,
     return {input, name, messageType<Msg, Create, Destroy>(typeName, typeSupport),
             [](const void* msg, Reading& out) {
                 const Msg& m = *static_cast<const Msg*>(msg);
-                if constexpr (std::is_invocable_v<decltype(Read), const Msg&, Rows&>) {
+                if constexpr (std::is_invocable_v<decltype(Read), const Msg&, Reading&>) {
+                    Read(m, out);
+                } else if constexpr (std::is_invocable_v<decltype(Read), const Msg&, Rows&>) {
                     out.isRows = true;
                     Read(m, out.rows);
                 } else {

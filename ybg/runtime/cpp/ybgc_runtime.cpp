@@ -145,13 +145,14 @@ void withdrawFromRosMaster(const std::string& port, bool publisher)
 class Bridge : public ArrivalListener
 {
 public:
-    Bridge(const BridgeSpec& spec, const Options& options, MessageSink& output, InputFeed* feed) :
+    Bridge(const BridgeSpec& spec, const Options& options, MessageSink& output, InputFeed* feed, FramePorts frames) :
             spec_(spec), options_(options), output_(output), feed_(feed),
             eventDriven_(!(options.rate > 0))
     {
         shared_.dropNan = spec.dropNan;
         shared_.queue = spec.queue;
         shared_.listener = this;
+        shared_.frames = frames;
         for (const InputSpec& in : spec.inputs) {
             const std::string mux = spec.muxes[static_cast<std::size_t>(in.mux)].name;
             const std::string index = std::to_string(in.index);
@@ -528,7 +529,7 @@ int run(const BridgeSpec& spec, int argc, char* argv[], MakeMessage make, InputF
     return run(spec, argc, argv, *output, feed);
 }
 
-int run(const BridgeSpec& spec, int argc, char* argv[], MessageSink& output, InputFeed* feed)
+int run(const BridgeSpec& spec, int argc, char* argv[], MessageSink& output, InputFeed* feed, FramePorts frames)
 {
     gModule = spec.module;
     Options options;
@@ -556,7 +557,7 @@ int run(const BridgeSpec& spec, int argc, char* argv[], MessageSink& output, Inp
         say("cannot use ROS 1 topics: " + why);
         return 1;
     }
-    Bridge bridge(spec, options, output, feed);
+    Bridge bridge(spec, options, output, feed, frames);
     signals.start([&bridge] { bridge.requestStop(); });
     const int result = bridge.run();
     signals.finish();

@@ -42,6 +42,12 @@
 #include <yarp/os/Contact.h>
 #include <yarp/os/Value.h>
 
+namespace yarp {
+namespace sig {
+class FlexImage;
+}  // namespace sig
+}  // namespace yarp
+
 namespace ybgc {
 
 using SteadyClock = std::chrono::steady_clock;
@@ -170,6 +176,13 @@ using Mux = std::vector<Element>;
 /// input with `each`), each row converted alike.
 using Rows = std::vector<Mux>;
 
+/// A camera frame: a YARP image of any pixel type, never changed once read
+/// (shared by the messages that use it, not copied). The mux of a camera
+/// image input holds its frame; the image side of the runtime
+/// (ybgc_images.hpp, beside a module that reads or writes images) reads,
+/// fills and writes them.
+using Frame = std::shared_ptr<const yarp::sig::FlexImage>;
+
 /// "Up to the end" for a range of mux elements.
 constexpr std::size_t kToEnd = std::numeric_limits<std::size_t>::max();
 
@@ -280,6 +293,10 @@ struct InputSpec
     int reads = -1;                 // undeclared port cut by the message (W511): the values
                                     // it reads; a wider Bottle is said once (-1: no cut)
     std::vector<const char*> accepts = {};  // YARP port: other ports whose Bottles it takes too
+    /// A camera image input: its frames' encoding ("rgb8", "mono16", "32FC1" ...; "any": each
+    /// frame's own, a ROS 2 sensor_msgs/Image topic); a YARP port's frame of another pixel type is
+    /// dropped. nullptr: Bottles (or a ROS 2 message's values).
+    const char* image = nullptr;
 };
 
 struct MuxSpec
@@ -335,6 +352,7 @@ struct Latest
 {
     Mux values;
     Rows rows;  // an input read from an array of messages: its rows (values empty)
+    Frame frame;  // a camera image input: its frame (values empty)
     bool hasEnvelope = false;
     double envelope = 0.0;  // envelope time stamp, seconds
 };
@@ -367,6 +385,11 @@ private:
 void append(Mux& mux, const Latest& input);
 /// Appends the rows of one input to a mux of rows.
 void append(Rows& rows, const Latest& input);
+/// The frame of a camera image input, as its mux's (shared, not copied).
+inline void append(Frame& frame, const Latest& input)
+{
+    frame = input.frame;
+}
 
 /// Checks an input Bottle against the input's layout. On success `out`
 /// holds its values; else `why` says what is wrong. `in` is scratch space.
@@ -580,6 +603,8 @@ struct Reading
     Mux values;
     Rows rows;             // read from an array of messages: one row an element
     bool isRows = false;
+    Frame frame;           // a camera image (InputSpec::image)
+    std::string refused;   // not empty: why the message is dropped (an image YARP has no pixel type for)
     bool hasEnvelope = false;
     double envelope = 0.0;  // seconds
 };
@@ -610,12 +635,22 @@ public:
     virtual void watch(TotalsSource /*totals*/) {}
 };
 
+class FramePort;
+class Input;
+
+/// Makes the port of a YARP camera image input (InputSpec::image): given by
+/// a module that reads images (ybgc_images.hpp), whose frames it hands to the
+/// input as Bottles are handed; nullptr in every other module.
+using FramePorts = std::unique_ptr<FramePort> (*)(Input& input);
+
 /// Parses the command line and runs the bridge until SIGINT or SIGTERM; the
 /// exit status. `feed`: its inputs that are not YARP ports (none: nullptr).
 int run(const BridgeSpec& spec, int argc, char* argv[], MakeMessage make, InputFeed* feed = nullptr);
 
-/// The same with the messages published through `sink`.
-int run(const BridgeSpec& spec, int argc, char* argv[], MessageSink& sink, InputFeed* feed = nullptr);
+/// The same with the messages published through `sink`; `frames`: the ports
+/// of its YARP camera image inputs.
+int run(const BridgeSpec& spec, int argc, char* argv[], MessageSink& sink, InputFeed* feed = nullptr,
+        FramePorts frames = nullptr);
 
 }  // namespace ybgc
 
