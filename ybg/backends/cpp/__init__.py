@@ -27,7 +27,8 @@ import jinja2
 from ybg.backends.base import Backend, RenderOptions
 from ybg.backends.cpp.lower import lower
 from ybg.backends.cpp.package import lower_launch, lower_package
-from ybg.backends.runtime import CPP_ROS2_SOURCES, CPP_SOURCES, cpp_files, runtime_text_filter, runtime_view
+from ybg.backends.runtime import (CPP_IMAGES_SOURCES, CPP_ROS2_SOURCES, CPP_SOURCES, cpp_files, runtime_text_filter,
+                                  runtime_view)
 from ybg.lower import yarpmanager
 from ybg.lower.errors import LoweringError
 from ybg.lower.package import launch_file
@@ -62,7 +63,7 @@ class CppBackend(Backend):
         view = self._lower(program)
         ros2 = view.uses_ros2
         env = environment()
-        rt = runtime_view("cpp", options.single_file, ros2=ros2)
+        rt = runtime_view("cpp", options.single_file, ros2=ros2, images=view.images)
         beside = not options.single_file
         pkg = lower_package(program, view.ros2_packages) if options.package else None
         launch = lower_launch(program, pkg, view.executable) if pkg is not None and ros2 else None
@@ -71,7 +72,8 @@ class CppBackend(Backend):
             "CMakeLists.txt": env.get_template("CMakeLists.txt.j2").render(
                 m=view, runtime_sources=list(CPP_SOURCES) if beside else None,
                 runtime_library=runtime_library() if beside else None,
-                ros2_sources=list(CPP_ROS2_SOURCES) if beside and ros2 else None, package=pkg,
+                ros2_sources=(list(CPP_ROS2_SOURCES) + (list(CPP_IMAGES_SOURCES) if view.images else [])
+                              if beside and ros2 else None), package=pkg,
                 project=pkg.package if pkg is not None else view.target,
                 launch_file=f"launch/{launch.launch_file}" if launch else None,
                 launch_file_name=launch.launch_file if launch else None),
@@ -81,7 +83,7 @@ class CppBackend(Backend):
             if launch is not None:
                 files[f"launch/{launch.launch_file}"] = launch_file(launch)
         if not options.single_file:
-            files.update(cpp_files(ros2))
+            files.update(cpp_files(ros2, view.images))
         # run from the folder it was generated into, built as its header says
         workdir = options.extra.get("workdir")
         files[yarpmanager.filename(program)] = yarpmanager.application(

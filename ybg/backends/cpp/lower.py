@@ -101,11 +101,13 @@ class ModuleView:
     ros2: "Ros2View | None" = None   # publishes to ROS 2 through rcl (.ros2)
     message_cpp: str = "yarp::os::Bottle"  # the C++ type buildMessage fills
     ros2_inputs: "readers.Ros2InputsView | None" = None  # reads ROS 2 topics through rcl (.ros2_inputs)
+    images: bool = False             # reads or writes camera images (the runtime's ybgc_images.hpp)
+    image_output: str | None = None  # a YARP port of images: the index of the input whose frames it writes
 
     @property
     def uses_ros2(self) -> bool:
         """Does the module use rcl (a ROS 2 output or input)?"""
-        return self.ros2 is not None or self.ros2_inputs is not None
+        return self.ros2 is not None or self.ros2_inputs is not None or self.images
 
     @property
     def ros2_packages(self) -> tuple[str, ...]:
@@ -321,6 +323,8 @@ class BottleBuilder:
         if isinstance(src, ir.Default):
             self.default(typ, parent, depth, indent)
             return
+        if isinstance(src, ir.ImageFrame):
+            raise LoweringError(f"the frames of mux {src.mux} go to a ROS 2 sensor_msgs/Image, not into a Bottle")
         raise LoweringError(f"unknown source {type(src).__name__}")
 
     def stamp_ns(self, src: ir.Timestamp) -> str:
@@ -476,7 +480,10 @@ def _fields(inp: ir.Input, distro: str | None) -> str:
 
 
 def _input_comment(mux: str, k: int, inp: ir.Input) -> str:
-    if inp.layout is None:
+    if inp.image is not None:
+        what = ("camera images, each of its own encoding" if inp.image == ir.ANY_ENCODING
+                else f"camera images, {comment(inp.image)}")
+    elif inp.layout is None:
         what = "any number of numbers"
     else:
         what = ", ".join(f"{g.type} x{g.count}" for g in inp.layout)
@@ -486,6 +493,18 @@ def _input_comment(mux: str, k: int, inp: ir.Input) -> str:
     if inp.accepts:
         reads += f"; also from {', '.join(comment(a) for a in inp.accepts)}"
     return f"mux {comment(mux)}, input {k}: {kind} {comment(inp.name)}{extra}, {what}{reads}"
+
+
+def _encoding(inp: ir.Input) -> str:
+    """The encoding of a camera image input's frames, as the runtime's table knows it."""
+    if inp.image != ir.ANY_ENCODING and inp.image not in ir.IMAGE_ENCODINGS:
+        raise LoweringError(f"input {inp.name}: no YARP pixel type for the encoding {inp.image!r}", inp.span)
+    if inp.image == ir.ANY_ENCODING and (inp.kind != "ros2" or inp.ros_type != "sensor_msgs/Image"):
+        raise LoweringError(f"input {inp.name}: images of any encoding come from a ROS 2 sensor_msgs/Image topic",
+                            inp.span)
+    if inp.image != ir.ANY_ENCODING and inp.kind != "yarp":
+        raise LoweringError(f"input {inp.name}: camera images of one encoding come from a YARP port", inp.span)
+    return inp.image or ""
 
 
 def _executable(module: str) -> tuple[str, str]:
@@ -511,7 +530,8 @@ def lower(program: ir.Program, builder=BottleBuilder) -> ModuleView:
     mux_views = []
     for mi, m in enumerate(program.muxes):
         ids = []
-        gather = [Line(1, f"mux.{members[m.name]}.clear();")]
+        # the mux of a camera image holds its one input's frame (ybgc::Frame), assigned by append
+        gather = [] if m.image is not None else [Line(1, f"mux.{members[m.name]}.clear();")]
         for k, i in enumerate(m.inputs):
             if i.kind not in ("yarp", "ros1", "ros2"):
                 raise LoweringError(f"the cpp backend cannot read a {i.kind!r} input ({i.name})", i.span)
@@ -521,10 +541,13 @@ def lower(program: ir.Program, builder=BottleBuilder) -> ModuleView:
             ids.append(n)
             kind = {"ros1": "ybgc::InputKind::Ros1", "ros2": "ybgc::InputKind::Ros2"}.get(
                 i.kind, "ybgc::InputKind::Yarp")
-            reads = "" if i.reads is None and not i.accepts else f", {-1 if i.reads is None else int(i.reads)}"
-            accepts = f", {{{', '.join(cpp_string(a) for a in i.accepts)}}}" if i.accepts else ""
+            reads = ("" if i.reads is None and not i.accepts and i.image is None
+                     else f", {-1 if i.reads is None else int(i.reads)}")
+            accepts = (f", {{{', '.join(cpp_string(a) for a in i.accepts)}}}" if i.accepts or i.image is not None
+                       else "")
+            image = "" if i.image is None else f", {cpp_string(_encoding(i))}"
             init = (f"{{{mi}, {k}, {cpp_string(i.name)}, {kind}, {cpp_float(float(i.timeout))}, "
-                    f"{_layout(i)}, {_fields(i, program.distro)}{reads}{accepts}}}")
+                    f"{_layout(i)}, {_fields(i, program.distro)}{reads}{accepts}{image}}}")
             inputs.append(InputView(n, init, _input_comment(m.name, k, i)))
             gather.append(Line(1, f"ybgc::append(mux.{members[m.name]}, in[{n}]);  // {comment(i.name)}"))
         if m.rows and m.converters:  # each row converted alike
@@ -537,8 +560,12 @@ def lower(program: ir.Program, builder=BottleBuilder) -> ModuleView:
         srcs = ", ".join(comment(i.name) for i in m.inputs)
         if m.rows:
             srcs += ": a row for each element of its array of messages"
+        if m.image is not None:
+            if len(m.inputs) != 1 or m.converters:
+                raise LoweringError(f"mux {m.name} of camera images reads one input, unconverted", m.span)
+            srcs += ": its frame"
         mux_views.append(MuxView(members[m.name], cpp_string(m.name), srcs, tuple(gather), bool(m.verbose),
-                                 "ybgc::Rows" if m.rows else "ybgc::Mux"))
+                                 "ybgc::Frame" if m.image is not None else "ybgc::Rows" if m.rows else "ybgc::Mux"))
 
     ros2_inputs = None
     if any(i.kind == "ros2" for m in program.muxes for i in m.inputs):
@@ -546,6 +573,8 @@ def lower(program: ir.Program, builder=BottleBuilder) -> ModuleView:
 
     b = builder(program, members, input_ids)
     b.struct(program.message, "msg", 0, 1)
+    if out.image is not None:
+        b.mux(out.image)  # the port of images writes its frames
     checks: list[Line] = []
     for name in b.needed:
         need = b.need_size.get(name, 0)
@@ -563,6 +592,12 @@ def lower(program: ir.Program, builder=BottleBuilder) -> ModuleView:
     if rate is None and not inputs:
         raise LoweringError("an event-driven bridge needs at least one input (set a rate)")
 
+    image_output = None
+    if out.image is not None:  # a YARP port of the frames of an image mux
+        if out.kind != "yarp" or out.image not in input_ids or program.mux(out.image).image is None:
+            raise LoweringError(f"the output writes the frames of {out.image!r}, which is no mux of camera images",
+                                out.span)
+        image_output = str(input_ids[out.image][0])
     if out.kind == "ros1":
         node = out.node or f"/yarp/{program.module}"
         port = f"{out.name}@{node}"
@@ -584,6 +619,9 @@ def lower(program: ir.Program, builder=BottleBuilder) -> ModuleView:
         plain_where += f", connected to {out.connect_to}"
     what = out.msg_type or "untyped Bottles"
     what_comment = comment(out.msg_type) if out.msg_type else "untyped Bottles"
+    if out.image is not None:
+        what = f"the camera images of mux {out.image}"
+        what_comment = f"the camera images of mux {comment(out.image)}"
     shape = ""
     if out.kind == "ros1" and (has_message_array(program.message) or has_fixed_array(program.message)):
         shape = f", {cpp_string(ros1_shape(program.message))}"
@@ -614,6 +652,7 @@ def lower(program: ir.Program, builder=BottleBuilder) -> ModuleView:
     )
     config_name = os.path.basename(program.source) if program.source else program.module
     sizes = " + \", \" + ".join(
+        f"{cpp_string(m.name + ' has ')} + ybgc::images::describe(mux.{members[m.name]})" if m.image is not None else
         f"{cpp_string(m.name + ' has ')} + std::to_string(mux.{members[m.name]}.size())" for m in program.muxes
     ) or '""'
     return ModuleView(
@@ -644,6 +683,8 @@ def lower(program: ir.Program, builder=BottleBuilder) -> ModuleView:
         sizes=sizes,
         ros1=out.kind == "ros1" or any(i.kind == "ros1" for m in program.muxes for i in m.inputs),
         ros2_inputs=ros2_inputs,
+        images=any(m.image is not None for m in program.muxes),
+        image_output=image_output,
     )
 
 

@@ -24,11 +24,23 @@ from ybg.backends.cpp.lower import BottleBuilder, ModuleView, index_text
 from ybg.backends.cpp.lower import lower as lower_module
 from ybg.backends.cpp.rcl import RUNTIME_PACKAGES, c_header, c_struct
 from ybg.compiler import ir
-from ybg.lower.errors import LoweringError
+from ybg.lower.errors import Line, LoweringError
 from ybg.lower.rosnames import node_name, split_type, used_packages
 from ybg.lower.tree import check_size, slice_stop
 
 _TIME_TYPES = ("builtin_interfaces/Time", "time")
+#: the fields of a sensor_msgs/Image that its frame gives, besides `data` (ybgc::images::setImage)
+_FRAME_FIELDS = ("height", "width", "encoding", "is_bigendian", "step")
+
+
+@dataclass(frozen=True)
+class CameraInfoView:
+    """The CameraInfo published beside a ROS 2 image: its topic and the
+    lines of the module's ``cameraInfo()``, which fills the config's fields."""
+
+    topic: str               # string literal
+    topic_comment: str
+    lines: tuple[Line, ...]
 
 
 @dataclass(frozen=True)
@@ -43,6 +55,7 @@ class Ros2View:
     spec: str               # the ybgc::ros2::Ros2Spec aggregate
     spec_comment: str
     packages: tuple[str, ...]  # the message packages to link
+    camera_info: CameraInfoView | None = None  # a ROS 2 image's CameraInfo
 
 
 def _member(name: str) -> str:
@@ -109,7 +122,12 @@ class CStructBuilder(BottleBuilder):
         self.emit(indent, text)
 
     def struct(self, struct: ir.Struct, target: str, depth: int = 0, indent: int = 1) -> None:
+        frame = next((f.source for f in struct.fields
+                      if f.name == "data" and isinstance(f.source, ir.ImageFrame)), None)
         for f in struct.fields:
+            if frame is not None and f.name in _FRAME_FIELDS and isinstance(f.source, ir.Default):
+                self.line(f"// {comment(f.name)} ({comment(str(f.type))}): from the frame of {comment(frame.mux)}")
+                continue
             self.field(f, target)
 
     def where(self) -> str:
@@ -144,6 +162,9 @@ class CStructBuilder(BottleBuilder):
         if isinstance(src, ir.MessageArray):
             self.message_array(src, typ, target, name)
             return
+        if isinstance(src, ir.ImageFrame):
+            self.image_frame(src, typ, target, name)
+            return
         if not typ.is_message and typ.base not in ir.ELEMENT_TYPES and typ.base not in _TIME_TYPES:
             raise LoweringError(f"field {name}: the C++ module cannot fill a {typ.base} field")
         self.line(what)
@@ -170,6 +191,19 @@ class CStructBuilder(BottleBuilder):
                 self.line(f"ybgc::ros2::assign({target}, {value});")
         else:
             raise LoweringError(f"field {name}: unknown source {type(src).__name__}")
+
+    def image_frame(self, src: ir.ImageFrame, typ: ir.TypeRef, target: str, name: str) -> None:
+        """The `data` of a sensor_msgs/Image from the frame of an image mux,
+        which gives its height, width, encoding, is_bigendian and step too."""
+        if (name != "data" or typ.base != "uint8" or typ.array != "sequence" or not target.endswith(".data")
+                or self.program.mux(src.mux).image != src.encoding or src.encoding not in ir.IMAGE_ENCODINGS):
+            raise LoweringError(f"field {name}: the frame of mux {src.mux} fills the data of a sensor_msgs/Image")
+        frame = self.mux(src.mux)
+        self.line(f"// {comment(name)} ({comment(str(typ))}): the frame of {comment(src.mux)}, "
+                  f"{comment(src.encoding)}, its rows without YARP's padding")
+        self.line(f"if (!ybgc::images::setImage({target[:-len('.data')]}, {frame}, {cpp_string(src.encoding)})) {{")
+        self.line("return false;", 2)
+        self.line("}")
 
     def message_array(self, src: ir.MessageArray, typ: ir.TypeRef, target: str, name: str) -> None:
         """A sequence sized to the elements the config gives (kept when it has
@@ -292,14 +326,34 @@ def ros2_view(program: ir.Program) -> Ros2View:
     )
 
 
+def camera_info_view(program: ir.Program) -> CameraInfoView | None:
+    """The CameraInfo beside a ROS 2 image (``[camera_info]``): its fields
+    are constants of the config, its header the image's (left to the runtime)."""
+    info = program.output.camera_info
+    if info is None:
+        return None
+    if program.output.msg_type != "sensor_msgs/Image" or not any(
+            f.name == "data" and isinstance(f.source, ir.ImageFrame) for f in program.message.fields):
+        raise LoweringError("a CameraInfo goes beside a sensor_msgs/Image filled from a frame", info.span)
+    fields = tuple(f for f in info.message.fields if f.name != "header")
+    b = CStructBuilder(program, {}, {})
+    try:
+        b.struct(ir.Struct(fields, info.message.msg_type), "info")
+    except LoweringError as e:
+        raise e.at(info.span)
+    if b.needed:
+        raise LoweringError("the fields of a CameraInfo are constants", info.span)
+    return CameraInfoView(cpp_string(info.topic), comment(info.topic), tuple(b.lines))
+
+
 def lower(program: ir.Program) -> ModuleView:
     """The view-model of the module generated for ``program``, whose output is a ROS 2 topic."""
     if program.output.kind != "ros2":
         raise LoweringError(f"not a ROS 2 output: {program.output.kind!r}")
     view = lower_module(program, builder=CStructBuilder)
     ros_args = cpp_string("ROS arguments after --ros-args (-p use_sim_time:=true: stamps from /clock)")
-    return dataclasses.replace(view, ros2=ros2_view(program), message_cpp="Message",
-                               description=view.description + (ros_args,))
+    ros2 = dataclasses.replace(ros2_view(program), camera_info=camera_info_view(program))
+    return dataclasses.replace(view, ros2=ros2, message_cpp="Message", description=view.description + (ros_args,))
 
 
-__all__ = ["CStructBuilder", "Ros2View", "array_element_types", "lower", "ros2_view"]
+__all__ = ["CStructBuilder", "CameraInfoView", "Ros2View", "array_element_types", "lower", "ros2_view"]

@@ -29,7 +29,8 @@ _ELEMENT = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)((?:\[[0-9]+\])*)\Z")
 
 @dataclass(frozen=True)
 class TopicReaderView:
-    """The reader of one ROS 2 topic input and its entry in ``kTopics``."""
+    """The reader of one ROS 2 topic input and its entry in ``kTopics``
+    (a camera image's reader is the runtime's: no function of the module)."""
 
     function: str             # its C++ name
     c_type: str               # the message's C struct
@@ -37,6 +38,7 @@ class TopicReaderView:
     comment: str
     lines: tuple[Line, ...]   # its body
     entry: tuple[Line, ...]   # its ybgc::ros2::topic<...>(...) in kTopics
+    in_module: bool = True    # the module holds its function
 
 
 @dataclass(frozen=True)
@@ -64,10 +66,24 @@ def _member_path(path: str) -> str:
     return ".".join(parts)
 
 
+def _image_reader(i: ir.Input, index: int) -> TopicReaderView:
+    """A ROS 2 camera (sensor_msgs/Image, the whole frame): read by the runtime."""
+    if i.ros_type != "sensor_msgs/Image" or i.fields:
+        raise LoweringError(f"the ROS 2 camera {i.name} reads whole sensor_msgs/Image messages", i.span)
+    c_type = "sensor_msgs__msg__Image"
+    entry = (Line(2, f"ybgc::ros2::topic<{c_type}, &{c_type}__create, &{c_type}__destroy, &ybgc::images::read>("),
+             Line(3, f"{index}, {cpp_string(i.name)}, {cpp_string('sensor_msgs/msg/Image')}, "
+                     "ROSIDL_GET_MSG_TYPE_SUPPORT(sensor_msgs, msg, Image)),"))
+    what = f"{comment(i.name)} (sensor_msgs/msg/Image): the frame (ybgc::images::read)"
+    return TopicReaderView("ybgc::images::read", c_type, "ybgc::Reading& out", what, (), entry, in_module=False)
+
+
 def _reader(program: ir.Program, m: ir.Mux, k: int, i: ir.Input, index: int, member: str) -> TopicReaderView:
     where = i.span
     if not i.ros_type:
         raise LoweringError(f"the ROS 2 input {i.name} has no message type", where)
+    if i.image is not None:
+        return _image_reader(i, index)
     if not i.fields:
         raise LoweringError(f"the ROS 2 input {i.name} names no numeric field", where)
     if i.each is not None and program.output.kind == "ros2":
