@@ -22,9 +22,11 @@ _INT_TYPES = frozenset(("int8", "uint8", "int16", "uint16", "int32", "uint32",
 _INT_BITS = {"int8": 8, "uint8": 8, "byte": 8, "char": 8, "int16": 16, "uint16": 16,
              "int32": 32, "uint32": 32, "int64": 64, "uint64": 64}
 
-#: ``accepts``: the other ports whose Bottles a YARP port input takes too
-InputSpec = collections.namedtuple("InputSpec", "mux index source kind types timeout positions reads accepts",
-                                   defaults=(None, None, ()))
+#: ``accepts``: the other ports whose Bottles a YARP port input takes too;
+#: ``image``: a camera image input (images.py): the ROS encoding of a YARP
+#: port's frames, or "any" for a ROS 2 topic of sensor_msgs/Image
+InputSpec = collections.namedtuple("InputSpec", "mux index source kind types timeout positions reads accepts image",
+                                   defaults=(None, None, (), None))
 ConverterSpec = collections.namedtuple("ConverterSpec", "name scale offset to_float start stop")
 #: a geometry converter (geometry.py) on the elements [start, start + its width)
 GeometrySpec = collections.namedtuple("GeometrySpec", "name function args start")
@@ -140,7 +142,9 @@ class InputState:
     newest accepted Bottle, and the totals. ``accepted``: the ports whose
     Bottles it takes (its source, and those the config or the command line
     accept); ``refused`` counts the Bottles of any other port, ``foreign``
-    names those ports, in the order they came."""
+    names those ports, in the order they came; it counts too the camera
+    frames refused for what they are (``unfit`` of them, the first for
+    ``unfit_reason``: a pixel type or an encoding the input does not take)."""
 
     def init_state(self, bridge, spec, timeout):
         self.bridge = bridge
@@ -149,6 +153,8 @@ class InputState:
         self.accepted = frozenset((spec.source,) + tuple(spec.accepts or ()))
         self.refused = 0
         self.foreign = []
+        self.unfit = 0
+        self.unfit_reason = None
         self.timeout = timeout
         self.queue = collections.deque()
         self.values = None
@@ -304,6 +310,19 @@ class Bridge:
                 return
             inp.foreign.append(source)
             self.log(foreign_text(inp.source, source))
+
+    def on_refused(self, inp, reason):
+        """A message of the input's own port refused for what it is (a camera
+        frame of another pixel type than the input's, an encoding YARP has no
+        pixel type for): received and refused, never used; said once."""
+        with self.cond:
+            inp.received += 1
+            inp.refused += 1
+            inp.unfit += 1
+            if inp.unfit_reason is None:
+                inp.unfit_reason = reason
+                self.log("input %s: refused a frame (%s); further frames refused are only counted"
+                         % (inp.source, reason))
 
     def on_skipped(self, inp):
         """A Bottle skipped unread: the input's reader fell BACKLOG behind."""
@@ -509,12 +528,23 @@ class Bridge:
         for inp in self.inputs:
             line = ("  input %s: received %d, dropped %d, stale periods %d, unused %d"
                     % (inp.source, inp.received, inp.dropped, inp.stale_periods, inp.unused))
-            if inp.refused:
-                line += ", refused %d from %s" % (inp.refused, ", ".join(inp.foreign))
-            lines.append(line)
+            lines.append(line + refused_text(inp))
         lines.append("  published %d messages, skipped %d cycles, build failures %d"
                      % (self.published, self.skipped_cycles, self.build_errors))
         print("\n".join(lines), flush=True)
+
+
+def refused_text(inp):
+    """What the totals say of an input's refused messages: of which ports,
+    and how many frames refused for what they are (the first reason)."""
+    if not inp.refused:
+        return ""
+    if not inp.unfit:
+        return ", refused %d from %s" % (inp.refused, ", ".join(inp.foreign))
+    frames = "%d frame%s (%s)" % (inp.unfit, "" if inp.unfit == 1 else "s", inp.unfit_reason)
+    if inp.refused == inp.unfit:
+        return ", refused " + frames
+    return ", refused %d: %d from %s, %s" % (inp.refused, inp.refused - inp.unfit, ", ".join(inp.foreign), frames)
 
 
 def foreign_text(source, other):

@@ -3,7 +3,9 @@ rclpy node. ROS 2 topics as mux inputs, a typed message filled field by
 field and published with the config's QoS, stamps from the node's clock
 (use_sim_time is respected), the node's parameters in place of the
 command-line options, QoS overridden by ``qos_overrides`` parameters, and the
-bridge's totals on /diagnostics (docs/runtime.md)."""
+bridge's totals on /diagnostics; camera images both ways (sensor_msgs/Image
+topics read and published, with their CameraInfo: the frames are images.py's)
+(docs/runtime.md)."""
 
 import argparse
 import collections
@@ -28,6 +30,7 @@ from rclpy.qos_overriding_options import QoSOverridingOptions, QoSPolicyKind
 from rclpy.signals import SignalHandlerOptions
 
 from .core import _FLOAT_TYPES, _INT_TYPES, InputState, parse_accept, seconds_to_ns  # ybgc:runtime-import
+from .images import ImageInput, fit_calibration, frame_of, message_frame  # ybgc:runtime-import
 from .yarp_io import YarpBridge  # ybgc:runtime-import
 
 
@@ -235,47 +238,135 @@ class Ros2Input(InputState):
         pass  # destroyed with the node, once its executor has stopped
 
 
+class Ros2ImageInput(Ros2Input):
+    """A ROS 2 topic of sensor_msgs/Image read by an image mux: each message
+    whose encoding YARP has a pixel type for becomes a frame (its data not
+    copied: the message's buffer), its header.stamp the envelope; any other
+    is refused, counted and said once (images.message_frame says why)."""
+
+    def __init__(self, bridge, spec, node, msg_class, timeout):
+        Ros2Input.__init__(self, bridge, spec, node, msg_class, (), timeout)
+
+    def _on_message(self, msg):
+        now = time.monotonic()
+        stamp = msg.header.stamp
+        envelope = stamp.sec + stamp.nanosec * 1e-9 if (stamp.sec or stamp.nanosec) else None
+        try:
+            frame, reason = message_frame(msg.width, msg.height, msg.encoding, msg.step, msg.is_bigendian,
+                                          msg.data, envelope)
+        except Exception as e:
+            frame, reason = None, "cannot read its fields (%s)" % e
+        if frame is None:
+            self.bridge.on_refused(self, reason)
+        else:
+            self.bridge.on_bottle(self, [frame], None, now, envelope)
+
+
+def fill_image(msg, values, encoding):
+    """The fields of a sensor_msgs/Image from the frame of an image mux's
+    ``values``: its size, ``encoding``, little-endian, its packed rows
+    (step = width x pixel size; assigning an ``array('B')`` copies it once)."""
+    frame = frame_of(values)
+    msg.height = frame.height
+    msg.width = frame.width
+    msg.encoding = encoding
+    msg.is_bigendian = 0
+    msg.step = frame.step
+    msg.data = frame.data
+
+
+def _publisher(node, msg_class, topic, qos, on_matched):
+    try:
+        events = PublisherEventCallbacks(matched=on_matched)
+        return node.create_publisher(msg_class, topic, qos, event_callbacks=events,
+                                     qos_overriding_options=QOS_OVERRIDES)
+    except UnsupportedEventTypeError:  # an rmw without matched events
+        return node.create_publisher(msg_class, topic, qos, qos_overriding_options=QOS_OVERRIDES)
+
+
+class CameraInfoOutput:
+    """A sensor_msgs/CameraInfo published on its own topic right after each
+    image, with the image's header: ``calibration()`` gives the message (its
+    header unset); when it says a size (width and height) and a frame has
+    another, the focal lengths and principal point of k and p are scaled to
+    the frame, whose size it then says."""
+
+    type_name = "sensor_msgs/msg/CameraInfo"
+
+    def __init__(self, topic, calibration):
+        self.topic = topic
+        self.calibration = calibration
+        self.message = None
+        self.publisher = None
+
+    def prepare(self):
+        """The calibration's message, and what of it each frame may change."""
+        self.message = m = self.calibration()
+        self.size = (m.width, m.height)
+        self.k, self.p = list(m.k), list(m.p)
+
+    def open(self, node, qos, on_matched):
+        self.prepare()
+        self.publisher = _publisher(node, type(self.message), self.topic, qos, on_matched)
+
+    def publish(self, image):
+        m = self.message
+        m.header.stamp = image.header.stamp
+        m.header.frame_id = image.header.frame_id
+        width, height = self.size
+        if width and height and (image.width, image.height) != (width, height):
+            m.width, m.height = image.width, image.height
+            m.k, m.p = fit_calibration(self.k, self.p, width, height, image.width, image.height)
+        else:
+            m.width, m.height = width, height
+            m.k, m.p = self.k, self.p
+        self.publisher.publish(m)
+
+
 class Ros2Output:
-    """Publishes each message on a ROS 2 topic; says when subscribers come
-    and go (a message published before a subscriber is matched is not
+    """Publishes each message on a ROS 2 topic (a camera image with its
+    ``camera_info``, a CameraInfoOutput, when given); says when subscribers
+    come and go (a message published before a subscriber is matched is not
     delivered to it)."""
 
-    def __init__(self, node, msg_class, type_name, topic, qos):
+    def __init__(self, node, msg_class, type_name, topic, qos, camera_info=None):
         self.node = node
         self.msg_class = msg_class
         self.type_name = type_name
         self.port_name = topic
         self.qos = qos
+        self.camera_info = camera_info
         self.publisher = None
         self.log = lambda text: print(text, flush=True)
 
     def open(self):
         try:
-            try:
-                events = PublisherEventCallbacks(matched=self._on_matched)
-                self.publisher = self.node.create_publisher(self.msg_class, self.port_name, self.qos,
-                                                            event_callbacks=events,
-                                                            qos_overriding_options=QOS_OVERRIDES)
-            except UnsupportedEventTypeError:  # an rmw without matched events
-                self.publisher = self.node.create_publisher(self.msg_class, self.port_name, self.qos,
-                                                            qos_overriding_options=QOS_OVERRIDES)
+            self.publisher = _publisher(self.node, self.msg_class, self.port_name, self.qos, self._on_matched)
+            if self.camera_info is not None:
+                info = self.camera_info
+                info.open(self.node, self.qos, lambda event: self._on_matched(event, info.topic))
         except Exception as e:
             self.log("cannot advertise %s: %s" % (self.port_name, e))
             return False
         return True
 
-    def _on_matched(self, info):
+    def _on_matched(self, info, topic=None):
         n = info.current_count
-        self.log("%s: %d subscriber%s" % (self.port_name, n, "" if n == 1 else "s"))
+        self.log("%s: %d subscriber%s" % (topic or self.port_name, n, "" if n == 1 else "s"))
 
     def connections(self):
         return []
 
     def describe(self):
-        return "%s on the ROS 2 topic %s" % (self.type_name, self.port_name)
+        text = "%s on the ROS 2 topic %s" % (self.type_name, self.port_name)
+        if self.camera_info is not None:
+            text += ", with %s on %s" % (self.camera_info.type_name, self.camera_info.topic)
+        return text
 
     def publish(self, message):
         self.publisher.publish(message)
+        if self.camera_info is not None:
+            self.camera_info.publish(message)
 
     def stalled(self):
         return False  # rclpy never waits for a subscriber
@@ -325,13 +416,17 @@ class NodeBridge(YarpBridge):
         self.stamps = None
         self.fill_reported = False
         YarpBridge.__init__(self, spec, options, output, self._build, compute)
-        if isinstance(output, Ros2Output):
+        if hasattr(output, "log"):
             output.log = self.log
 
     def make_input(self, mux, spec, local, timeout):
         if spec.kind == "ros2":
             msg_class, leaves, *each = self.topic_inputs[(mux.name, spec.index)]
+            if spec.image:
+                return Ros2ImageInput(self, spec, self.node, msg_class, timeout)
             return Ros2Input(self, spec, self.node, msg_class, leaves, timeout, *each)
+        if spec.image:
+            return ImageInput(self, spec, local, timeout)
         return YarpBridge.make_input(self, mux, spec, local, timeout)
 
     def _build(self, ctx):

@@ -251,8 +251,8 @@ class Input(InputState):
         try:
             if not connection.isValid():
                 return False
-            bottle = yarp.Bottle()
-            if not bottle.read(connection):
+            bottle = self.read_item(connection)
+            if bottle is None:
                 return False
             now = time.monotonic()
             source = connection.getRemoteContact().getName()
@@ -267,10 +267,7 @@ class Input(InputState):
                 if self.bridge.watcher is not None:
                     self.bridge.watcher.poke()  # closes the connection now, in its own thread
                 return True
-            envelope = None
-            stamp = yarp.Stamp()
-            if self.port.getEnvelope(stamp) and stamp.isValid():
-                envelope = stamp.getTime()
+            envelope = self.read_envelope()
             with self.wake:
                 if not self.strict:
                     self.pending.clear()  # the newest only, as YARP reads by default
@@ -280,6 +277,18 @@ class Input(InputState):
         finally:
             with self.wake:
                 self.reading -= 1
+
+    def read_item(self, connection):
+        """What the connection brings (a Bottle), or None if it cannot be read."""
+        bottle = yarp.Bottle()
+        return bottle if bottle.read(connection) else None
+
+    def read_envelope(self):
+        """The envelope stamp of what was just read (seconds), or None."""
+        stamp = yarp.Stamp()
+        if self.port.getEnvelope(stamp) and stamp.isValid():
+            return stamp.getTime()
+        return None
 
     def fail(self, e):
         if not self.failed:
