@@ -126,6 +126,8 @@ def test_message_frame_takes_the_messages_buffer():
     ((4, 2, "mono16", 8, 0, bytes(15)), "15 bytes of data, fewer than step x height = 16"),
     ((4, 2, "mono16", 8, 1, bytes(16)), "big-endian mono16 pixels (YARP's are little-endian)"),
     ((4, 2, "32FC1", 16, 1, bytes(32)), "big-endian 32FC1 pixels (YARP's are little-endian)"),
+    ((0, 2, "rgb8", 0, 0, b""), "no pixels (0x2)"),
+    ((3, 0, "mono8", 3, 0, b""), "no pixels (3x0)"),
 ])
 def test_message_frame_refusals(fields, why):
     assert message_frame(*fields, None) == (None, why)
@@ -134,6 +136,16 @@ def test_message_frame_refusals(fields, why):
 def test_big_endian_bytes_are_bytes():
     frame, why = message_frame(4, 2, "rgb8", 12, 1, bytes(24), None)
     assert why is None and frame is not None
+
+
+def test_a_frame_goes_out_with_the_counter_and_its_stamp():
+    """The envelope of a frame a YARP port writes: the message counter, the
+    image's header.stamp, else the message's time (as the C++ module)."""
+    frame = Frame(1, 1, "mono8", 1, bytes(1), 12.5)
+    ctx = core.Context({}, 7, {}, now_ns=3_000_000_000)
+    assert images.frame_out([frame], ctx) == (frame, 7, 12.5)
+    assert images.frame_out([Frame(1, 1, "mono8", 1, bytes(1))], ctx)[1:] == (7, 3.0)
+    assert images.frame_out([frame], core.Context({}, 2**31 + 5, {}, 0))[1] == 6
 
 
 def test_calibration_fitted_to_the_frame():

@@ -9,6 +9,7 @@ YARP's image into packed rows (YARP -> ROS 2), or from a message's rows into
 a YARP image of packed rows (ROS 2 -> YARP)."""
 
 import array
+import collections
 import ctypes
 import threading
 import time
@@ -96,6 +97,21 @@ def frame_of(values):
     return values[0]
 
 
+#: a frame as a YARP port writes it: its envelope's count and time
+FrameOut = collections.namedtuple("FrameOut", "frame count time")
+
+#: the count of a YARP envelope (an int32) wraps after this
+_COUNT_WRAP = 2147483647
+
+
+def frame_out(values, ctx):
+    """The frame of an image mux's values as the YARP image output writes
+    it: the envelope's count is the message counter, its time the frame's
+    stamp (a ROS 2 image's header.stamp), else the message's time."""
+    frame = frame_of(values)
+    return FrameOut(frame, ctx.counter % _COUNT_WRAP, ctx.seconds if frame.stamp is None else frame.stamp)
+
+
 def packed_rows(source, row_size, row_bytes, height):
     """The rows of a frame packed (each ``row_bytes`` long, what ROS calls
     step) in a new ``array('B')``, from ``source`` (a buffer) whose rows are
@@ -140,19 +156,21 @@ def copy_rows(destination, dst_row, source, src_step, row_bytes, height):
 def message_frame(width, height, encoding, step, is_bigendian, data, stamp):
     """(Frame, None) for a ROS 2 image's fields (``data`` the message's
     buffer, not copied), or (None, why it is refused): an encoding YARP has
-    no pixel type for, a step shorter than a row, fewer bytes than step x
-    height, big-endian pixels of more than one byte."""
+    no pixel type for, big-endian pixels of more than one byte, no pixels,
+    a step shorter than a row, fewer bytes than step x height."""
     found = PIXEL_TYPES.get(encoding)
     if found is None:
         return None, "encoding %s, which YARP has no pixel type for" % (encoding or "''")
     _code, size, channel = found
+    if is_bigendian and channel > 1:
+        return None, "big-endian %s pixels (YARP's are little-endian)" % encoding
+    if width == 0 or height == 0:
+        return None, "no pixels (%dx%d)" % (width, height)
     if step < width * size:
         return None, "step %d, shorter than a row of %d %s pixels" % (step, width, encoding)
     n = len(data)
     if n < step * height:
         return None, "%d bytes of data, fewer than step x height = %d" % (n, step * height)
-    if is_bigendian and channel > 1:
-        return None, "big-endian %s pixels (YARP's are little-endian)" % encoding
     return Frame(width, height, encoding, step, data, stamp), None
 
 
@@ -226,6 +244,9 @@ class ImageInput(Input):
                 self.bridge.on_skipped(self)
                 return
             code = image.getPixelCode()
+            if image.width() == 0 or image.height() == 0:
+                self.bridge.on_refused(self, "a frame of no pixels")
+                return
             if code != self.code:
                 self.bridge.on_refused(self, "pixel type %s, not %s: the declared %s" % (
                     vocab_text(code), vocab_text(self.code), self.encoding))
@@ -238,8 +259,9 @@ class ImageInput(Input):
 
 
 class YarpImageOutput:
-    """Writes each frame on a YARP port as a yarp::sig::Image of the pixel
-    type of its encoding, rows packed (quantum 1), the envelope its stamp.
+    """Writes each frame (a FrameOut) on a YARP port as a yarp::sig::Image
+    of the pixel type of its encoding, rows packed (quantum 1), with its
+    envelope.
     A plain port (the bindings have no BufferedPort of FlexImage, and only a
     FlexImage carries BGR and BGRA) written by a thread of its own, so that
     the bridge never waits for a slow reader: a frame that comes while the
@@ -276,11 +298,11 @@ class YarpImageOutput:
     def describe(self):
         return "camera images on the YARP port %s" % self.port_name
 
-    def publish(self, frame):
+    def publish(self, out):
         with self.cond:
             if self.next is not None:
                 self.replaced += 1
-            self.next = frame
+            self.next = out
             self.cond.notify()
 
     def _run(self):
@@ -290,10 +312,10 @@ class YarpImageOutput:
                     self.cond.wait()
                 if self.closing:
                     return
-                frame, self.next = self.next, None
+                out, self.next = self.next, None
                 self.busy = True
             try:
-                self.write(frame)
+                self.write(out)
             except Exception as e:  # never a traceback out of its thread
                 if self.failed is None:
                     self.failed = e
@@ -303,13 +325,10 @@ class YarpImageOutput:
                     self.busy = False
                     self.cond.notify_all()
 
-    def write(self, frame):
-        """The frame written, its stamp the envelope (none: no envelope)."""
-        image = self.image_of(frame)
-        if frame.stamp is None:
-            self.port.setEnvelope(_NO_ENVELOPE)
-        else:
-            self.port.setEnvelope(yarp.Stamp(self.written, frame.stamp))
+    def write(self, out):
+        """A FrameOut written with its envelope."""
+        image = self.image_of(out.frame)
+        self.port.setEnvelope(yarp.Stamp(out.count, out.time))
         self.port.write(image)
         self.written += 1
 
