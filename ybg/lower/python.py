@@ -87,6 +87,7 @@ class InputView:
     positions: str = "None"
     reads: str = "None"
     accepts: str = "()"  # the other ports whose Bottles it takes too
+    image: str = "None"  # a camera image input: its encoding (a YARP port's), or 'any' (a ROS 2 topic's)
 
 
 @dataclass(frozen=True)
@@ -294,6 +295,8 @@ class BottleBuilder:
         raise LoweringError(f"unknown source {type(src).__name__}")
 
     def mux_ref(self, ref: ir.MuxRef, typ: ir.TypeRef | None) -> str:
+        if self.program.mux(ref.mux).image is not None:
+            raise LoweringError(f"mux {ref.mux} holds camera frames, not values of a Bottle")
         values = self.mux_values(ref.mux)
         etype = py_literal(ref.element_type)
         if self.program.mux(ref.mux).rows:  # one nested list per row, whole

@@ -34,6 +34,9 @@ from ybg.lower.rosnames import (identifier, node_name, node_parameters, package_
 from ybg.lower.tree import check_size, slice_stop
 from ybg.lower.wire import WIRE_YARP
 
+#: the encodings of camera images YARP has a pixel type for (YARP's constant of each)
+IMAGE_ENCODINGS = ir.IMAGE_ENCODINGS
+
 #: Python conversion of one value of a ROS primitive field (the name of a
 #: helper of the generated node, or a builtin)
 SCALAR_CONVERSION: dict[str, str] = {
@@ -56,6 +59,11 @@ RELIABILITY = {"reliable": "RELIABLE", "best_effort": "BEST_EFFORT"}
 DURABILITY = {"volatile": "VOLATILE", "transient_local": "TRANSIENT_LOCAL"}
 
 _TIME_TYPES = ("builtin_interfaces/Time", "time")
+
+#: the message a camera frame fills, and the fields the frame gives besides data
+IMAGE_TYPE = "sensor_msgs/Image"
+CAMERA_INFO_TYPE = "sensor_msgs/CameraInfo"
+FRAME_FIELDS = ("height", "width", "encoding", "is_bigendian", "step")
 
 
 # --------------------------------------------------------------------------
@@ -98,6 +106,24 @@ class RosOutputView:
 
 
 @dataclass(frozen=True)
+class CameraInfoView:
+    """The CameraInfo published beside each image: its topic, its message
+    class and the body of the function that builds it (constants only)."""
+
+    topic: str
+    msg_class: str
+    builder: tuple[Line, ...]
+
+
+@dataclass(frozen=True)
+class ImageOutputView:
+    """A YARP port of camera images."""
+
+    port: str
+    connect_to: str
+
+
+@dataclass(frozen=True)
 class NodeView:
     """Everything the node template prints."""
 
@@ -125,6 +151,8 @@ class NodeView:
     builder: tuple[Line, ...]
     uses_rows: bool = False  # the message holds a mux of rows: import the runtime's Rows
     runtime_imports: tuple[RuntimeImport, ...] = ()
+    camera_info: CameraInfoView | None = None  # beside a ROS 2 image
+    image_output: ImageOutputView | None = None  # a YARP port of camera images
 
 
 # --------------------------------------------------------------------------
@@ -199,6 +227,8 @@ class _MessageBuilder:
         self.lines: list[Line] = []
         self.muxes: list[str] = []
         self.element_types: list[str] = []  # of the arrays of messages, to import
+        self.uses_images = False  # a camera frame fills an Image: the runtime's fill_image
+        self.uses_context = False  # a counter, a clock, a stamp: not a constant message
 
     def emit(self, text: str) -> None:
         self.lines.append(Line(1, text))
@@ -209,14 +239,35 @@ class _MessageBuilder:
             self.muxes.append(name)
         return f"v[{py_literal(name)}]"
 
+    def mux_numbers(self, name: str) -> str:
+        """The values of a mux of numbers (not camera frames)."""
+        if self.program.mux(name).image is not None:
+            raise LoweringError(f"mux {name} holds camera frames, not numbers: it fills the data of a "
+                                f"{IMAGE_TYPE}")
+        return self.mux_values(name)
+
     def message(self, struct: ir.Struct, msg_class: str) -> None:
         self.emit(f"msg = {msg_class}()")
         self.fields(struct, "msg", "")
         self.emit("return msg")
 
     def fields(self, struct: ir.Struct, target: str, prefix: str) -> None:
+        if any(isinstance(f.source, ir.ImageFrame) for f in struct.fields):
+            self.check_image(struct, prefix)
         for f in struct.fields:
             self.field(f, target, prefix)
+
+    def check_image(self, struct: ir.Struct, prefix: str) -> None:
+        """A sensor_msgs/Image whose data is a frame: the frame gives the
+        size, encoding, endianness and step too, which the config leaves."""
+        if struct.msg_type != IMAGE_TYPE:
+            raise LoweringError(f"a camera frame fills a {IMAGE_TYPE}, not {prefix or 'a '}{struct.msg_type}",
+                                struct.span)
+        for f in struct.fields:
+            if f.name in FRAME_FIELDS and not isinstance(f.source, ir.Default):
+                raise LoweringError(f"field {prefix}{f.name}: the frame gives it", f.span)
+            if isinstance(f.source, ir.ImageFrame) and f.name != "data":
+                raise LoweringError(f"field {prefix}{f.name}: a camera frame goes into data", f.span)
 
     def field(self, f: ir.Field, target: str, prefix: str) -> None:
         try:
@@ -241,6 +292,13 @@ class _MessageBuilder:
             return
         if isinstance(src, ir.MessageArray):
             self.message_array(src, typ, target, f.name, name)
+            return
+        if isinstance(src, ir.ImageFrame):
+            mux = self.program.mux(src.mux)
+            if mux.image != src.encoding:
+                raise LoweringError(f"field {name}: mux {src.mux} holds no camera frames in {src.encoding}")
+            self.uses_images = True
+            self.emit(f"fill_image({target}, {self.mux_values(src.mux)}, {py_literal(src.encoding)})")
             return
         self.emit(_assign(target, f.name, self.value(src, typ, name)))
 
@@ -267,7 +325,7 @@ class _MessageBuilder:
     def into_fields(self, ref: ir.MuxRef, typ: ir.TypeRef, target: str, name: str) -> None:
         if typ.array is not None or not typ.is_message:
             raise LoweringError(f"field {name}: mux fields into a {typ} field")
-        values = self.mux_values(ref.mux)
+        values = self.mux_numbers(ref.mux)
         types = ref.into_types or (ref.element_type,) * len(ref.into_fields or ())
         if len(types) != len(ref.into_fields or ()):
             raise LoweringError(f"field {name}: {len(types)} types for {len(ref.into_fields)} fields")
@@ -288,7 +346,9 @@ class _MessageBuilder:
                 if src.mux is None:
                     raise LoweringError(f"field {name}: an envelope timestamp names its mux")
                 self.mux_values(src.mux)
+                self.uses_context = True
                 return f"stamps.envelope({py_literal(src.mux)})"
+            self.uses_context = True
             return "stamps.now()"
         if typ.is_message or base in ("time", "duration"):
             raise LoweringError(f"field {name}: cannot fill a {typ} field from {type(src).__name__}")
@@ -297,11 +357,13 @@ class _MessageBuilder:
         if isinstance(src, ir.MuxRef):
             return self.mux_ref(src, typ, name)
         if isinstance(src, ir.Counter):
+            self.uses_context = True
             if base in ir.INTEGER_TYPES and typ.array is None:
                 # wrapped like an integer of the field's type, as on every backend
                 return self.scalar(typ, f"ctx.count({py_literal(base)})", name)
             return self.scalar(typ, "ctx.counter", name)
         if isinstance(src, ir.Seconds):
+            self.uses_context = True
             return self.scalar(typ, "stamps.seconds", name)
         raise LoweringError(f"field {name}: unknown source {type(src).__name__}")
 
@@ -326,7 +388,7 @@ class _MessageBuilder:
         return "[" + ", ".join(_literal_text(v, typ.base) for v in lit.values) + "]"
 
     def mux_ref(self, ref: ir.MuxRef, typ: ir.TypeRef, name: str) -> str:
-        values = self.mux_values(ref.mux)
+        values = self.mux_numbers(ref.mux)
         if ref.index is not None:
             return self.scalar(typ, f"{values}[{ref.index:d}]", name)
         if typ.array is None:
@@ -361,6 +423,29 @@ class _MessageBuilder:
 # the node
 
 
+def _image_input(m: ir.Mux, i: ir.Input, k: int, topics: list, imports: dict) -> str:
+    """A camera image input (a YARP port of frames, or a ROS 2 topic of
+    sensor_msgs/Image): the mux's one input, no converters; its description."""
+    if len(m.inputs) != 1 or m.converters:
+        raise LoweringError(f"mux {m.name}: a camera image is the mux's one input, with no converter", m.span)
+    if i.kind == "yarp":
+        if i.image not in IMAGE_ENCODINGS:
+            raise LoweringError(f"the YARP port {i.name}: no pixel type {i.image!r}", i.span)
+        desc = f"yarp {i.name}: camera images, {i.image} (YARP {IMAGE_ENCODINGS[i.image]})"
+        if i.accepts:
+            desc += f"; also from {', '.join(i.accepts)}"
+        return desc
+    if i.kind != "ros2" or i.ros_type != IMAGE_TYPE or i.image != ir.ANY_ENCODING:
+        raise LoweringError(f"the input {i.name}: camera images come from a YARP port or a ROS 2 "
+                            f"{IMAGE_TYPE} topic", i.span)
+    alias = msg_alias(i.ros_type)
+    pkg, name = split_type(i.ros_type)
+    imports[alias] = MsgImport(f"{pkg}.msg", name, alias)
+    topics.append(TopicInputView(py_literal(m.name), k, alias, py_literal(())))
+    return (f"ROS 2 topic {i.name} ({ros2_type_name(i.ros_type)}): camera images of any encoding YARP "
+            f"has a pixel type for")
+
+
 def _lower_inputs(program: ir.Program):
     muxes: list[MuxView] = []
     topics: list[TopicInputView] = []
@@ -371,7 +456,9 @@ def _lower_inputs(program: ir.Program):
         for k, i in enumerate(m.inputs):
             types = i.element_types
             width = "any number of numbers" if types is None else f"{len(types)} elements"
-            if i.kind == "ros2":
+            if i.image is not None:
+                desc = _image_input(m, i, k, topics, imports)
+            elif i.kind == "ros2":
                 if not i.ros_type:
                     raise LoweringError(f"the ROS 2 input {i.name} has no message type", i.span)
                 if not i.fields:
@@ -405,7 +492,7 @@ def _lower_inputs(program: ir.Program):
                 mux=py_literal(m.name), index=k, source=py_literal(i.name), kind=py_literal(i.kind),
                 types=py_literal(types), timeout=py_literal(float(i.timeout)),
                 description=py_literal(desc), reads=py_literal(i.reads),
-                accepts=py_literal(tuple(i.accepts))))
+                accepts=py_literal(tuple(i.accepts)), image=py_literal(i.image)))
         convs = converter_views(m, used)
         muxes.append(MuxView(py_literal(m.name), tuple(inputs), convs, py_literal(bool(m.verbose)),
                              py_literal(m.element_types), m.rows))
@@ -422,6 +509,8 @@ def lower(program: ir.Program) -> NodeView:
                             "port (every input and the output are ROS 2 topics)")
     ros_output = None
     yarp_output = None
+    camera_info = None
+    image_output = None
     uses_rows = False
     wire: tuple[tuple[str, str], ...] = ()
     if out.kind == "ros2":
@@ -448,6 +537,25 @@ def lower(program: ir.Program) -> NodeView:
             imports[msg_alias(element_type)] = MsgImport(f"{pkg}.msg", name, msg_alias(element_type))
         builder, needed = tuple(mb.lines), tuple(mb.muxes)
         desc = f"{ros2_type_name(msg_type)} on the ROS 2 topic {out.name}"
+        if out.camera_info is not None:
+            if not mb.uses_images:
+                raise LoweringError("a CameraInfo goes beside a camera image", out.camera_info.span)
+            camera_info = _camera_info(program, out.camera_info, imports)
+            desc += f", with {ros2_type_name(CAMERA_INFO_TYPE)} on {out.camera_info.topic}"
+        if mb.uses_images:
+            names = "CameraInfoOutput, fill_image" if camera_info is not None else "fill_image"
+            rt_imports += (RuntimeImport("ros2_io", names),)
+    elif out.kind == "yarp" and out.image is not None:
+        mux = program.mux(out.image)
+        if mux.image is None:
+            raise LoweringError(f"mux {out.image} holds no camera images", out.span)
+        image_output = ImageOutputView(py_literal(out.name), py_literal(out.connect_to))
+        builder = (Line(1, f"return frame_out(v[{py_literal(out.image)}], ctx)"),)
+        needed = (out.image,)
+        rt_imports += (RuntimeImport("images", "YarpImageOutput, frame_out"),)
+        desc = f"camera images on the YARP port {out.name}"
+        if out.connect_to:
+            desc += f", connected to {out.connect_to}"
     elif out.kind == "yarp":
         yarp_output = bottle_output(program, "ros2")
         bb = BottleBuilder(program)
@@ -496,7 +604,27 @@ def lower(program: ir.Program) -> NodeView:
         builder=builder,
         uses_rows=uses_rows,
         runtime_imports=rt_imports,
+        camera_info=camera_info,
+        image_output=image_output,
     )
+
+
+def _camera_info(program: ir.Program, info: ir.CameraInfo, imports: dict) -> CameraInfoView:
+    """The CameraInfo beside the image: a message of constants (the runtime
+    gives it the image's header and fits it to each frame's size)."""
+    if info.message.msg_type not in (None, CAMERA_INFO_TYPE):
+        raise LoweringError(f"a CameraInfo is a {CAMERA_INFO_TYPE}, not {info.message.msg_type}", info.span)
+    alias = msg_alias(CAMERA_INFO_TYPE)
+    pkg, name = split_type(CAMERA_INFO_TYPE)
+    imports[alias] = MsgImport(f"{pkg}.msg", name, alias)
+    mb = _MessageBuilder(program)
+    try:
+        mb.message(info.message, alias)
+    except LoweringError as e:
+        raise e.at(info.span)
+    if mb.muxes or mb.uses_context or mb.uses_images or mb.element_types:
+        raise LoweringError("the fields of a CameraInfo are constants (its header is the image's)", info.span)
+    return CameraInfoView(topic=py_literal(info.topic), msg_class=alias, builder=tuple(mb.lines))
 
 
 def lower_package(program: ir.Program, view: NodeView) -> PackageView:
