@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import math
 import re
-import signal
 import sys
 import time
 from dataclasses import dataclass, field
@@ -31,8 +30,10 @@ from pathlib import Path
 
 import pytest
 
-import middleware
-from middleware import VENV_PYTHON, Peer, Proc
+from harness.module import Node, stop_clean
+from harness.procs import Peer
+from harness.ros2 import Ros2Domain, ros2_environment
+from harness.yarp import YarpServer
 from ybg import cli
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "peers"))
@@ -71,45 +72,26 @@ def ns_of(seconds: float) -> list:
 def generate(config: Path, out: Path) -> Path:
     """``ybgc CONFIG --backend ros2 -o OUT``; the node's path."""
     assert cli.main([str(config), "--backend", "ros2", "-o", str(out)]) == 0
-    (node,) = [p for p in out.glob("*_node.py") if p.name.startswith(_module_of(config))]
+    module = re.search(r"^name = (\S+)$", config.read_text(), re.M).group(1)
+    return out / f"{module}_node.py"
+
+
+#: the nodes of this file's tests, shared by several of them
+_NODES: list = []
+
+
+def start_node(env: dict, path: Path, *args: str) -> Node:
+    node = Node(env, path, *args).start()
+    _NODES.append(node)
     return node
 
 
-def _module_of(config: Path) -> str:
-    return re.search(r"^name = (\S+)$", config.read_text(), re.M).group(1)
-
-
-def mw_env(server, domain) -> dict:
-    env = dict(server.env)
-    env.update(domain.ros_env)
-    for key in ("ROS_HOME", "ROS_LOG_DIR"):
-        env[key] = domain.env[key]
-    return env
-
-
-def wait_log(proc: Proc, text: str, timeout: float = 60.0, count: int = 1) -> str:
-    end = time.monotonic() + timeout
-    while True:
-        log = proc.log_text()
-        if log.count(text) >= count:
-            return log
-        if not proc.alive:
-            raise AssertionError(f"{proc.name} exited; log:\n{log[-3000:]}")
-        if time.monotonic() > end:
-            raise AssertionError(f"no {text!r} in the log of {proc.name}:\n{log[-3000:]}")
-        time.sleep(0.05)
-
-
-def stop_clean(proc: Proc) -> str:
-    """SIGINT: exit 0 within 2 s, no traceback; the log with its totals."""
-    t0 = time.monotonic()
-    rc = proc.stop(timeout=5.0, sig=signal.SIGINT)
-    took = time.monotonic() - t0
-    log = proc.log_text()
-    assert rc == 0, f"{proc.name}: exit status {rc}; log:\n{log[-3000:]}"
-    assert took < 2.5, f"{proc.name} took {took:.2f} s to exit"
-    assert "Traceback" not in log, log
-    return log
+@pytest.fixture(autouse=True)
+def _print_node_logs():
+    """The logs of the nodes so far, shown by pytest when a test fails."""
+    yield
+    for node in _NODES:
+        print(f"---- log of {node.name}:\n{node.log_text()[-3000:]}")
 
 
 def input_totals(log: str, source: str) -> dict:
@@ -157,8 +139,8 @@ def yarp_to_ros2(yarp, tmp_path_factory):
     folder = tmp_path_factory.mktemp("yarp_to_ros2")
     paths = {e: generate(yarp_to_ros2_config(e, folder), folder) for e in ENCODINGS}
     started = []
-    with middleware.YarpServer(install=yarp) as server, middleware.Ros2Domain() as domain:
-        env = mw_env(server, domain)
+    with YarpServer(install=yarp) as server, Ros2Domain() as domain:
+        env = ros2_environment(server.env, domain)
         try:
             producer = ImagePeer(env, {"mode": "yarp_pub", "port": YARP_SOURCE}, name="image_producer").start()
             started.append(producer)
@@ -167,13 +149,12 @@ def yarp_to_ros2(yarp, tmp_path_factory):
             started.append(subscriber)
             nodes = {}
             for e, path in paths.items():  # started together: their start-up overlaps
-                nodes[e] = Proc([VENV_PYTHON, path, "--ros-args", "-p", "timeout:=120.0"], env=env,
-                                name=path.stem).start()
+                nodes[e] = start_node(env, path, "--ros-args", "-p", "timeout:=120.0")
                 started.append(nodes[e])
             for e, node in nodes.items():
-                wait_log(node, f"connected {YARP_SOURCE} -> ")
-                wait_log(node, f"{IMAGE_TOPIC}: 1 subscriber\n")
-            wait_log(nodes["rgb8"], f"{INFO_TOPIC}: 1 subscriber\n")
+                node.wait_log(f"connected {YARP_SOURCE} -> ")
+                node.wait_log(f"{IMAGE_TOPIC}: 1 subscriber\n")
+            nodes["rgb8"].wait_log(f"{INFO_TOPIC}: 1 subscriber\n")
             subscriber.wait_event("matched", lambda ev: ev["n"] >= len(nodes))
             yield YarpToRos2(nodes, producer, subscriber)
         finally:
@@ -289,7 +270,7 @@ def test_yarp_to_ros2_totals(yarp_to_ros2):
 
 @dataclass
 class Ros2ToYarp:
-    node: Proc
+    node: Node
     publisher: ImagePeer
     reader: ImagePeer
     sent: list = field(default_factory=list)   # encodings of the frames published
@@ -305,23 +286,22 @@ def ros2_to_yarp(yarp, tmp_path_factory):
                       f"via = ros2\n\n[output]\nport = {YARP_OUTPUT}\nimage = cam\n")
     path = generate(config, folder)
     started = []
-    with middleware.YarpServer(install=yarp) as server, middleware.Ros2Domain() as domain:
-        env = mw_env(server, domain)
+    with YarpServer(install=yarp) as server, Ros2Domain() as domain:
+        env = ros2_environment(server.env, domain)
         try:
             # every frame delivered, none overtaken (the inputs' default: best effort, the newest only)
-            node = Proc([VENV_PYTHON, path, "--ros-args", "-p", "timeout:=120.0",
-                         "-p", f"qos_overrides.{ROS_TOPIC}.subscription.reliability:=reliable",
-                         "-p", f"qos_overrides.{ROS_TOPIC}.subscription.depth:=10"], env=env,
-                        name=path.stem).start()
+            node = start_node(env, path, "--ros-args", "-p", "timeout:=120.0",
+                              "-p", f"qos_overrides.{ROS_TOPIC}.subscription.reliability:=reliable",
+                              "-p", f"qos_overrides.{ROS_TOPIC}.subscription.depth:=10")
             started.append(node)
             publisher = ImagePeer(env, {"mode": "ros2_pub", "topic": ROS_TOPIC}, name="image_publisher").start()
             started.append(publisher)
-            wait_log(node, "publishing camera images")
+            node.wait_log("publishing camera images")
             reader = ImagePeer(env, {"mode": "yarp_sub", "port": YARP_READER, "connect_from": YARP_OUTPUT},
                                name="image_reader").start()
             started.append(reader)
             publisher.wait_event("matched", lambda ev: ev["n"] >= 1)
-            wait_log(node, f"{ROS_TOPIC}: 1 publisher\n")
+            node.wait_log(f"{ROS_TOPIC}: 1 publisher\n")
             yield Ros2ToYarp(node, publisher, reader)
         finally:
             for proc in reversed(started):
@@ -379,7 +359,7 @@ def test_ros2_resolution_changes_and_a_refused_encoding(ros2_to_yarp):
         receive_yarp(rig, width, height, pixel, seed, stamp)
     frames = sum(ev["ev"] == "frame" for ev in rig.reader.events)
     send_ros2(rig, W, H, "yuv422", 0)
-    wait_log(rig.node, "refused a frame (encoding yuv422, which YARP has no pixel type for)")
+    rig.node.wait_log("refused a frame (encoding yuv422, which YARP has no pixel type for)")
     seed, stamp = send_ros2(rig, W, H, "bgr8", 0, stamped=False)
     receive_yarp(rig, W, H, "bgr8", seed, stamp)
     assert sum(ev["ev"] == "frame" for ev in rig.reader.events) == frames + 1
@@ -424,8 +404,8 @@ def literal_fields(struct) -> dict:
 
 @pytest.fixture(scope="module")
 def examples_mw(yarp):
-    with middleware.YarpServer(install=yarp) as server, middleware.Ros2Domain() as domain:
-        yield mw_env(server, domain)
+    with YarpServer(install=yarp) as server, Ros2Domain() as domain:
+        yield ros2_environment(server.env, domain)
 
 
 # the ROS 2 side of each example on today's YARP; every pixel type and every
@@ -450,13 +430,13 @@ def test_example_yarp_camera_to_ros2(examples_mw, tmp_path, stem):
         subscriber = ImagePeer(env, {"mode": "ros2_sub", "topic": out.name, "info_topic": out.camera_info.topic},
                                name=f"{stem}_subscriber").start()
         started.append(subscriber)
-        node = Proc([VENV_PYTHON, node_path, "--ros-args", "-p", "timeout:=120.0",
-                     *[x for q in qos for x in ("-p", q)]], env=env, name=node_path.stem).start()
+        node = start_node(env, node_path, "--ros-args", "-p", "timeout:=120.0",
+                          *[x for q in qos for x in ("-p", q)])
         started.append(node)
         producer = ImagePeer(env, {"mode": "yarp_pub", "port": inp.name}, name=f"{stem}_producer").start()
         started.append(producer)
-        wait_log(node, f"connected {inp.name} -> ")
-        wait_log(node, f"{out.camera_info.topic}: 1 subscriber\n")
+        node.wait_log(f"connected {inp.name} -> ")
+        node.wait_log(f"{out.camera_info.topic}: 1 subscriber\n")
         subscriber.wait_event("matched", lambda ev: ev["n"] >= 1)
         size = image_data.PIXEL_SIZES[inp.image]
         for k, scale in enumerate((1, 2)):
@@ -485,18 +465,17 @@ def test_example_ros2_camera_to_yarp(examples_mw, tmp_path):
     env = examples_mw
     started = []
     try:
-        node = Proc([VENV_PYTHON, node_path, "--ros-args",
-                     "-p", f"qos_overrides.{inp.name}.subscription.reliability:=reliable"], env=env,
-                    name=node_path.stem).start()
+        node = start_node(env, node_path, "--ros-args",
+                          "-p", f"qos_overrides.{inp.name}.subscription.reliability:=reliable")
         started.append(node)
         publisher = ImagePeer(env, {"mode": "ros2_pub", "topic": inp.name}, name="camera_publisher").start()
         started.append(publisher)
-        wait_log(node, "publishing camera images")
+        node.wait_log("publishing camera images")
         reader = ImagePeer(env, {"mode": "yarp_sub", "port": "/ybg_camera/reader",
                                  "connect_from": program.output.name}, name="camera_reader").start()
         started.append(reader)
         publisher.wait_event("matched", lambda ev: ev["n"] >= 1)
-        wait_log(node, f"{inp.name}: 1 publisher\n")
+        node.wait_log(f"{inp.name}: 1 publisher\n")
         publisher.send(cmd="frame", width=640, height=480, pixel="rgb8", seed=5, step_pad=0,
                        stamp=[1_700_000_000, 750_000_000])
         ev = reader.wait_event("frame", lambda ev: ev["sha"] == image_data.sha(640, 480, 3, 5), timeout=30)
