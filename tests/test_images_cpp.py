@@ -8,8 +8,8 @@ tests/peers/image_peer.py, every pixel checked by its hash
   (quantum 8) or not (quantum 1) arrives with every pixel, ``step`` the
   packed row, the declared encoding, the stamp of its envelope; with its
   ``CameraInfo`` (the same header, k and p fitted to the frame's size) as the
-  resolution changes; a frame of another pixel type is refused: counted in
-  the exit totals, nothing published from it;
+  resolution changes; a frame of another pixel type is refused: said once,
+  counted as refused (`stats`, the exit totals), nothing published from it;
 - a ROS 2 ``sensor_msgs/Image`` of every encoding YARP has a pixel type for,
   its rows padded (an odd step), to a YARP port of images: packed rows, the
   pixel type of the encoding, the envelope of its stamp; an encoding YARP
@@ -23,6 +23,7 @@ pytest-xdist workers); each case runs its own name server and ROS 2 domain.
 from __future__ import annotations
 
 import hashlib
+import re
 import sys
 from pathlib import Path
 
@@ -251,10 +252,21 @@ def fitted(width: int, height: int) -> tuple:
 
 
 def stop_module(module: Module) -> dict:
+    """SIGINT: exit 0 within 2 s; its exit totals, and what they say of
+    each input's refused frames ({source: text after `refused `})."""
     rc, seconds = module.interrupt()
     log = module.log_text()
     assert rc == 0 and seconds < 2.0, log[-3000:]
-    return totals(log)
+    counts = totals(log)
+    counts["refused"] = dict(re.findall(r"input (\S+): received .*?, refused (.*)$", log, re.M))
+    return counts
+
+
+def refused_in_stats(server, module: str, source: str, n: int) -> None:
+    """Waits until the module's `stats` count ``n`` refused messages of ``source``."""
+    line = re.compile(rf'^\s*input "?{re.escape(source)}"? received \d+ dropped 0 stale \d+ unused \d+ refused {n}$',
+                      re.M)
+    wait_stats(server, f"/{module}/rpc:i", lambda s: line.search(s["text"]))
 
 
 # --------------------------------------------------------------------------
@@ -288,8 +300,8 @@ def test_resolution_changes_camera_info_and_a_frame_of_another_pixel_type(built,
     the frame's size (321x241, 640x480, 320x240, 321x241 again), the
     CameraInfo has the image's header and the frame's size, k and p scaled
     to it (exactly the calibration at 320x240); a mono8 frame is refused:
-    said once, no image or CameraInfo from it, counted as dropped in the exit
-    totals (and in `stats` meanwhile)."""
+    said once, no image or CameraInfo from it, counted as refused in `stats`
+    and the exit totals, with the reason."""
     module, sub, pub = yarp_to_ros2(graph, built.exe("rgb8"), "eye_rgb8", info=True)
     frames = [frame(321, 241, "rgb8", 11, stamp=[1, 100.25]),
               frame(640, 480, "rgb8", 12, quantum=1, stamp=[2, 101.5]),
@@ -308,8 +320,9 @@ def test_resolution_changes_camera_info_and_a_frame_of_another_pixel_type(built,
 
     images, infos = len(sub.events_of("frame")), len(sub.events_of("info"))
     pub.send(**frame(321, 241, "mono8", 14, stamp=[4, 103.25]))
-    module.wait_log("dropped a frame (a frame of pixel type mono8 (YARP's mono), not the declared rgb8)")
-    wait_stats(graph.server, "/eye_rgb8/rpc:i", lambda s: s["inputs"][CAMERA][1] == 1)
+    refused = "pixel type mono, not rgb: the declared rgb8"
+    module.wait_log(f"input {CAMERA}: refused a frame ({refused}); further frames refused are only counted")
+    refused_in_stats(graph.server, "eye_rgb8", CAMERA, 1)
     last = frame(321, 241, "rgb8", 15, stamp=[5, 104.25])
     check_image(send_frame(pub, sub, last), last, "rgb8", "eye_rgb8")
     info_for(sub, sub.events_of("frame")[-1])
@@ -317,8 +330,9 @@ def test_resolution_changes_camera_info_and_a_frame_of_another_pixel_type(built,
     assert (len(sub.events_of("frame")), len(sub.events_of("info"))) == (images + 1, infos + 1)
     sent = pub.frames_sent
     counts = stop_module(module)
-    assert counts[CAMERA] == (sent, 1, 0) and counts["published"] == sent - 1, counts
-    assert module.count(r"dropped a frame") == 1
+    assert counts[CAMERA] == (sent, 0, 0) and counts["published"] == sent - 1, counts
+    assert counts["refused"] == {CAMERA: f"1 frame ({refused})"}
+    assert module.count(r"refused a frame") == 1
 
 
 # --------------------------------------------------------------------------
@@ -367,16 +381,18 @@ def test_ros2_images_to_a_yarp_port(built, graph):
     frames = len(reader.events_of("frame"))
     for k, encoding in enumerate(("yuv422", "bayer_rggb8")):
         pub.send(**frame(16, 4, encoding, 60 + k, stamp=[3000, 0]))
-        wait_stats(graph.server, "/camera_to_yarp/rpc:i", lambda s, k=k: s["inputs"][TOPIC][1] == k + 1)
-    module.wait_log("dropped a frame (an image of encoding 'yuv422', which YARP has no pixel type for)")
+        refused_in_stats(graph.server, "camera_to_yarp", TOPIC, k + 1)
+    refused = "encoding yuv422, which YARP has no pixel type for"
+    module.wait_log(f"input {TOPIC}: refused a frame ({refused}); further frames refused are only counted")
     last = frame(5, 5, "rgb8", 70, step_pad=1, stamp=[4000, 0])
     pub.send(**last)
     reader.wait_event("frame", lambda e: e["sha"] == sha_of(last), timeout=30)
     assert len(reader.events_of("frame")) == frames + 1  # nothing of the refused ones
     sent = pub.frames_sent
     counts = stop_module(module)
-    assert counts[TOPIC] == (sent, 2, 0) and counts["published"] == sent - 2, counts
-    assert module.count(r"dropped a frame") == 1
+    assert counts[TOPIC] == (sent, 0, 0) and counts["published"] == sent - 2, counts
+    assert counts["refused"] == {TOPIC: f"2 frames ({refused})"}
+    assert module.count(r"refused a frame") == 1
 
 
 # --------------------------------------------------------------------------

@@ -101,13 +101,13 @@ std::size_t pixelSize(int code)
 std::string codeName(int code)
 {
     std::string out;
-    for (int k = 0; k < 4; ++k) {
-        const char c = static_cast<char>((static_cast<unsigned>(code) >> (8 * k)) & 0xff);
-        if (c != '\0') {
-            out += c >= ' ' && c <= '~' ? c : '?';
-        }
+    bool printable = true;
+    for (int rest = code; rest > 0 && out.size() < 4; rest >>= 8) {
+        const char c = static_cast<char>(rest & 0xff);
+        printable = printable && c >= ' ' && c <= '~';
+        out += c;
     }
-    return out.empty() ? std::to_string(code) : out;
+    return !out.empty() && printable ? out : std::to_string(code);
 }
 
 std::string describe(const Frame& frame)
@@ -199,10 +199,7 @@ std::string refusal(const yarp::sig::FlexImage& frame, const char* encoding)
     if (code == want) {
         return "";
     }
-    const char* name = encodingOf(code);
-    return "a frame of pixel type " + (name != nullptr ? std::string(name) + " (YARP's " + codeName(code) + ")"
-                                                        : "'" + codeName(code) + "'")
-        + ", not the declared " + encoding;
+    return "pixel type " + codeName(code) + ", not " + codeName(want) + ": the declared " + encoding;
 }
 
 namespace {
@@ -225,8 +222,7 @@ public:
             return image.read(connection);
         } catch (const std::out_of_range&) {
             // YARP knows no size for the sender's pixel code (it set the code before failing)
-            problem = "a frame of pixel code " + std::to_string(image.getPixelCode()) + " ('"
-                + codeName(image.getPixelCode()) + "'), which YARP does not know";
+            problem = "pixel code " + std::to_string(image.getPixelCode()) + ", which YARP does not know";
             return true;
         }
     }
@@ -456,22 +452,28 @@ void read(const sensor_msgs__msg__Image& msg, Reading& out)
     const std::string encoding(msg.encoding.data != nullptr ? msg.encoding.data : "", msg.encoding.size);
     const Pixel* pixel = byCode(pixelCode(encoding));
     if (pixel == nullptr) {
-        out.refused = "an image of encoding '" + encoding + "', which YARP has no pixel type for";
+        out.refused = "encoding " + (encoding.empty() ? std::string("''") : encoding)
+            + ", which YARP has no pixel type for";
         return;
     }
     if (msg.is_bigendian != 0 && pixel->channel > 1) {
-        out.refused = "an image of big-endian " + encoding + " pixels (is_bigendian = 1; YARP's are little endian)";
+        out.refused = "big-endian " + encoding + " pixels (YARP's are little-endian)";
+        return;
+    }
+    if (msg.width == 0 || msg.height == 0) {
+        out.refused = "no pixels (" + std::to_string(msg.width) + "x" + std::to_string(msg.height) + ")";
         return;
     }
     const std::size_t row = static_cast<std::size_t>(msg.width) * pixel->size;
-    if (msg.width == 0 || msg.height == 0) {
-        out.refused = "an image of no pixels (" + std::to_string(msg.width) + "x" + std::to_string(msg.height) + ")";
+    if (msg.step < row) {
+        out.refused = "step " + std::to_string(msg.step) + ", shorter than a row of " + std::to_string(msg.width)
+            + " " + encoding + " pixels";
         return;
     }
-    if (msg.step < row || msg.data.size < static_cast<std::size_t>(msg.step) * msg.height) {
-        out.refused = "an image whose data (" + std::to_string(msg.data.size) + " bytes, step "
-            + std::to_string(msg.step) + ") does not hold " + std::to_string(msg.height) + " rows of "
-            + std::to_string(row) + " bytes";
+    const std::size_t need = static_cast<std::size_t>(msg.step) * msg.height;
+    if (msg.data.size < need) {
+        out.refused = std::to_string(msg.data.size) + " bytes of data, fewer than step x height = "
+            + std::to_string(need);
         return;
     }
     std::shared_ptr<yarp::sig::FlexImage> image = pool->take();

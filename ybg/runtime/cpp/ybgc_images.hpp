@@ -3,7 +3,8 @@
 // a ROS 2 sensor_msgs/Image topic to a YARP port of images. A frame is a
 // yarp::sig::FlexImage of any pixel type (ybgc::Frame), and goes through the
 // bridge as a Bottle does: the same check of the port that sent it, the
-// same freshness, trigger, queue, totals and /diagnostics. What a frame
+// same freshness, trigger, queue, totals and /diagnostics (a frame of
+// another pixel type than declared is refused: counted, said once). What a frame
 // costs: read from YARP into the port's image and swapped out of it (no
 // copy), its rows copied once into the message's data (without YARP's row
 // padding); read from ROS 2, its rows copied once into a packed image that
@@ -59,8 +60,10 @@ void copyRows(unsigned char* dst, std::size_t dstStep, const unsigned char* src,
 // --- a YARP port of images to ROS 2 -----------------------------------------------------
 
 /// Why a frame read from YARP is not one an input of `encoding` takes ("":
-/// it is): a frame of no pixels, or of another pixel type than the
-/// encoding's (mono16 and 16UC1 are both YARP's MONO16).
+/// it is), as the Python runtime says it: a frame of no pixels, or of
+/// another pixel type than the encoding's (mono16 and 16UC1 are both YARP's
+/// MONO16). Such a frame is refused (ybgc::refuseFrame): counted as refused,
+/// said once, never used.
 std::string refusal(const yarp::sig::FlexImage& frame, const char* encoding);
 
 /// The port of a YARP camera image input (a ybgc::FramePorts): a
@@ -146,9 +149,9 @@ int run(const BridgeSpec& spec, const ros2::Ros2Spec& ros2, const ros2::MessageT
 /// input, for ybgc::ros2::topic): the pixel type of its encoding, its rows
 /// copied one by one (ROS's step may be padded) into an image of packed rows
 /// (quantum 1); its envelope is its header.stamp (ybgc::ros2::topic). An
-/// encoding YARP has no pixel type for, big-endian 16- or 32-bit pixels, a
-/// step shorter than a row or data shorter than step * height: no frame,
-/// and `out.refused` says why.
+/// encoding YARP has no pixel type for, big-endian 16- or 32-bit pixels, no
+/// pixels, a step shorter than a row or data shorter than step * height: no
+/// frame, and `out.refused` says why (the input refuses it: refuseFrame).
 void read(const sensor_msgs__msg__Image& msg, Reading& out);
 
 /// The YARP port of images of a bridge (`[output] image = <mux>`): for each

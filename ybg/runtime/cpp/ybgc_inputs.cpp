@@ -75,9 +75,40 @@ void refuse(InputState& in, const std::string& why)
     ++in.dropped;
     if (!in.reportedDrop) {
         in.reportedDrop = true;
-        say("input " + std::string(in.spec.source) + ": dropped a " + (in.spec.image != nullptr ? "frame" : "Bottle")
-            + " (" + why + "); further drops are only counted");
+        say("input " + std::string(in.spec.source) + ": dropped a Bottle (" + why + "); further drops are only counted");
     }
+}
+
+void refuseFrame(InputState& in, const std::string& why)
+{
+    ++in.refused;
+    if (in.unfit++ == 0) {
+        in.unfitReason = why;
+        say("input " + std::string(in.spec.source) + ": refused a frame (" + why
+            + "); further frames refused are only counted");
+    }
+}
+
+std::string refusedText(const InputState& in)
+{
+    const std::uint64_t refused = in.refused;
+    const std::uint64_t unfit = in.unfit;
+    if (refused == 0) {
+        return "";
+    }
+    std::string from;
+    for (const std::string& name : in.foreign) {
+        from += (from.empty() ? "" : ", ") + name;
+    }
+    if (unfit == 0) {
+        return ", refused " + std::to_string(refused) + " from " + from;
+    }
+    const std::string frames = std::to_string(unfit) + (unfit == 1 ? " frame (" : " frames (") + in.unfitReason + ")";
+    if (refused == unfit) {
+        return ", refused " + frames;
+    }
+    return ", refused " + std::to_string(refused) + ": " + std::to_string(refused - unfit) + " from " + from + ", "
+        + frames;
 }
 
 bool accepts(const InputState& in, const std::string& name)
@@ -395,7 +426,13 @@ void Input::onRead(SourcedBottle& in)
     const bool hasEnvelope = port_.getEnvelope(stamp) && stamp.isValid();
     std::string why;
     const bool ok = parseBottle(bottle, spec, shared_.dropNan, scratch_, why, items_);
-    take(ok, scratch_, hasEnvelope, hasEnvelope ? stamp.getTime() : 0.0, why, now);
+    std::lock_guard<std::mutex> lock(shared_.mutex);
+    if (!ok) {
+        ++received;
+        refuse(*this, why);
+        return;
+    }
+    take(scratch_, hasEnvelope, hasEnvelope ? stamp.getTime() : 0.0, now);
 }
 
 void Input::onFrame(const std::string& source, Frame& frame, bool hasEnvelope, double envelope, int pending,
@@ -405,22 +442,32 @@ void Input::onFrame(const std::string& source, Frame& frame, bool hasEnvelope, d
     if (!fromAccepted(source)) {
         return;
     }
+    std::lock_guard<std::mutex> lock(shared_.mutex);
     if (pending > kBacklog) {
-        std::lock_guard<std::mutex> lock(shared_.mutex);
         ++received;  // far behind: skipped, so that the reader catches up
         ++unused;
         return;
     }
+    if (!why.empty()) {
+        ++received;
+        refuseFrame(*this, why);
+        return;
+    }
     scratch_.clear();
-    take(why.empty(), scratch_, hasEnvelope, envelope, why, now, nullptr, &frame);
+    take(scratch_, hasEnvelope, envelope, now, nullptr, &frame);
 }
 
 void Input::deliver(Reading& reading)
 {
     const SteadyClock::time_point now = SteadyClock::now();
     if (spec.image != nullptr) {  // a camera image: its frame, or why it has none
-        const std::string why = reading.frame != nullptr || !reading.refused.empty() ? reading.refused : "no frame";
-        take(why.empty(), reading.values, reading.hasEnvelope, reading.envelope, why, now, nullptr, &reading.frame);
+        std::lock_guard<std::mutex> lock(shared_.mutex);
+        if (reading.frame == nullptr) {
+            ++received;
+            refuseFrame(*this, reading.refused.empty() ? "no frame" : reading.refused);
+            return;
+        }
+        take(reading.values, reading.hasEnvelope, reading.envelope, now, nullptr, &reading.frame);
         return;
     }
     std::string why;
@@ -431,8 +478,13 @@ void Input::deliver(Reading& reading)
             ok = false;
         }
     }
-    take(ok, reading.values, reading.hasEnvelope, reading.envelope, why, now,
-         reading.isRows ? &reading.rows : nullptr);
+    std::lock_guard<std::mutex> lock(shared_.mutex);
+    if (!ok) {
+        ++received;
+        refuse(*this, why);
+        return;
+    }
+    take(reading.values, reading.hasEnvelope, reading.envelope, now, reading.isRows ? &reading.rows : nullptr);
 }
 
 yarp::os::Contact Input::where() const
@@ -446,15 +498,10 @@ void Input::refuseConnection(const std::string& other)
     refuseForeign(*this, other, false);
 }
 
-void Input::take(bool ok, Mux& values, bool hasEnvelope, double envelope, const std::string& why,
-                 SteadyClock::time_point now, Rows* rows, Frame* frame)
+void Input::take(Mux& values, bool hasEnvelope, double envelope, SteadyClock::time_point now, Rows* rows,
+                 Frame* frame)
 {
-    std::lock_guard<std::mutex> lock(shared_.mutex);
     ++received;
-    if (!ok) {
-        refuse(*this, why);
-        return;
-    }
     const bool wasFresh = accept(*this, values, hasEnvelope, envelope, now, shared_.queue);
     if (rows != nullptr) {
         queue.back().data.rows.swap(*rows);

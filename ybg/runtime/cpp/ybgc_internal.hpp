@@ -127,8 +127,8 @@ public:
 
     /// A frame read by its FramePort (YARP's callback thread), sent by port
     /// `source` (`pending`: the frames still unread behind it): taken as a
-    /// Bottle is, or dropped for `why` when not empty (a pixel type other
-    /// than the declared one); `frame` moved out when taken.
+    /// Bottle is, or refused for `why` when not empty (a pixel type other
+    /// than the declared one: refuseFrame); `frame` moved out when taken.
     void onFrame(const std::string& source, Frame& frame, bool hasEnvelope, double envelope, int pending,
                  const std::string& why);
 
@@ -147,11 +147,11 @@ public:
     std::string registered;   // its name in the name server (topic-@node for ROS)
 
 private:
-    /// A message read (accepted when `ok`, else refused for `why`), under
-    /// the lock; `rows`: its rows (moved out), for an array of messages;
+    /// A message read and accepted, Shared::mutex held: its values (moved
+    /// out); `rows`: its rows (moved out), for an array of messages;
     /// `frame`: its frame (moved out), for a camera image.
-    void take(bool ok, Mux& values, bool hasEnvelope, double envelope, const std::string& why,
-              SteadyClock::time_point now, Rows* rows = nullptr, Frame* frame = nullptr);
+    void take(Mux& values, bool hasEnvelope, double envelope, SteadyClock::time_point now, Rows* rows = nullptr,
+              Frame* frame = nullptr);
 
     /// Is a Bottle or frame of port `source` one it takes? If not, it is
     /// refused (counted, said once) and its connection closed.

@@ -466,14 +466,7 @@ private:
             out += "  input " + std::string(in->spec.source) + ": received " + std::to_string(in->received)
                 + ", dropped " + std::to_string(in->dropped) + ", stale periods "
                 + std::to_string(in->stalePeriods) + ", unused " + std::to_string(in->unused);
-            if (in->refused > 0) {
-                std::string from;
-                for (const std::string& name : in->foreign) {
-                    from += (from.empty() ? "" : ", ") + name;
-                }
-                out += ", refused " + std::to_string(in->refused) + " from " + from;
-            }
-            out += "\n";
+            out += refusedText(*in) + "\n";
         }
         out += "  published " + std::to_string(published_) + " messages, skipped "
             + std::to_string(skippedCycles_) + " cycles, build failures " + std::to_string(buildFailures_) + "\n";

@@ -295,7 +295,7 @@ struct InputSpec
     std::vector<const char*> accepts = {};  // YARP port: other ports whose Bottles it takes too
     /// A camera image input: its frames' encoding ("rgb8", "mono16", "32FC1" ...; "any": each
     /// frame's own, a ROS 2 sensor_msgs/Image topic); a YARP port's frame of another pixel type is
-    /// dropped. nullptr: Bottles (or a ROS 2 message's values).
+    /// refused (refuseFrame). nullptr: Bottles (or a ROS 2 message's values).
     const char* image = nullptr;
 };
 
@@ -434,7 +434,9 @@ struct InputState
     std::atomic<std::uint64_t> dropped{0};
     std::atomic<std::uint64_t> unused{0};        // accepted (or skipped unread), never in a message
     std::atomic<std::uint64_t> stalePeriods{0};
-    std::atomic<std::uint64_t> refused{0};       // Bottles of another port than those it accepts
+    std::atomic<std::uint64_t> refused{0};       // Bottles of another port than those it accepts, and unfit frames
+    std::atomic<std::uint64_t> unfit{0};         // camera frames refused for what they are (of `refused`)
+    std::string unfitReason;                     // why the first of them was refused (said once)
     std::vector<std::string> accepted;           // the ports whose Bottles it takes: its source, those accepted
     std::vector<std::string> foreign;            // the other ports that sent to it, in order (each said once)
     Freshness state = Freshness::Waiting;
@@ -452,6 +454,16 @@ bool accept(InputState& in, Mux& values, bool hasEnvelope, double envelope, Stea
 
 /// A Bottle the input refused (`why`): counted, said the first time only.
 void refuse(InputState& in, const std::string& why);
+
+/// A camera frame of the input's own port refused for what it is (`why`: a
+/// pixel type other than the declared one, an encoding YARP has no pixel type
+/// for): counted as refused, never used; said the first time only.
+void refuseFrame(InputState& in, const std::string& why);
+
+/// What the exit totals say of an input's refused messages ("" for none):
+/// of which ports, and how many frames refused for what they are (the
+/// first reason), as the Python runtime says it.
+std::string refusedText(const InputState& in);
 
 /// Does the input take the Bottles of port `name` (its source, or one it accepts)?
 bool accepts(const InputState& in, const std::string& name);
@@ -604,7 +616,7 @@ struct Reading
     Rows rows;             // read from an array of messages: one row an element
     bool isRows = false;
     Frame frame;           // a camera image (InputSpec::image)
-    std::string refused;   // not empty: why the message is dropped (an image YARP has no pixel type for)
+    std::string refused;   // not empty: why the message is refused (an image YARP has no pixel type for)
     bool hasEnvelope = false;
     double envelope = 0.0;  // seconds
 };
