@@ -18,8 +18,12 @@ import pytest
 from ybg.compiler import ir
 from ybg.runtime import core, images
 from ybg.runtime.core import BridgeSpec, InputSpec, InputState, MuxSpec
-from ybg.runtime.images import (PIXEL_TYPES, Frame, copy_rows, fit_calibration, message_frame, packed_rows,
+from ybg.runtime.images import (PIXEL_TYPES, Frame, append_rows, copy_rows, fit_calibration, message_frame,
                                 pixel_code, pixel_size, vocab32, vocab_text, yarp_frame)
+
+
+def packed_rows(source, row_size, row_bytes, height):
+    return append_rows(array.array("B"), source, row_size, row_bytes, height)
 
 
 def pattern(n: int, salt: int = 0) -> bytes:
@@ -82,6 +86,13 @@ def test_packed_rows_of_a_buffer_shorter_than_its_rows_is_an_error():
         packed_rows(bytes(39), 10, 10, 4)
     assert packed_rows(bytes(38), 10, 8, 4).tobytes() == bytes(32)  # the last row needs no padding
     assert len(packed_rows(b"", 0, 0, 0)) == 0
+
+
+def test_rows_are_appended():
+    out = array.array("B", b"ab")
+    append_rows(out, b"123x456x", 4, 3, 2)
+    append_rows(out, b"78", 2, 2, 1)
+    assert out.tobytes() == b"ab12345678"
 
 
 @pytest.mark.parametrize("src_step,dst_row", [(963, 963), (966, 963), (963, 968), (1024, 1000)])
@@ -179,17 +190,12 @@ def test_yarp_frame_of_a_flex_image(encoding, quantum):
     ctypes.memmove(int(image.getRawImage()), raw, n)
     frame = yarp_frame(image, encoding)
     row_bytes = width * pixel_size(encoding)
-    assert (frame.width, frame.height, frame.encoding, frame.step) == (width, height, encoding, row_bytes)
-    assert frame.data.tobytes() == b"".join(raw[y * row:y * row + row_bytes] for y in range(height))
-
-
-def test_yarp_frame_of_an_empty_image():
-    import yarp
-
-    image = yarp.FlexImage()
-    image.setPixelCode(pixel_code("rgb8"))
-    frame = yarp_frame(image, "rgb8")
-    assert (frame.width, frame.height, len(frame.data)) == (0, 0, 0)
+    # a view of YARP's pixels, padding and all: no copy until a message is filled
+    assert (frame.width, frame.height, frame.encoding, frame.step, frame.owner) == (width, height, encoding, row,
+                                                                                    image)
+    assert ctypes.addressof(frame.data) == int(image.getRawImage())
+    packed = packed_rows(frame.data, frame.step, row_bytes, height)
+    assert packed.tobytes() == b"".join(raw[y * row:y * row + row_bytes] for y in range(height))
 
 
 def test_written_frame_is_packed_in_a_flex_image():
@@ -217,11 +223,14 @@ def test_fill_image_from_a_frame():
 
     from ybg.runtime.ros2_io import fill_image
 
-    data = array.array("B", pattern(963 * 2))
+    data = array.array("B", pattern(968 * 2))
     msg = Image()
-    fill_image(msg, [Frame(321, 2, "rgb8", 963, data)], "rgb8")
+    own = msg.data
+    fill_image(msg, [Frame(321, 2, "rgb8", 968, data)], "rgb8")  # YARP's rows, 5 bytes of padding each
     assert (msg.height, msg.width, msg.encoding, msg.is_bigendian, msg.step) == (2, 321, "rgb8", 0, 963)
-    assert msg.data.tobytes() == data.tobytes()
+    assert msg.data is own and msg.data.tobytes() == data[:963].tobytes() + data[968:968 + 963].tobytes()
+    fill_image(msg, [Frame(3, 1, "mono8", 3, b"xyz")], "8UC1")  # a message filled again: its data anew
+    assert (msg.data.tobytes(), msg.step, msg.encoding) == (b"xyz", 3, "8UC1")
     with pytest.raises(IndexError):
         fill_image(msg, [], "rgb8")  # a mux with no frame: a build failure, counted
 

@@ -4,11 +4,11 @@ to a frame's size (plain code, tested as it is), and the YARP side: an
 input port that reads frames of any pixel type, an output port that writes
 them (docs/runtime.md, "Images").
 
-A frame is copied whole, row by row at most (no Python per pixel): out of
-YARP's image into packed rows (YARP -> ROS 2), or from a message's rows into
-a YARP image of packed rows (ROS 2 -> YARP)."""
+A frame is copied once, whole or row by row (no Python per pixel): from
+YARP's image into the packed rows of a sensor_msgs/Image's data (YARP ->
+ROS 2), or from a message's rows into a YARP image of packed rows (ROS 2 ->
+YARP)."""
 
-import array
 import collections
 import ctypes
 import threading
@@ -69,19 +69,21 @@ def pixel_size(encoding):
 
 class Frame:
     """One camera image: ``height`` rows of ``width`` pixels in ``encoding``,
-    each row ``step`` bytes of ``data`` (a buffer: an ``array('B')``), its
-    time ``stamp`` in seconds (None: none given). Frames are the values of
-    an image mux: its one element."""
+    each row ``step`` bytes of ``data`` (a buffer), its time ``stamp`` in
+    seconds (None: none given); ``owner`` keeps the buffer's memory alive
+    (a YARP image whose pixels ``data`` is a view of). Frames are the values
+    of an image mux: its one element."""
 
-    __slots__ = ("width", "height", "encoding", "step", "data", "stamp")
+    __slots__ = ("width", "height", "encoding", "step", "data", "stamp", "owner")
 
-    def __init__(self, width, height, encoding, step, data, stamp=None):
+    def __init__(self, width, height, encoding, step, data, stamp=None, owner=None):
         self.width = width
         self.height = height
         self.encoding = encoding
         self.step = step
         self.data = data
         self.stamp = stamp
+        self.owner = owner
 
     def row_bytes(self):
         """The bytes of one row's pixels (``step`` may hold more)."""
@@ -112,23 +114,24 @@ def frame_out(values, ctx):
     return FrameOut(frame, ctx.counter % _COUNT_WRAP, ctx.seconds if frame.stamp is None else frame.stamp)
 
 
-def packed_rows(source, row_size, row_bytes, height):
-    """The rows of a frame packed (each ``row_bytes`` long, what ROS calls
-    step) in a new ``array('B')``, from ``source`` (a buffer) whose rows are
-    ``row_size`` bytes apart (YARP pads rows to its quantum): one copy, of
-    the whole buffer at once when no row is padded."""
+def append_rows(out, source, row_size, row_bytes, height):
+    """Append to ``out`` (an ``array('B')``) the rows of a frame packed, each
+    ``row_bytes`` long (what ROS calls step), from ``source`` (a buffer)
+    whose rows are ``row_size`` bytes apart (YARP pads rows to its quantum):
+    one copy, of the whole buffer at once when no row is padded (else the
+    room is made first, zeros, then each row copied into it)."""
     if row_size < row_bytes:
         raise ValueError("rows of %d bytes are %d bytes apart" % (row_bytes, row_size))
     n = row_bytes * height
     view = memoryview(source).cast("B")
     if height and len(view) < row_size * (height - 1) + row_bytes:
         raise ValueError("%d bytes for %d rows of %d bytes, %d apart" % (len(view), height, row_bytes, row_size))
-    out = array.array("B")
     if row_size == row_bytes:
         out.frombytes(view[:n])
         return out
-    out = array.array("B", b"\0") * n  # a fill, not a copy
-    dst = memoryview(out)
+    start = len(out)
+    out.frombytes(bytes(n))  # calloc'd: no pass over the frame's bytes
+    dst = memoryview(out)[start:]
     for y in range(height):
         dst[y * row_bytes:(y + 1) * row_bytes] = view[y * row_size:y * row_size + row_bytes]
     return out
@@ -199,24 +202,22 @@ def fit_calibration(k, p, width, height, frame_width, frame_height):
 # --- the YARP side -------------------------------------------------------------
 
 def yarp_frame(image, encoding):
-    """A Frame of ``image`` (a yarp FlexImage) in ``encoding`` with its rows
-    packed: the one copy out of YARP's buffer."""
-    width, height = image.width(), image.height()
-    row_bytes = width * image.getPixelSize()
+    """A Frame of ``image`` (a yarp FlexImage of at least one pixel) in
+    ``encoding``: a view of its pixels, YARP's row padding and all (no
+    copy: the image is the frame's, until a message is filled from it)."""
     n = image.getRawImageSize()
-    if n == 0 or height == 0:
-        return Frame(width, height, encoding, row_bytes, array.array("B"))
     raw = (ctypes.c_ubyte * n).from_address(int(image.getRawImage()))
-    return Frame(width, height, encoding, row_bytes, packed_rows(raw, image.getRowSize(), row_bytes, height))
+    return Frame(image.width(), image.height(), encoding, image.getRowSize(), raw, owner=image)
 
 
 class ImageInput(Input):
     """A YARP port of camera images, read like a port of Bottles (each frame
     with the port that sent it, foreign ports refused, the same queues and
     freshness) but of yarp::sig::Image frames of any pixel type: a frame of
-    the declared encoding's pixel type is copied out (in the input's thread)
-    and given to the bridge as the mux's one value; a frame of another pixel
-    type is refused, counted and said once."""
+    the declared encoding's pixel type is given to the bridge as the mux's
+    one value (YARP's image itself, each read into a new one: no copy); a
+    frame of another pixel type, or of no pixels, is refused, counted and
+    said once."""
 
     def __init__(self, bridge, spec, local, timeout):
         Input.__init__(self, bridge, spec, local, timeout)
@@ -235,8 +236,8 @@ class ImageInput(Input):
         return envelope
 
     def _handle(self, image, now, envelope, behind):
-        """In the input's thread: a frame of the declared pixel type copied
-        out of YARP's image and given to the bridge; another one refused."""
+        """In the input's thread: a frame of the declared pixel type given to
+        the bridge; another one refused."""
         if self.bridge.stopping:
             return
         try:

@@ -30,7 +30,7 @@ from rclpy.qos_overriding_options import QoSOverridingOptions, QoSPolicyKind
 from rclpy.signals import SignalHandlerOptions
 
 from .core import _FLOAT_TYPES, _INT_TYPES, InputState, parse_accept, seconds_to_ns  # ybgc:runtime-import
-from .images import ImageInput, fit_calibration, frame_of, message_frame  # ybgc:runtime-import
+from .images import ImageInput, append_rows, fit_calibration, frame_of, message_frame  # ybgc:runtime-import
 from .yarp_io import YarpBridge  # ybgc:runtime-import
 
 
@@ -264,15 +264,20 @@ class Ros2ImageInput(Ros2Input):
 
 def fill_image(msg, values, encoding):
     """The fields of a sensor_msgs/Image from the frame of an image mux's
-    ``values``: its size, ``encoding``, little-endian, its packed rows
-    (step = width x pixel size; assigning an ``array('B')`` copies it once)."""
+    ``values``: its size, ``encoding``, little-endian, its rows packed
+    (step = width x pixel size), copied once into the message's own
+    ``data`` (an ``array('B')``: assigning one would copy it again)."""
     frame = frame_of(values)
+    row = frame.row_bytes()
+    data = msg.data
+    if len(data):
+        del data[:]
+    append_rows(data, frame.data, frame.step, row, frame.height)
     msg.height = frame.height
     msg.width = frame.width
     msg.encoding = encoding
     msg.is_bigendian = 0
-    msg.step = frame.step
-    msg.data = frame.data
+    msg.step = row
 
 
 def _publisher(node, msg_class, topic, qos, on_matched):
