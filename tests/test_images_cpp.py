@@ -33,7 +33,7 @@ from harness.build import Builds, run_folder
 from harness.env import DEFAULT_YARP, PEERS
 from harness.module import Module, totals, wait_stats
 from harness.procs import Peer
-from harness.ros2 import ros2_environment
+from harness.ros2 import Ros2Publisher, ros2_environment
 from harness.yarp import YarpServer
 from ybg.backends import check_result
 from ybg.compiler.pipeline import compile_path
@@ -368,8 +368,10 @@ def test_ros2_images_to_a_yarp_port(built, graph):
     """Every encoding YARP has a pixel type for, rows padded by ROS 2 (step
     = row + 5 bytes, or none), two sizes: each a YARP image of the encoding's
     pixel type, its rows packed (no padding: quantum 1), every pixel; the
-    envelope is its header.stamp. An encoding YARP has no pixel type for
-    (yuv422, bayer_rggb8) is refused: said once, nothing written, counted."""
+    envelope is its header.stamp. Refused, said once, counted, nothing
+    written: an encoding YARP has no pixel type for (yuv422, bayer_rggb8),
+    big-endian 16-bit pixels, a step shorter than a row, data shorter than
+    step x height, no pixels; big-endian rgb8 is taken (bytes have no order)."""
     module, reader, pub = ros2_to_yarp(graph, built.exe("cam"))
     for k, encoding in enumerate(ENCODINGS):
         for f in (frame(321, 241, encoding, 20 + k, step_pad=5, stamp=[1000 + k, 250000000]),
@@ -384,14 +386,32 @@ def test_ros2_images_to_a_yarp_port(built, graph):
         refused_in_stats(graph.server, "camera_to_yarp", TOPIC, k + 1)
     refused = "encoding yuv422, which YARP has no pixel type for"
     module.wait_log(f"input {TOPIC}: refused a frame ({refused}); further frames refused are only counted")
+
+    # images the peer does not make, from a publisher of any message
+    odd = graph.start(Ros2Publisher(graph.env, TOPIC, "sensor_msgs/msg/Image"))
+    odd.wait_matched()
+    malformed = [{"width": 4, "height": 2, "encoding": "mono16", "is_bigendian": 1, "step": 8, "data": [0] * 16},
+                 {"width": 4, "height": 2, "encoding": "rgb8", "step": 11, "data": [0] * 22},
+                 {"width": 4, "height": 2, "encoding": "rgb8", "step": 12, "data": [0] * 23},
+                 {"width": 0, "height": 0, "encoding": "rgb8"}]
+    for k, msg in enumerate(malformed):
+        odd.publish(msg)
+        refused_in_stats(graph.server, "camera_to_yarp", TOPIC, 3 + k)
+    odd.publish({"width": 2, "height": 2, "encoding": "rgb8", "is_bigendian": 1, "step": 7, "data": list(range(14)),
+                 "header": {"stamp": {"sec": 5000, "nanosec": 0}}})
+    got = reader.wait_event("frame", lambda e: (e["width"], e["height"]) == (2, 2), timeout=30)
+    assert (got["pixel"], got["row_size"]) == ("rgb8", 6), got
+    assert got["stamp"] == [pub.frames_sent - 2, 5000.0]  # the envelope: the messages before it, its stamp
+    assert got["sha"] == hashlib.sha256(bytes([0, 1, 2, 3, 4, 5, 7, 8, 9, 10, 11, 12])).hexdigest()
+
     last = frame(5, 5, "rgb8", 70, step_pad=1, stamp=[4000, 0])
     pub.send(**last)
     reader.wait_event("frame", lambda e: e["sha"] == sha_of(last), timeout=30)
-    assert len(reader.events_of("frame")) == frames + 1  # nothing of the refused ones
-    sent = pub.frames_sent
+    assert len(reader.events_of("frame")) == frames + 2  # nothing of the refused ones
+    sent = pub.frames_sent + len(malformed) + 1
     counts = stop_module(module)
-    assert counts[TOPIC] == (sent, 0, 0) and counts["published"] == sent - 2, counts
-    assert counts["refused"] == {TOPIC: f"2 frames ({refused})"}
+    assert counts[TOPIC] == (sent, 0, 0) and counts["published"] == sent - 6, counts
+    assert counts["refused"] == {TOPIC: f"6 frames ({refused})"}
     assert module.count(r"refused a frame") == 1
 
 
