@@ -24,6 +24,7 @@ from harness.generated import without_runtime
 from harness.programs import (CPP_GOLDEN_PROGRAMS, PY_GOLDEN_PROGRAMS, config_program, ros2_example, ros2_examples,
                               supported_configs)
 from ybg.backends import RenderOptions, get_backend
+from ybg.backends.runtime import cpp_files, is_runtime_file
 from ybg.compiler.ir import Program
 
 GOLDEN = Path(__file__).resolve().parent / "golden"
@@ -69,16 +70,17 @@ def rendered(case: Case, program: Program) -> dict[str, str]:
 
 def check_rendered(case: Case, program: Program, files: dict[str, str]) -> None:
     """What every generation of the case holds, golden or not: the same files
-    from a program compiled again; Python that compiles; a C++ module's files
-    by name."""
+    from a program compiled again; Python that compiles; a C++ module's own
+    files by name, the rest the runtime library's."""
     assert rendered(case, case.make()) == files, "output is not deterministic"
     for name, text in files.items():
         if name.endswith(".py"):
             compile(text, name, "exec")
-    if case.backend == "cpp":
-        ros2 = {"ybgc_ros2.hpp", "ybgc_ros2.cpp"} if uses_rcl(program) else set()
-        assert set(files) == {f"{program.module}.cpp", "CMakeLists.txt", f"{program.module}.xml",
-                              "ybgc_runtime.hpp", "ybgc_runtime.cpp"} | ros2
+    if case.backend == "cpp":  # the module's three files, and the runtime library's (its ROS 2 side for rcl)
+        own = {f"{program.module}.cpp", "CMakeLists.txt", f"{program.module}.xml"}
+        runtime = set(files) - own
+        assert own <= set(files) and all(is_runtime_file(name) for name in runtime), sorted(files)
+        assert set(cpp_files(ros2=uses_rcl(program))) <= runtime, sorted(files)
 
 
 def on_disk(folder: Path) -> list[str]:
