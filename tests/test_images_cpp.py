@@ -253,7 +253,9 @@ def fitted(width: int, height: int) -> tuple:
 
 def stop_module(module: Module) -> dict:
     """SIGINT: exit 0 within 2 s; its exit totals, and what they say of
-    each input's refused frames ({source: text after `refused `})."""
+    each input's refused frames ({source: text after `refused `}). (An input
+    may have gone stale between two frames on a busy machine: its stale
+    periods are not what these tests count.)"""
     rc, seconds = module.interrupt()
     log = module.log_text()
     assert rc == 0 and seconds < 2.0, log[-3000:]
@@ -292,7 +294,7 @@ def test_yarp_frames_to_ros2_images(built, graph, encoding):
         check_image(send_frame(pub, sub, f), f, encoding, f"eye_{encoding}")
     sent = pub.frames_sent
     counts = stop_module(module)
-    assert counts[CAMERA] == (sent, 0, 0) and counts["published"] == sent, counts
+    assert counts[CAMERA][:2] == (sent, 0) and counts["published"] == sent, counts
 
 
 def test_resolution_changes_camera_info_and_a_frame_of_another_pixel_type(built, graph):
@@ -301,7 +303,7 @@ def test_resolution_changes_camera_info_and_a_frame_of_another_pixel_type(built,
     CameraInfo has the image's header and the frame's size, k and p scaled
     to it (exactly the calibration at 320x240); a mono8 frame is refused:
     said once, no image or CameraInfo from it, counted as refused in `stats`
-    and the exit totals, with the reason."""
+    and the exit totals, with the reason; so is a frame of no pixels."""
     module, sub, pub = yarp_to_ros2(graph, built.exe("rgb8"), "eye_rgb8", info=True)
     frames = [frame(321, 241, "rgb8", 11, stamp=[1, 100.25]),
               frame(640, 480, "rgb8", 12, quantum=1, stamp=[2, 101.5]),
@@ -323,15 +325,17 @@ def test_resolution_changes_camera_info_and_a_frame_of_another_pixel_type(built,
     refused = "pixel type mono, not rgb: the declared rgb8"
     module.wait_log(f"input {CAMERA}: refused a frame ({refused}); further frames refused are only counted")
     refused_in_stats(graph.server, "eye_rgb8", CAMERA, 1)
-    last = frame(321, 241, "rgb8", 15, stamp=[5, 104.25])
+    pub.send(**frame(0, 0, "rgb8", 16, stamp=[5, 103.5]))  # a frame of no pixels
+    refused_in_stats(graph.server, "eye_rgb8", CAMERA, 2)
+    last = frame(321, 241, "rgb8", 15, stamp=[6, 104.25])
     check_image(send_frame(pub, sub, last), last, "rgb8", "eye_rgb8")
     info_for(sub, sub.events_of("frame")[-1])
     # the next frame came, and nothing in between: the refused one published nothing
     assert (len(sub.events_of("frame")), len(sub.events_of("info"))) == (images + 1, infos + 1)
     sent = pub.frames_sent
     counts = stop_module(module)
-    assert counts[CAMERA] == (sent, 0, 0) and counts["published"] == sent - 1, counts
-    assert counts["refused"] == {CAMERA: f"1 frame ({refused})"}
+    assert counts[CAMERA][:2] == (sent, 0) and counts["published"] == sent - 2, counts
+    assert counts["refused"] == {CAMERA: f"2 frames ({refused})"}
     assert module.count(r"refused a frame") == 1
 
 
@@ -410,7 +414,7 @@ def test_ros2_images_to_a_yarp_port(built, graph):
     assert len(reader.events_of("frame")) == frames + 2  # nothing of the refused ones
     sent = pub.frames_sent + len(malformed) + 1
     counts = stop_module(module)
-    assert counts[TOPIC] == (sent, 0, 0) and counts["published"] == sent - 6, counts
+    assert counts[TOPIC][:2] == (sent, 0) and counts["published"] == sent - 6, counts
     assert counts["refused"] == {TOPIC: f"6 frames ({refused})"}
     assert module.count(r"refused a frame") == 1
 
@@ -449,6 +453,6 @@ def test_images_both_ways_on_every_yarp(built_on, yarp, ros2_domain):
         pub.send(**f)
         check_yarp_frame(reader.wait_event("frame", lambda e: e["sha"] == sha_of(f), timeout=30), f)
         counts = stop_module(module)
-        assert counts[TOPIC] == (1, 0, 0) and counts["published"] == 1, counts
+        assert counts[TOPIC][:2] == (1, 0) and counts["published"] == 1, counts
     finally:
         g.close()
