@@ -36,6 +36,8 @@ from harness.procs import Peer
 from harness.ros2 import Ros2Publisher, ros2_environment
 from harness.yarp import YarpServer
 from ybg.backends import check_result
+from ybg.backends.runtime import CPP_DIR
+from ybg.compiler import ir
 from ybg.compiler.pipeline import compile_path
 
 sys.path.insert(0, str(PEERS))
@@ -269,6 +271,18 @@ def refused_in_stats(server, module: str, source: str, n: int) -> None:
     line = re.compile(rf'^\s*input "?{re.escape(source)}"? received \d+ dropped 0 stale \d+ unused \d+ refused {n}$',
                       re.M)
     wait_stats(server, f"/{module}/rpc:i", lambda s: line.search(s["text"]))
+
+
+def test_the_runtime_knows_the_pixel_type_of_every_encoding():
+    """The C++ runtime's table (ybgc_images.cpp) maps each encoding of the
+    IR (``ir.IMAGE_ENCODINGS``, which the checker accepts) to the same YARP
+    pixel type, and 8UC1 (read from ROS 2) to mono8's."""
+    text = (CPP_DIR / "ybgc_images.cpp").read_text(encoding="utf-8")
+    table = dict(re.findall(r'^\s*\{"(\w+)", (VOCAB_PIXEL_\w+), \d+, \d+\},$', text, re.M))
+    assert table == {**ir.IMAGE_ENCODINGS, "8UC1": "VOCAB_PIXEL_MONO"}
+    assert {e: SIZE[e] for e in ir.IMAGE_ENCODINGS} == {
+        e: int(n) for e, n in re.findall(r'^\s*\{"(\w+)", VOCAB_PIXEL_\w+, (\d+), \d+\},$', text, re.M)
+        if e in ir.IMAGE_ENCODINGS}
 
 
 # --------------------------------------------------------------------------
