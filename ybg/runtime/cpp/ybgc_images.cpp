@@ -222,7 +222,7 @@ public:
             return image.read(connection);
         } catch (const std::out_of_range&) {
             // YARP knows no size for the sender's pixel code (it set the code before failing)
-            problem = "pixel code " + std::to_string(image.getPixelCode()) + ", which YARP does not know";
+            problem = "pixel type " + codeName(image.getPixelCode()) + ", which YARP does not know";
             return true;
         }
     }
