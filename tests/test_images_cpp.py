@@ -289,8 +289,8 @@ def test_the_runtime_knows_the_pixel_type_of_every_encoding():
 # a YARP camera to ROS 2
 
 
-# the first test builds the modules (two jobs: about a minute, minutes on a
-# busy machine): more time than a single test gets
+# the first test of a worker builds the modules or waits for them (two jobs:
+# about a minute, minutes on a busy machine): more time than a test gets
 @pytest.mark.timeout(900)
 @pytest.mark.parametrize("encoding", ENCODINGS)
 def test_yarp_frames_to_ros2_images(built, graph, encoding):
@@ -311,6 +311,7 @@ def test_yarp_frames_to_ros2_images(built, graph, encoding):
     assert counts[CAMERA][:2] == (sent, 0) and counts["published"] == sent, counts
 
 
+@pytest.mark.timeout(900)  # it may be the first of a worker: it waits for the build
 def test_resolution_changes_camera_info_and_a_frame_of_another_pixel_type(built, graph):
     """rgb8 with its CameraInfo (calibrated at 320x240): the image follows
     the frame's size (321x241, 640x480, 320x240, 321x241 again), the
@@ -382,6 +383,7 @@ def check_yarp_frame(got: dict, f: dict) -> None:
     assert got["stamp"][1] == f["stamp"][0] + f["stamp"][1] * 1e-9, got  # as the runtime adds them
 
 
+@pytest.mark.timeout(900)  # it may be the first of a worker: it waits for the build
 def test_ros2_images_to_a_yarp_port(built, graph):
     """Every encoding YARP has a pixel type for, rows padded by ROS 2 (step
     = row + 5 bytes, or none), two sizes: each a YARP image of the encoding's
