@@ -48,6 +48,7 @@ from ybg.backends.cpp.escape import (CPP_KEYWORDS, cpp_comment, cpp_float, cpp_i
                                      cpp_std_string, cpp_string, mangle)
 from ybg.backends.cpp.lower import WIRE_ROS1, WIRE_YARP, LoweringError
 from ybg.compiler import ir
+from ybg.compiler.diagnostics import Span
 from ybg.compiler.ir import Default, Field, Input, Literal, Mux, MuxRef, Output, Program, Struct, TypeRef
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -396,9 +397,10 @@ def test_ros2_output_refuses_what_the_c_struct_builder_cannot_fill():
                        message=Struct((field,), "my_msgs/Label"), output=Output("ros2", "/label", "my_msgs/Label"),
                        ros="ros2", distro="jazzy")
 
+    text, corners = Span(7, 1, 7, 11), Span(9, 1, 9, 20)  # where a config would write them
     with pytest.raises(LoweringError) as e:
-        CppBackend().lower(program(Field("text", MuxRef("m", index=0), TypeRef("wstring"))))
-    assert e.value.where == ("field", "text") and "wstring" in str(e.value)
+        CppBackend().lower(program(Field("text", MuxRef("m", index=0), TypeRef("wstring"), text)))
+    assert e.value.span == text and "wstring" in str(e.value)
     topic = Input("/goal", kind="ros2", ros_type="geometry_msgs/PointStamped", fields=("point.x",))
     module = CppBackend().render(program(Field("value", MuxRef("m", index=0), TypeRef("float64")), (topic,)))
     assert "    ybgc::ros2::read(out, msg.point.x);\n" in module["label.cpp"]
@@ -410,12 +412,12 @@ def test_ros2_output_refuses_what_the_c_struct_builder_cannot_fill():
     corner = Struct((Field("x", Literal((1.5,), "float64"), TypeRef("float64")),), "my_msgs/Corner")
     with pytest.raises(LoweringError) as e:
         CppBackend().lower(program(Field("corners", ir.MessageArray((corner,), "my_msgs/Other"),
-                                         TypeRef("my_msgs/Corner", "sequence"))))
-    assert e.value.where == ("field", "corners")
+                                         TypeRef("my_msgs/Corner", "sequence"), corners)))
+    assert e.value.span == corners
     with pytest.raises(LoweringError) as e:
         CppBackend().lower(program(Field("corners", ir.MessageArray((corner,) * 3, "my_msgs/Corner"),
-                                         TypeRef("my_msgs/Corner", "sequence", 2))))
-    assert e.value.where == ("field", "corners") and "bounded" in str(e.value)
+                                         TypeRef("my_msgs/Corner", "sequence", 2), corners)))
+    assert e.value.span == corners and "bounded" in str(e.value)
 
 
 def test_ros2_output_fills_arrays_of_messages_of_every_kind():

@@ -55,7 +55,7 @@ from harness.yarp import YarpProducer, YarpReader
 from ybg.backends import RenderOptions, get_backend
 from ybg.backends.py import PyBackend
 from ybg.backends.ros2 import Ros2Backend
-from ybg.backends.runtime import RUNTIME_DIR
+from ybg.backends.runtime import PY_MODULES, RUNTIME_DIR
 from ybg.backends.ros2.lower import LoweringError, package_name
 from ybg.compiler.ir import (Counter, Default, ElementGroup, Field, Input, Literal, Mux,
                              MessageArray, MuxRef, Output, Program, QoS, Seconds, Struct, Timestamp, Timing,
@@ -956,7 +956,7 @@ def test_package_is_well_formed(tmp_path, stem):
     assert sorted(files) == sorted([
         "package.xml", "setup.py", "setup.cfg", f"resource/{pkg}", f"{pkg}/__init__.py",
         f"{pkg}/{exe}.py", f"launch/{program.module}.launch.py"]
-        + [f"{pkg}/ybgc_runtime/{m}.py" for m in ("__init__", "geometry", "core", "yarp_io", "ros2_io")])
+        + [f"{pkg}/ybgc_runtime/{m}.py" for m in ("__init__", *PY_MODULES)])
 
     # package.xml: format 3, ament_python, exec_depend on rclpy and the message packages
     xml = ET.parse(root / "package.xml").getroot()

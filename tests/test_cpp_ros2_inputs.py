@@ -342,4 +342,4 @@ def test_cpp_reads_ros2_inputs_and_refuses_rows_into_a_ros2_message():
                                                                                         inputs=(rows,))))
     with pytest.raises(LoweringError, match="array of messages") as e:
         CppBackend().lower(program)
-    assert e.value.where == ("input", "goal", "/arm_and_goal/goal")
+    assert e.value.span is not None and e.value.span == program.muxes[1].inputs[0].span  # the topic's item

@@ -3,7 +3,7 @@
 - Python (ybg/runtime/geometry.py) against an independent reference,
   scipy's Rotation (tests/harness/geometry_reference.py), to 1e-12, on what
   hypothesis draws; round trips away from singularities.
-- C++ (ybgc_runtime.cpp, built with -ffp-contract=off as a module is) against
+- C++ (ybgc_convert.cpp, built with -ffp-contract=off as a module is) against
   Python bit for bit, on what hypothesis draws (finite or not): a small
   program (tests/runtime/geometry_check.cpp) reads the inputs on its stdin.
 - Expressions: the code each backend compiles from the checked tree, C++ and
@@ -28,7 +28,8 @@ from harness import geometry_reference
 from harness.build import cmake_build
 from harness.env import yarp_install
 from ybg.backends.cpp.lower import cpp_expression
-from ybg.backends.py.lower import py_expression
+from ybg.backends.runtime import CPP_SOURCES
+from ybg.lower.python import py_expression
 from ybg.compiler import ir
 from ybg.compiler.diagnostics import Sink
 from ybg.compiler.fmt import format_document
@@ -227,7 +228,7 @@ def cpp(tmp_path_factory):
 project(geometry_check CXX)
 find_package(YARP REQUIRED COMPONENTS os)
 find_package(Threads REQUIRED)
-add_executable(geometry_check {HELPER} {RUNTIME / 'ybgc_runtime.cpp'})
+add_executable(geometry_check {HELPER} {' '.join(str(RUNTIME / s) for s in CPP_SOURCES)})
 target_include_directories(geometry_check PRIVATE {RUNTIME} {src})
 target_compile_features(geometry_check PRIVATE cxx_std_17)
 set_target_properties(geometry_check PROPERTIES CXX_EXTENSIONS OFF)

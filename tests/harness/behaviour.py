@@ -31,7 +31,7 @@ import pytest
 
 from harness.env import EXAMPLES, base_env, free_port
 from harness.module import assert_clean_exit, hold_the_reader, rate_from_counters, totals
-from harness.programs import DEG, EVIL_LIST, FIXED_STRINGS, hypothesis_strings, needs_ros1, supported_configs
+from harness.programs import DEG, EVIL_LIST, FIXED_STRINGS, hypothesis_strings, needs_ros1, bottle_configs
 from harness.reference import (COUNTER, Envelope, assert_matches, exactly, expected, mux_values, sent_values,
                                topic_message)
 from harness.ros1 import RospySubscriber, ros1_type_known, rospy_publisher
@@ -55,7 +55,7 @@ class BridgeBehaviour:
 
     @classmethod
     def configs(cls) -> list[Path]:
-        return supported_configs(cls.backend)
+        return bottle_configs(cls.backend)
 
     def pytest_generate_tests(self, metafunc):
         if "config" in metafunc.fixturenames:

@@ -254,6 +254,17 @@ def supported_configs(backend: str) -> list[Path]:
     return list(_supported(backend))
 
 
+def uses_images(program: Program) -> bool:
+    """Does ``program`` bridge camera images (tests/test_images_*.py), not Bottles?"""
+    return program.output.image is not None or any(i.image for m in program.muxes for i in m.inputs)
+
+
+def bottle_configs(backend: str) -> list[Path]:
+    """The configs of :func:`supported_configs` that bridge Bottles, which the
+    behaviour harness's reference knows (images have tests of their own)."""
+    return [p for p in supported_configs(backend) if not uses_images(config_program(p, backend))]
+
+
 def config_program(path: Path, backend: str) -> Program:
     """The program of the config at ``path``, checked for ``backend``."""
     result = check_result(compile_path(path), backend)
@@ -291,7 +302,7 @@ def ros2_examples() -> tuple[str, ...]:
     out = []
     for p in sorted(EXAMPLES.glob("*.ini")):
         result = check_result(compile_path(str(p)), "ros2")
-        if result.ok and _targets_ros2(result.program):
+        if result.ok and _targets_ros2(result.program) and not uses_images(result.program):
             out.append(p.stem)
     return tuple(out)
 
@@ -419,7 +430,7 @@ def build_programs() -> dict:
     programs["typed_ros_input"] = ros1_input_program
     programs["diff_native"] = diff_native_program
     programs["diff_tf"] = diff_tf_program
-    for path in supported_configs("cpp"):
+    for path in bottle_configs("cpp"):  # the image modules: tests/test_images_cpp.py's build
         programs[path.stem] = lambda path=path: config_program(path, "cpp")
     return programs
 
