@@ -44,10 +44,12 @@ Stages:
             subjects, --seconds each, in rounds (the subjects in turn, every
             rig up at once); CPU (user + sys / wall) of the relay and the
             modules, of the sinks and producers too
-  rate      1280x720 rgb8 at 30, 60, 120, 240 Hz, a few seconds each: relay,
-            cpp (and the rcl hop, the ROS 2 side's own limit)
-  stall     the cpp module (and the relay beside it) at 30 Hz 1280x720 with its
-            sink SIGSTOPped for --stall-seconds: RSS sampled every second
+  rate      1280x720 rgb8 at 30, 60, 120, 240, 480 Hz, 5 s each (2 s --quick):
+            relay, cpp (and the rcl hop, the ROS 2 side's own limit)
+  stall     the cpp module at 30 Hz 1280x720 with its sink SIGSTOPped for
+            --stall-seconds, RSS sampled every second; beside it, at once, the
+            relay and the module with glibc's mmap threshold fixed (cpp+mmap:
+            what the allocator keeps apart from what the module holds)
   defaults  1280x720 rgb8 at 30 Hz with Fast DDS's default transports (rcl-hop,
             relay, cpp): what a camera loses without the large-data profile
 
@@ -907,7 +909,9 @@ def section(data: dict) -> str:
     add(f"Written by `bench/images.py` from the figures of one run (raw numbers: "
         f"`{data['results_path']}`). A YARP camera port to a ROS 2 `sensor_msgs/Image`: the "
         f"generated modules against a hand-written relay, on the same workloads in the same run. "
-        f"Benchmarks here measure and report; the targets are not asserted by the tests.")
+        f"Benchmarks here measure and report; the targets are not asserted by the tests. "
+        f"`bench/run.py` writes this page anew: `bench/images.py --report-only` puts this section "
+        f"back from its JSON.")
     add("")
     add("| run | |")
     add("|---|---|")
@@ -1001,6 +1005,15 @@ def section(data: dict) -> str:
     for e in data.get("rate", []):
         if "error" in e:
             add(f"\n`{e['subject']}`: not measured: {short(e['error'])}")
+    for e in rates:
+        t = e.get("bridge_totals") or {}
+        if "received" in t:
+            add("")
+            add(f"`{e['subject']}`'s own totals over the steps (warm-up included): received "
+                f"{t['received']}, published {t.get('published')}, unused {t.get('unused', 0)}, dropped "
+                f"{t.get('dropped', 0)}: a frame left unused is one its input's queue (`queue`, 64 frames by "
+                f"default) gave up, the oldest, when the module fell behind; the relay's strict "
+                f"BufferedPort has no bound, so it loses nothing there and lags instead (its latency).")
     add("")
     add("### Memory under a stopped subscriber")
     add("")
@@ -1239,6 +1252,11 @@ def notes(data: dict) -> list:
             out.append(f"`{e['subject']}` on {e['label']}: {short(e['error'])}")
     out.append("CameraInfo: the configs publish no [camera_info] (the relay publishes none); a "
                "CameraInfo beside each image is one small message more.")
+    out.append("The rclpy node (`ros2`) in the rate and stall stages: only the C++ module is held to "
+               "the relay's highest rate and to the RSS target; the node's memory at the end of each "
+               "workload is in the JSON (bridge_memory_kb).")
+    out.append("Reliable QoS: every bridge publishes best effort (the modules' default for an Image); "
+               "a config with `reliability = reliable` was not measured.")
     out.append("ROS 2 -> YARP images (examples/ros2_camera_to_yarp.ini): not in this benchmark.")
     return out
 
