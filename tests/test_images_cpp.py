@@ -24,15 +24,14 @@ from __future__ import annotations
 
 import hashlib
 import re
-import sys
 from pathlib import Path
 
 import pytest
 
 from harness.build import Builds, run_folder
-from harness.env import DEFAULT_YARP, PEERS
+from harness.env import DEFAULT_YARP
+from harness.images import SIZE, ImagePeer, frame, image_data, sha_of
 from harness.module import Module, totals, wait_stats
-from harness.procs import Peer
 from harness.ros2 import Ros2Publisher, ros2_environment
 from harness.yarp import YarpServer
 from ybg.backends import check_result
@@ -40,12 +39,9 @@ from ybg.backends.runtime import CPP_DIR
 from ybg.compiler import ir
 from ybg.compiler.pipeline import compile_path
 
-sys.path.insert(0, str(PEERS))
-import image_data  # noqa: E402  (the peers' pixels, for the expected hashes)
 
 #: every encoding YARP has a pixel type for
 ENCODINGS = ("rgb8", "bgr8", "rgba8", "bgra8", "mono8", "mono16", "16UC1", "32FC1")
-SIZE = image_data.PIXEL_SIZES
 
 CAMERA = "/test/cam:o"
 TOPIC = "/test/camera/image_raw"
@@ -139,22 +135,6 @@ def built(tmp_path_factory) -> Builds:
     return built_modules(tmp_path_factory, DEFAULT_YARP, ("cam", *ENCODINGS))
 
 
-class ImagePeer(Peer):
-    """tests/peers/image_peer.py: a YARP image producer or reader, a ROS 2
-    Image publisher or subscriber (with its CameraInfo)."""
-
-    script = "image_peer.py"
-    frames_sent = 0  # frame commands given (a producer sends each)
-
-    def send(self, **cmd) -> None:
-        super().send(**cmd)
-        self.frames_sent += cmd.get("cmd") == "frame"
-
-    def events_of(self, ev: str, since: int = 0) -> list:
-        with self._cond:
-            return [e for e in self.events[since:] if e["ev"] == ev]
-
-
 class Graph:
     """A name server, a ROS 2 domain, the module and its peers; stopped at exit."""
 
@@ -178,14 +158,6 @@ def graph(ros2_domain):
     g = Graph(DEFAULT_YARP, ros2_domain)
     yield g
     g.close()
-
-
-def frame(width, height, pixel, seed, **extra) -> dict:
-    return {"cmd": "frame", "width": width, "height": height, "pixel": pixel, "seed": seed, **extra}
-
-
-def sha_of(f: dict) -> str:
-    return image_data.sha(f["width"], f["height"], SIZE[f["pixel"]], f["seed"])
 
 
 def yarp_to_ros2(graph: Graph, exe: Path, name: str, info: bool):

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import math
 import re
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,13 +30,11 @@ from pathlib import Path
 import pytest
 
 from harness.module import Node, stop_clean
-from harness.procs import Peer
+from harness.images import ImagePeer, image_data
 from harness.ros2 import Ros2Domain, ros2_environment
 from harness.yarp import YarpServer
 from ybg import cli
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "peers"))
-import image_data  # noqa: E402
 
 W, H = 321, 241  # odd: every row of every pixel type padded by YARP's default quantum (8)
 
@@ -54,13 +51,6 @@ CALIBRATION = {"w": 320, "h": 240, "fx": 219.057, "fy": 219.028, "cx": 174.742, 
 ROS_TOPIC = "/ybg_camera/image_raw"
 YARP_OUTPUT = "/ybg_camera/image:o"
 YARP_READER = "/ybg_camera/reader"
-
-
-class ImagePeer(Peer):
-    """tests/peers/image_peer.py: a YARP image producer or reader, a ROS 2
-    Image publisher or subscriber (with its CameraInfo)."""
-
-    script = "image_peer.py"
 
 
 def ns_of(seconds: float) -> list:
