@@ -7,7 +7,7 @@ quaternion, a 3x3 rotation matrix (9, row-major) -> quaternion, a 4x4
 homogeneous transform (16, row-major) -> translation and quaternion (7), a
 quaternion normalised. Quaternions are ``x y z w``, as ROS orders them.
 
-The C++ runtime (``ybgc_runtime.cpp``) does the same operations in the same
+The C++ runtime (``ybgc_convert.cpp``) does the same operations in the same
 order with the same libm, so that both give the same bits; a result that is
 not finite (a NaN input, a zero quaternion, a matrix that is no rotation) is
 all NaN in both. Python raises where C gives an infinity or a NaN (a division

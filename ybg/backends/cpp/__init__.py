@@ -2,15 +2,16 @@
 reads YARP ports or ROS 1 topics and writes a Bottle on a YARP port or a
 ROS 1 topic (YARP's topic@node ports, with the type promised), or publishes
 a ROS 2 message through rcl (:mod:`.ros2`: its C struct filled field by
-field; the runtime's ``ybgc_ros2.hpp``/``.cpp`` beside it).
+field; the runtime's ROS 2 side ``ybgc_ros2.*`` beside it), and camera
+images both ways (the runtime's ``ybgc_images.*``).
 
 The module (``module.cpp.j2``) holds this bridge's description, its muxes,
 the message builder and the places for custom code; it runs on the runtime
 library (``ybg/runtime/cpp/``: inputs, layout checks, freshness, matching,
 converters, timing, connections, the RPC port, shutdown), written beside it as
-``ybgc_runtime.hpp`` and ``ybgc_runtime.cpp`` or inlined with
+``ybgc_runtime.hpp`` and its sources (``ybgc_*.cpp``) or inlined with
 ``--single-file`` (:mod:`ybg.backends.runtime`); its yarpmanager
-application ``<module>.xml`` beside it (:mod:`ybg.backends.yarpmanager`);
+application ``<module>.xml`` beside it (:mod:`ybg.lower.yarpmanager`);
 with ``--package``, a ROS 2 package around it (:mod:`.package`). :mod:`.lower` makes every
 decision and escapes every value with :mod:`.escape`; the templates only
 print.

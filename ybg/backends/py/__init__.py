@@ -7,7 +7,7 @@ and the places for custom code; it runs on the runtime library
 (:mod:`ybg.runtime`: ``core`` and ``yarp_io``), written beside it as
 ``ybgc_runtime/`` or inlined with ``--single-file``
 (:mod:`ybg.backends.runtime`); its yarpmanager application ``<module>.xml``
-beside it (:mod:`ybg.backends.yarpmanager`). :mod:`.lower` makes every decision; the
+beside it (:mod:`ybg.lower.yarpmanager`). :mod:`.lower` makes every decision; the
 templates only print.
 """
 
