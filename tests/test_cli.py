@@ -180,7 +180,8 @@ def test_backend_choices_come_from_the_registry(monkeypatch):
     help says what each backend makes, in the registry's words."""
     from ybg import backends, cli
 
-    extra = backends.BackendInfo("nowhere:Nothing", "a test entry", frozenset(), frozenset())
+    extra = backends.registry.BackendInfo("nowhere:Nothing", "a test entry",
+                                          backends.Builds(frozenset(), frozenset(), {}))
     monkeypatch.setitem(backends.REGISTRY, "zz", extra)
     parser = cli.build_parser()
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
@@ -369,12 +370,13 @@ def test_generate_reports_what_check_reports(tmp_path):
 
 def test_generate_maps_a_rendering_error_to_its_line(tmp_path, monkeypatch, capsys):
     """A LoweringError that only rendering raises is reported as a
-    diagnostic at the line of the part it names, never as a bare message."""
+    diagnostic at the span of the IR element it refuses, never as a bare message."""
     from ybg import backends, cli
 
     class Refusing:
-        def render(self, program, options):
-            raise backends.LoweringError("no such thing", ("field", "name"))
+        def render(self, program, options):  # refuses the field `name`, at its span in the IR
+            field = next(f for f in program.message.fields if f.name == "name")
+            raise backends.LoweringError("no such thing", field.span)
 
     monkeypatch.setattr(backends, "get_backend", lambda name: Refusing())
     cfg = ROOT / "examples" / "vizzy_rviz_joint_states.ini"
