@@ -1,7 +1,7 @@
 """The real-middleware helpers under one name, for what imports them so from
-outside the tests (bench/blocks.py, scripts/demo.py) and for
-tests/test_runtime_cpp.py: they live in the harness, tests/harness/ (env,
-procs, yarp, ros1, ros2, build), which the test modules import."""
+outside the tests (bench/blocks.py, scripts/demo.py): they live in the
+harness, tests/harness/ (env, procs, yarp, ros1, ros2, build), which the
+test modules import."""
 from harness.build import held, run_folder  # noqa: F401
 from harness.env import *  # noqa: F401,F403
 from harness.env import fail as _fail, python_imports as _python_imports  # noqa: F401

@@ -16,8 +16,9 @@ from pathlib import Path
 import pytest
 
 import ybg
-from generated import ybgc
-from middleware import VENV, require_ros2
+from harness.generated import ybgc
+from harness.env import VENV
+from harness.ros2 import require_ros2
 from ybg.backends.runtime import CPP_DIR
 
 ROOT = Path(__file__).resolve().parent.parent
