@@ -16,10 +16,10 @@ and that no backend owns.
 - :mod:`.package`: the ROS 2 package and launch file around a module;
 - :mod:`.templates`: the Jinja environment (templates only print) and its
   filters;
-- :mod:`.runtime`: the runtime library, written beside a module or inlined;
 - :mod:`.yarpmanager`: the yarpmanager application of a module.
 
-A backend (``ybg.backends.<name>``) imports this library and the IR, never
-another backend; this library imports the IR and nothing of the backends
-(tests/test_layers.py checks both).
+How the runtime library reaches a module is ``ybg.backends.runtime``, which
+every backend uses too. A backend (``ybg.backends.<name>``) imports this
+library and the IR, never another backend; this library imports the IR and
+nothing of the backends (tests/test_layers.py checks both).
 """
