@@ -40,6 +40,7 @@ class Differential:
         self.node = Module([VENV / "bin" / "python", write_node(node_program, tmp_path)], env=env,
                            name=node_program.module)
         self.subs = [subscriber_for(env, p) for p in (program, node_program)]
+        self.node_topic = node_program.output.name
         self.producers = {i.name: YarpProducer(env, i.name) for m in program.muxes for i in m.inputs}
         self.procs = [self.native, self.node, *self.subs, *self.producers.values()]
 
@@ -53,6 +54,9 @@ class Differential:
                 producer.wait_outputs(2)
             for s in self.subs:
                 s.wait_publishers(1)
+            # and the node's publisher has matched its subscriber: a message
+            # published before that is lost (discovery is not symmetric in time)
+            self.node.wait_log(f"{self.node_topic}: 1 subscriber")
         except BaseException:
             self.__exit__()
             raise
