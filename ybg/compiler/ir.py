@@ -63,6 +63,9 @@ PIXEL_NAMES: dict[str, str] = {
 }
 #: an image input of ROS 2: each message's own encoding
 ANY_ENCODING = "any"
+#: the message a camera frame fills, and the fields its frame gives besides `data`
+IMAGE_TYPE = "sensor_msgs/Image"
+FRAME_FIELDS = ("height", "width", "encoding", "is_bigendian", "step")
 
 #: the element type of an undeclared port's elements in an untyped Bottle:
 #: each as it came (an integer stays an integer)
@@ -727,7 +730,7 @@ __all__ = [
     "ElementGroup", "Input", "Converter", "GeometryConverter", "ExprNode", "ExprConverter", "AnyConverter",
     "GeometryKind", "GEOMETRY", "GEOMETRY_WIDTHS", "QUATERNION_RESULTS", "EULER_AXES", "EXPR_FUNCTIONS", "Mux", "TypeRef", "Literal", "MuxRef",
     "Counter", "Timestamp", "Seconds", "Default", "Field", "Struct", "MessageArray", "QoS", "ImageFrame",
-    "CameraInfo", "IMAGE_ENCODINGS", "PIXEL_NAMES", "ANY_ENCODING",
+    "CameraInfo", "IMAGE_ENCODINGS", "PIXEL_NAMES", "ANY_ENCODING", "IMAGE_TYPE", "FRAME_FIELDS",
     "DEFAULT_QUEUE", "Output", "Timing", "Policy", "Program", "to_dict", "to_json", "from_dict",
     "from_json", "IR_VERSION", "NUMERIC_TYPES", "INTEGER_TYPES", "FLOAT_TYPES",
     "ELEMENT_TYPES",

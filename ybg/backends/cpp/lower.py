@@ -499,7 +499,7 @@ def _encoding(inp: ir.Input) -> str:
     """The encoding of a camera image input's frames, as the runtime's table knows it."""
     if inp.image != ir.ANY_ENCODING and inp.image not in ir.IMAGE_ENCODINGS:
         raise LoweringError(f"input {inp.name}: no YARP pixel type for the encoding {inp.image!r}", inp.span)
-    if inp.image == ir.ANY_ENCODING and (inp.kind != "ros2" or inp.ros_type != "sensor_msgs/Image"):
+    if inp.image == ir.ANY_ENCODING and (inp.kind != "ros2" or inp.ros_type != ir.IMAGE_TYPE):
         raise LoweringError(f"input {inp.name}: images of any encoding come from a ROS 2 sensor_msgs/Image topic",
                             inp.span)
     if inp.image != ir.ANY_ENCODING and inp.kind != "yarp":

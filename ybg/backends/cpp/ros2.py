@@ -29,8 +29,6 @@ from ybg.lower.rosnames import node_name, split_type, used_packages
 from ybg.lower.tree import check_size, slice_stop
 
 _TIME_TYPES = ("builtin_interfaces/Time", "time")
-#: the fields of a sensor_msgs/Image that its frame gives, besides `data` (ybgc::images::setImage)
-_FRAME_FIELDS = ("height", "width", "encoding", "is_bigendian", "step")
 
 
 @dataclass(frozen=True)
@@ -125,7 +123,7 @@ class CStructBuilder(BottleBuilder):
         frame = next((f.source for f in struct.fields
                       if f.name == "data" and isinstance(f.source, ir.ImageFrame)), None)
         for f in struct.fields:
-            if frame is not None and f.name in _FRAME_FIELDS and isinstance(f.source, ir.Default):
+            if frame is not None and f.name in ir.FRAME_FIELDS and isinstance(f.source, ir.Default):
                 self.line(f"// {comment(f.name)} ({comment(str(f.type))}): from the frame of {comment(frame.mux)}")
                 continue
             self.field(f, target)
@@ -332,7 +330,7 @@ def camera_info_view(program: ir.Program) -> CameraInfoView | None:
     info = program.output.camera_info
     if info is None:
         return None
-    if program.output.msg_type != "sensor_msgs/Image" or not any(
+    if program.output.msg_type != ir.IMAGE_TYPE or not any(
             f.name == "data" and isinstance(f.source, ir.ImageFrame) for f in program.message.fields):
         raise LoweringError("a CameraInfo goes beside a sensor_msgs/Image filled from a frame", info.span)
     fields = tuple(f for f in info.message.fields if f.name != "header")

@@ -68,7 +68,7 @@ def _member_path(path: str) -> str:
 
 def _image_reader(i: ir.Input, index: int) -> TopicReaderView:
     """A ROS 2 camera (sensor_msgs/Image, the whole frame): read by the runtime."""
-    if i.ros_type != "sensor_msgs/Image" or i.fields:
+    if i.ros_type != ir.IMAGE_TYPE or i.fields:
         raise LoweringError(f"the ROS 2 camera {i.name} reads whole sensor_msgs/Image messages", i.span)
     c_type = "sensor_msgs__msg__Image"
     entry = (Line(2, f"ybgc::ros2::topic<{c_type}, &{c_type}__create, &{c_type}__destroy, &ybgc::images::read>("),

@@ -34,9 +34,6 @@ from ybg.lower.rosnames import (identifier, node_name, node_parameters, package_
 from ybg.lower.tree import check_size, slice_stop
 from ybg.lower.wire import WIRE_YARP
 
-#: the encodings of camera images YARP has a pixel type for (YARP's constant of each)
-IMAGE_ENCODINGS = ir.IMAGE_ENCODINGS
-
 #: Python conversion of one value of a ROS primitive field (the name of a
 #: helper of the generated node, or a builtin)
 SCALAR_CONVERSION: dict[str, str] = {
@@ -60,10 +57,8 @@ DURABILITY = {"volatile": "VOLATILE", "transient_local": "TRANSIENT_LOCAL"}
 
 _TIME_TYPES = ("builtin_interfaces/Time", "time")
 
-#: the message a camera frame fills, and the fields the frame gives besides data
-IMAGE_TYPE = "sensor_msgs/Image"
+#: the message published beside a camera image
 CAMERA_INFO_TYPE = "sensor_msgs/CameraInfo"
-FRAME_FIELDS = ("height", "width", "encoding", "is_bigendian", "step")
 
 
 # --------------------------------------------------------------------------
@@ -243,7 +238,7 @@ class _MessageBuilder:
         """The values of a mux of numbers (not camera frames)."""
         if self.program.mux(name).image is not None:
             raise LoweringError(f"mux {name} holds camera frames, not numbers: it fills the data of a "
-                                f"{IMAGE_TYPE}")
+                                f"{ir.IMAGE_TYPE}")
         return self.mux_values(name)
 
     def message(self, struct: ir.Struct, msg_class: str) -> None:
@@ -260,11 +255,11 @@ class _MessageBuilder:
     def check_image(self, struct: ir.Struct, prefix: str) -> None:
         """A sensor_msgs/Image whose data is a frame: the frame gives the
         size, encoding, endianness and step too, which the config leaves."""
-        if struct.msg_type != IMAGE_TYPE:
-            raise LoweringError(f"a camera frame fills a {IMAGE_TYPE}, not {prefix or 'a '}{struct.msg_type}",
+        if struct.msg_type != ir.IMAGE_TYPE:
+            raise LoweringError(f"a camera frame fills a {ir.IMAGE_TYPE}, not {prefix or 'a '}{struct.msg_type}",
                                 struct.span)
         for f in struct.fields:
-            if f.name in FRAME_FIELDS and not isinstance(f.source, ir.Default):
+            if f.name in ir.FRAME_FIELDS and not isinstance(f.source, ir.Default):
                 raise LoweringError(f"field {prefix}{f.name}: the frame gives it", f.span)
             if isinstance(f.source, ir.ImageFrame) and f.name != "data":
                 raise LoweringError(f"field {prefix}{f.name}: a camera frame goes into data", f.span)
@@ -429,15 +424,15 @@ def _image_input(m: ir.Mux, i: ir.Input, k: int, topics: list, imports: dict) ->
     if len(m.inputs) != 1 or m.converters:
         raise LoweringError(f"mux {m.name}: a camera image is the mux's one input, with no converter", m.span)
     if i.kind == "yarp":
-        if i.image not in IMAGE_ENCODINGS:
+        if i.image not in ir.IMAGE_ENCODINGS:
             raise LoweringError(f"the YARP port {i.name}: no pixel type {i.image!r}", i.span)
-        desc = f"yarp {i.name}: camera images, {i.image} (YARP {IMAGE_ENCODINGS[i.image]})"
+        desc = f"yarp {i.name}: camera images, {i.image} (YARP {ir.IMAGE_ENCODINGS[i.image]})"
         if i.accepts:
             desc += f"; also from {', '.join(i.accepts)}"
         return desc
-    if i.kind != "ros2" or i.ros_type != IMAGE_TYPE or i.image != ir.ANY_ENCODING:
+    if i.kind != "ros2" or i.ros_type != ir.IMAGE_TYPE or i.image != ir.ANY_ENCODING:
         raise LoweringError(f"the input {i.name}: camera images come from a YARP port or a ROS 2 "
-                            f"{IMAGE_TYPE} topic", i.span)
+                            f"{ir.IMAGE_TYPE} topic", i.span)
     alias = msg_alias(i.ros_type)
     pkg, name = split_type(i.ros_type)
     imports[alias] = MsgImport(f"{pkg}.msg", name, alias)

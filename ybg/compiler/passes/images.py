@@ -121,7 +121,7 @@ def _camera_info(ctx: Context, out: ir.Output, sec: ast.Section) -> None:
 
 
 def _frame(message: ir.Struct | None) -> ir.ImageFrame | None:
-    if message is None or message.msg_type != "sensor_msgs/Image":
+    if message is None or message.msg_type != ir.IMAGE_TYPE:
         return None
     for f in message.fields:
         if f.name == "data" and isinstance(f.source, ir.ImageFrame):

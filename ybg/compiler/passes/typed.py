@@ -30,9 +30,6 @@ from ybg.compiler.passes.message import written
 from ybg.compiler.passes.muxrefs import (image_misplaced, is_mux_ref, is_timestamp, mux_slice, slice_types, timestamp,
                                          unknown_mux)
 
-#: the fields of a sensor_msgs/Image that its frame gives
-IMAGE_FIELDS = ("height", "width", "encoding", "is_bigendian", "step", "data")
-
 #: sequences of a message that must be empty or of one length
 SAME_LENGTH = {
     "sensor_msgs/JointState": ("name", "position", "velocity", "effort"),
@@ -54,7 +51,7 @@ def run(ctx: Context) -> None:
         return
     struct = _struct(ctx, ctx.msgdef, (), ctx.message_entries, ctx.below)
     _check_lengths(ctx, ctx.msgdef, struct, ctx.message_entries)
-    if ctx.msgdef.name == "sensor_msgs/Image":
+    if ctx.msgdef.name == ir.IMAGE_TYPE:
         struct = _image_message(ctx, struct, ctx.message_entries)
     ctx.message = struct
 
@@ -211,7 +208,7 @@ def _value(ctx: Context, e: ast.Entry, t: ir.TypeRef):
     span = e.span
     image = _image_mux(ctx, items)
     if image is not None:
-        if ctx.msgdef is not None and ctx.msgdef.name == "sensor_msgs/Image" and e.key == "data":
+        if ctx.msgdef is not None and ctx.msgdef.name == ir.IMAGE_TYPE and e.key == "data":
             ctx.used_muxes.add(image.name)
             return ir.ImageFrame(image.name, image.image or "")
         image_misplaced(ctx, image.name, items[0].span)
@@ -300,7 +297,7 @@ def _image_message(ctx: Context, struct: ir.Struct, entries: Entries) -> ir.Stru
     out = []
     for f in struct.fields:
         e = entries.get((f.name,))
-        if f.name in IMAGE_FIELDS[:-1] and e is not None:
+        if f.name in ir.FRAME_FIELDS and e is not None:
             if f.name == "encoding" and isinstance(f.source, ir.Literal):
                 if f.source.values[0] != frame.encoding:
                     ctx.sink.error("E342", f"`encoding = \"{f.source.values[0]}\"`, but mux `{frame.mux}` reads "
