@@ -22,6 +22,7 @@ from pathlib import Path
 
 from ybg.compiler import ast, ir
 from ybg.compiler.names import topic_problem
+from ybg.compiler.passes import typed
 from ybg.compiler.passes.context import Context
 from ybg.compiler.passes.message import field_path, index_below
 from ybg.compiler.passes.muxrefs import unknown_mux
@@ -106,8 +107,7 @@ def _camera_info(ctx: Context, out: ir.Output, sec: ast.Section) -> None:
                     "remove the line; set `header.frame_id` in [message]")
             continue
         entries[path] = e
-    from ybg.compiler.passes import typed  # the message tree, built as [message]'s
-
+    # the message tree, built as [message]'s
     struct = typed.build_struct(ctx, msgdef, entries, index_below(entries))
     if "calibration" in keys:
         calibration = _calibration(ctx, keys["calibration"])
@@ -201,8 +201,8 @@ def _group(text: str, group: str) -> dict[str, str] | None:
                 found = {}
             continue
         if current == group and found is not None:
-            key, _, value = line.partition(" ")
-            found[key] = value.strip().split()[0] if value.strip() else ""
+            key, *value = line.split()  # `key value`, spaces or tabs between
+            found[key] = value[0] if value else ""
     return found
 
 
