@@ -28,14 +28,15 @@ import pytest
 
 import ybg
 import ybg.runtime
+from harness.bridges import hand_bridge
 from harness.generated import module_file, ybgc
 from harness.procs import wait_until
 from ybg.backends import RenderOptions, get_backend
 from ybg.backends.runtime import CPP_DIR, cpp_files, python_files, python_inline
 from ybg.compiler.pipeline import compile_path
 from ybg.runtime import core
-from ybg.runtime.core import (Array, BridgeSpec, ConverterSpec, Context, InputSpec, InputState, Msg,
-                              MuxSpec, Scalar, convert, seconds_to_ns, take, time_msg)
+from ybg.runtime.core import (Array, BridgeSpec, ConverterSpec, Context, InputSpec, Msg, MuxSpec, Scalar,
+                              convert, seconds_to_ns, take, time_msg)
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "examples" / "yarp_to_yarp_end_effector.ini"
@@ -164,22 +165,6 @@ class Recorder:
         self.messages.append(tree)
 
 
-class HandInput(InputState):
-    """An input with no port: the test calls the bridge as a port would."""
-
-    def __init__(self, bridge, spec, local, timeout):
-        self.init_state(bridge, spec, timeout)
-        self.local = local
-
-
-class HandBridge(core.Bridge):
-    def make_input(self, mux, spec, local, timeout):
-        return HandInput(self, spec, local, timeout)
-
-    def log(self, text):
-        self.logged.append(text)
-
-
 def bridge(muxes=("a", "b"), rate=None, trigger="all", queue=64, on_stale="skip", timeout=0.5,
            needed=None, build=None):
     specs = tuple(MuxSpec(m, (InputSpec(m, 0, f"/src/{m}:o", "yarp", types=None, timeout=timeout),),
@@ -192,10 +177,7 @@ def bridge(muxes=("a", "b"), rate=None, trigger="all", queue=64, on_stale="skip"
     def default_build(ctx):
         return {m: list(ctx.values[m]) for m in muxes}
 
-    b = HandBridge.__new__(HandBridge)
-    b.logged = []
-    core.Bridge.__init__(b, spec, options, out, build or default_build, lambda v: None)
-    return b, out
+    return hand_bridge(spec, options, out, build or default_build), out
 
 
 def arrive(b, mux, values, now, envelope=None, reason=None):

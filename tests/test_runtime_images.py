@@ -15,9 +15,10 @@ import ctypes
 
 import pytest
 
+from harness.bridges import hand_bridge
 from ybg.compiler import ir
 from ybg.runtime import core, images
-from ybg.runtime.core import BridgeSpec, InputSpec, InputState, MuxSpec
+from ybg.runtime.core import BridgeSpec, InputSpec, MuxSpec
 from ybg.runtime.images import (PIXEL_TYPES, Frame, append_rows, copy_rows, fit_calibration, message_frame,
                                 pixel_code, pixel_size, vocab32, vocab_text, yarp_frame)
 
@@ -268,20 +269,6 @@ def test_camera_info_follows_the_image():
 # the bridge's account of refused frames
 
 
-class HandInput(InputState):
-    def __init__(self, bridge, spec, local, timeout):
-        self.init_state(bridge, spec, timeout)
-        self.local = local
-
-
-class HandBridge(core.Bridge):
-    def make_input(self, mux, spec, local, timeout):
-        return HandInput(self, spec, local, timeout)
-
-    def log(self, text):
-        self.logged.append(text)
-
-
 def image_bridge():
     eye = InputSpec("eye", 0, "/cam:o", "yarp", None, 1.0, image="rgb8")
     spec = BridgeSpec("cam", "cam.ini", ("cam",), (MuxSpec("eye", (eye,), (), False, None),),
@@ -289,9 +276,7 @@ def image_bridge():
     options = argparse.Namespace(prefix="/cam", rate=None, timeout=None, verbose=False)
     published = []
     out = argparse.Namespace(port_name="/cam/image_raw", publish=published.append)
-    b = HandBridge.__new__(HandBridge)
-    b.logged = []
-    core.Bridge.__init__(b, spec, options, out, lambda ctx: images.frame_of(ctx.values["eye"]), lambda v: None)
+    b = hand_bridge(spec, options, out, lambda ctx: images.frame_of(ctx.values["eye"]))
     b.publishing = True
     return b, published
 
