@@ -421,20 +421,51 @@ def parse_msg(text: str, name: str, ros: str, path: str | None = None
     return MsgDef(name, tuple(fields), tuple(constants), path), problems
 
 
+@dataclass(frozen=True)
+class SrvDef:
+    """A service: ``name`` is ``pkg/Name``; its ``request`` and ``response``
+    are messages named ``pkg/Name_Request`` and ``pkg/Name_Response``, as
+    rosidl names them."""
+
+    name: str
+    request: MsgDef
+    response: MsgDef
+    path: str | None = None
+
+
+def parse_srv(text: str, name: str, ros: str, path: str | None = None
+              ) -> tuple[SrvDef, list[MsgProblem]]:
+    """Parse the text of the service ``name`` (``pkg/Name``): the request's
+    lines, a ``---`` line, the response's. Never raises on bad input."""
+    lines = text.splitlines()
+    cut = next((k for k, line in enumerate(lines)
+                if line.startswith("---") and not line.strip().strip("-")), None)
+    where = path if path is not None else f"<{name}>"
+    problems: list[MsgProblem] = []
+    if cut is None:
+        problems.append(MsgProblem(where, max(1, len(lines)), 1,
+                                   "no '---' line between the request and the response"))
+        cut = len(lines)
+    request, p1 = parse_msg("\n".join(lines[:cut]), f"{name}_Request", ros, path)
+    response, p2 = parse_msg("\n" * (cut + 1) + "\n".join(lines[cut + 1:]), f"{name}_Response", ros, path)
+    return SrvDef(name, request, response, path), problems + p1 + p2
+
+
 # --------------------------------------------------------------------------
 # Where definitions are found
 
 
-def _list_msgs(folder: str) -> list[tuple[str, str]]:
-    """``(Name, path)`` of the ``*.msg`` files directly in ``folder``."""
+def _list_msgs(folder: str, ext: str = "msg") -> list[tuple[str, str]]:
+    """``(Name, path)`` of the ``*.msg`` files (``ext``: ``*.srv``) directly in ``folder``."""
     try:
         entries = os.listdir(folder)
     except OSError:
         return []
     out = []
+    suffix = "." + ext
     for e in sorted(entries):
-        if e.endswith(".msg") and _IDENT.fullmatch(e[:-4]):
-            out.append((e[:-4], os.path.join(folder, e)))
+        if e.endswith(suffix) and _IDENT.fullmatch(e[:-len(suffix)]):
+            out.append((e[:-len(suffix)], os.path.join(folder, e)))
     return out
 
 
@@ -443,13 +474,14 @@ def _is_package(folder: str) -> bool:
         os.path.isfile(os.path.join(folder, "manifest.xml"))
 
 
-def _scan_dir(root: str) -> list[tuple[str, str]]:
+def _scan_dir(root: str, ext: str = "msg") -> list[tuple[str, str]]:
     """A message folder: ``<root>/<pkg>/msg/<Name>.msg`` and ``<root>/<pkg>/<Name>.msg``;
-    ``<root>`` itself when it is a package (has ``package.xml``)."""
+    ``<root>`` itself when it is a package (has ``package.xml``). With ``ext``
+    ``"srv"``, the services: ``<root>/<pkg>/srv/<Name>.srv`` and ``<root>/<pkg>/<Name>.srv``."""
     out: list[tuple[str, str]] = []
     if _is_package(root):
         pkg = os.path.basename(os.path.normpath(root))
-        out += [(f"{pkg}/{n}", p) for n, p in _list_msgs(os.path.join(root, "msg"))]
+        out += [(f"{pkg}/{n}", p) for n, p in _list_msgs(os.path.join(root, ext), ext)]
     try:
         pkgs = sorted(os.listdir(root))
     except OSError:
@@ -458,19 +490,19 @@ def _scan_dir(root: str) -> list[tuple[str, str]]:
         d = os.path.join(root, pkg)
         if not _IDENT.fullmatch(pkg) or not os.path.isdir(d):
             continue
-        out += [(f"{pkg}/{n}", p) for n, p in _list_msgs(os.path.join(d, "msg"))]
-        out += [(f"{pkg}/{n}", p) for n, p in _list_msgs(d)]
+        out += [(f"{pkg}/{n}", p) for n, p in _list_msgs(os.path.join(d, ext), ext)]
+        out += [(f"{pkg}/{n}", p) for n, p in _list_msgs(d, ext)]
     return out
 
 
-def _scan_ros1(root: str) -> list[tuple[str, str]]:
+def _scan_ros1(root: str, ext: str = "msg") -> list[tuple[str, str]]:
     """A ``ROS_PACKAGE_PATH`` entry: every package folder below it (not below
     a package, nor in folders with ``CATKIN_IGNORE``), ``<pkg>/msg/*.msg``."""
     out: list[tuple[str, str]] = []
     for dirpath, dirnames, _files in os.walk(root, followlinks=True):
         if _is_package(dirpath):
             pkg = os.path.basename(os.path.normpath(dirpath))
-            out += [(f"{pkg}/{n}", p) for n, p in _list_msgs(os.path.join(dirpath, "msg"))]
+            out += [(f"{pkg}/{n}", p) for n, p in _list_msgs(os.path.join(dirpath, ext), ext)]
             dirnames[:] = []
             continue
         if os.path.exists(os.path.join(dirpath, "CATKIN_IGNORE")):
@@ -480,8 +512,8 @@ def _scan_ros1(root: str) -> list[tuple[str, str]]:
     return out
 
 
-def _scan_ament(prefix: str) -> list[tuple[str, str]]:
-    """An ``AMENT_PREFIX_PATH`` entry: ``<prefix>/share/<pkg>/msg/*.msg``."""
+def _scan_ament(prefix: str, ext: str = "msg") -> list[tuple[str, str]]:
+    """An ``AMENT_PREFIX_PATH`` entry: ``<prefix>/share/<pkg>/msg/*.msg`` (``srv/*.srv``)."""
     share = os.path.join(prefix, "share")
     try:
         pkgs = sorted(os.listdir(share))
@@ -490,18 +522,18 @@ def _scan_ament(prefix: str) -> list[tuple[str, str]]:
     out: list[tuple[str, str]] = []
     for pkg in pkgs:
         if _IDENT.fullmatch(pkg):
-            out += [(f"{pkg}/{n}", p) for n, p in _list_msgs(os.path.join(share, pkg, "msg"))]
+            out += [(f"{pkg}/{n}", p) for n, p in _list_msgs(os.path.join(share, pkg, ext), ext)]
     return out
 
 
-def _scan_vendored(root: str) -> list[tuple[str, str]]:
+def _scan_vendored(root: str, ext: str = "msg") -> list[tuple[str, str]]:
     out: list[tuple[str, str]] = []
     try:
         pkgs = sorted(os.listdir(root))
     except OSError:
         return out
     for pkg in pkgs:
-        out += [(f"{pkg}/{n}", p) for n, p in _list_msgs(os.path.join(root, pkg))]
+        out += [(f"{pkg}/{n}", p) for n, p in _list_msgs(os.path.join(root, pkg), ext)]
     return out
 
 
@@ -536,6 +568,8 @@ class TypeStore:
         """Problems of the files parsed so far (each file's once)."""
         self._index: dict[str, str] | None = None
         self._cache: dict[str, MsgDef | None] = {}
+        self._srv_index: dict[str, str] | None = None
+        self._srv_cache: dict[str, SrvDef | None] = {}
 
     @property
     def search_paths(self) -> list[str]:
@@ -594,6 +628,65 @@ class TypeStore:
                     path, f.line, f.column, f"unknown message type {f.type.base!r}"
                     f" (field {f.name!r})"))
         return msgdef
+
+    def _services(self) -> dict[str, str]:
+        if self._srv_index is None:
+            index: dict[str, str] = {}
+            for kind, folder in self.roots:
+                for name, path in _SCANNERS[kind](folder, "srv"):
+                    index.setdefault(name, path)
+            self._srv_index = index
+        return self._srv_index
+
+    def service_path(self, name: str) -> str | None:
+        """The file that defines the service ``name`` (``pkg/Name`` or ``pkg/srv/Name``)."""
+        key = normalize_name(name.replace("/srv/", "/msg/", 1) if name.count("/") == 2 else name)
+        return None if key is None else self._services().get(key)
+
+    def resolve_service(self, name: str) -> SrvDef | None:
+        """The definition of the service ``pkg/Name`` (or ``pkg/srv/Name``);
+        ``None`` when no file defines it or its file has problems (then in
+        :attr:`problems`). Its request and response then resolve as the
+        messages ``pkg/Name_Request`` and ``pkg/Name_Response``."""
+        key = normalize_name(name.replace("/srv/", "/msg/", 1) if name.count("/") == 2 else name)
+        if key is None:
+            return None
+        if key in self._srv_cache:
+            return self._srv_cache[key]
+        path = self._services().get(key)
+        result = None
+        if path is not None:
+            try:
+                with open(path, encoding="utf-8") as f:
+                    text = f.read()
+            except (OSError, UnicodeDecodeError) as e:
+                self.problems.append(MsgProblem(path, 0, 0, f"cannot read: {e}"))
+                text = None
+            if text is not None:
+                srv, problems = parse_srv(text, key, self.ros, path)
+                index = self._names()
+                for part in (srv.request, srv.response):
+                    for f in part.fields:
+                        if f.type.is_message and f.type.base not in index:
+                            problems.append(MsgProblem(path, f.line, f.column, f"unknown message type "
+                                                       f"{f.type.base!r} (field {f.name!r})"))
+                if problems:
+                    self.problems.extend(problems)
+                else:
+                    result = srv
+                    self._cache[srv.request.name] = srv.request
+                    self._cache[srv.response.name] = srv.response
+        self._srv_cache[key] = result
+        return result
+
+    def service_names(self) -> list[str]:
+        """Every known service ``pkg/Name`` (sorted), e.g. for "did you mean"."""
+        return sorted(self._services())
+
+    def service_candidates(self, bare_name: str) -> list[str]:
+        """Every service ``pkg/Name`` whose ``Name`` is ``bare_name`` (sorted)."""
+        suffix = "/" + bare_name
+        return sorted(n for n in self._services() if n.endswith(suffix))
 
     def candidates(self, bare_name: str) -> list[str]:
         """Every ``pkg/Name`` whose ``Name`` is ``bare_name`` (sorted)."""
