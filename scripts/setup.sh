@@ -110,9 +110,10 @@ fi
 if ! "$vpy" -c 'import ycm_cmake_modules' 2>/dev/null; then
   pip_install ycm_cmake_modules
 fi
-if ! "$vpy" -c 'import rclpy, sensor_msgs.msg, std_msgs.msg, geometry_msgs.msg' 2>/dev/null; then
+# std_srvs: the standard services (Trigger, SetBool, Empty) of [service] configs.
+if ! "$vpy" -c 'import rclpy, sensor_msgs.msg, std_msgs.msg, geometry_msgs.msg, std_srvs.srv' 2>/dev/null; then
   log "installing ROS 2 rclpy wheels with Fast DDS"
-  pip_install ros-rclpy ros-sensor-msgs ros-std-msgs ros-geometry-msgs ros-rmw-fastrtps-cpp
+  pip_install ros-rclpy ros-sensor-msgs ros-std-msgs ros-geometry-msgs ros-std-srvs ros-rmw-fastrtps-cpp
 fi
 # Message packages with arrays of messages, for the tests of those
 # (visualization_msgs/MarkerArray, trajectory_msgs/JointTrajectory), and the
