@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Build ROS 2 message packages (package.xml + CMakeLists.txt + msg/*.msg) with
+# Build ROS 2 message packages (package.xml + CMakeLists.txt + msg/*.msg, srv/*.srv) with
 # rosidl and ament_cmake from the ROS 2 wheels, and install them where the
 # venv's rclpy finds them. Cached: a package whose sources did not change is
 # not rebuilt (a second run takes milliseconds).
@@ -8,12 +8,12 @@
 #
 # Packages are built in the order given (a package before those that use it).
 # PREFIX defaults to the venv ($YBG_VENV, else .venv), which gives:
-#   lib/python3.X/site-packages/<pkg>   the Python messages (import <pkg>.msg)
+#   lib/python3.X/site-packages/<pkg>   the Python messages (import <pkg>.msg, <pkg>.srv)
 #   lib/lib<pkg>__rosidl_*.so           the C and C++ type supports (on the
 #                                       venv's LD_LIBRARY_PATH, as the wheels'
 #                                       libraries are)
-#   include/<pkg>/<pkg>/msg/*.h, *.hpp  the C and C++ structs
-#   share/<pkg>/msg/*.msg               the definitions (ybgc finds them
+#   include/<pkg>/<pkg>/msg/*.h, *.hpp  the C and C++ structs (srv/*.h, *.hpp: the services')
+#   share/<pkg>/msg/*.msg, srv/*.srv    the definitions (ybgc finds them
 #                                       through AMENT_PREFIX_PATH=PREFIX)
 # Another PREFIX needs PYTHONPATH=PREFIX/lib/python3.X/site-packages and
 # LD_LIBRARY_PATH=PREFIX/lib when the messages are used.
