@@ -12,7 +12,11 @@ definitions (ybg/compiler/typehash.py), against what ROS 2 itself says:
   empty messages): the description and the hash equal those of rosidl's own
   generator (rosidl_adapter, rosidl_parser, rosidl_generator_type_description,
   installed with the wheels);
-- ``ybgc ir`` prints the hash of each ROS topic (null for ROS 1 and Humble).
+- ``ybgc ir`` prints the hash of each ROS topic (null for ROS 1 and Humble);
+- every service type ybgc ships for Kilted, and every ``.srv`` of the wheels
+  and of ``msgpkgs/``: the hash equals the one the installed typesupport
+  reports (``rosidl_service_type_support_t``'s ``get_type_hash_func``, which
+  rcl calls when it creates a service or a client).
 
 There are no Jazzy wheels here: Jazzy hashes are checked to exist, and to
 equal Kilted's where the two distros' definitions are the same.
@@ -29,7 +33,8 @@ import pytest
 from harness.env import VENV, VENV_PYTHON
 from harness.generated import ybgc
 from ybg.compiler.msgtypes import VENDORED_DIR, TypeStore, load_store
-from ybg.compiler.typehash import type_description, type_hash, type_hashes
+from ybg.compiler.typehash import (service_description, service_hash, service_hashes, type_description,
+                                   type_hash, type_hashes)
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
@@ -76,19 +81,64 @@ json.dump(out, sys.stdout)
 '''
 
 
-def typesupport_hashes(names) -> dict[str, str | None]:
-    """The hash of each type as the installed typesupport reports it."""
-    r = subprocess.run([str(VENV_PYTHON), "-c", TYPESUPPORT_HASHES], input=json.dumps(sorted(names)),
+#: the same for services: ``{pkg/Name: "RIHS01_..."}`` of ``pkg.srv.Name``
+SERVICE_TYPESUPPORT_HASHES = r'''
+import ctypes, importlib, json, sys
+
+class TypeHash(ctypes.Structure):  # rosidl_type_hash_t
+    _fields_ = [("version", ctypes.c_uint8), ("value", ctypes.c_uint8 * 32)]
+
+GetTypeHash = ctypes.CFUNCTYPE(ctypes.POINTER(TypeHash), ctypes.c_void_p)
+
+class ServiceTypeSupport(ctypes.Structure):  # rosidl_service_type_support_t
+    _fields_ = [("typesupport_identifier", ctypes.c_char_p), ("data", ctypes.c_void_p),
+                ("func", ctypes.c_void_p), ("request_typesupport", ctypes.c_void_p),
+                ("response_typesupport", ctypes.c_void_p), ("event_typesupport", ctypes.c_void_p),
+                ("event_message_create_handle_function", ctypes.c_void_p),
+                ("event_message_destroy_handle_function", ctypes.c_void_p),
+                ("get_type_hash_func", GetTypeHash), ("get_type_description_func", ctypes.c_void_p),
+                ("get_type_description_sources_func", ctypes.c_void_p)]
+
+capsule_pointer = ctypes.pythonapi.PyCapsule_GetPointer
+capsule_pointer.restype = ctypes.c_void_p
+capsule_pointer.argtypes = [ctypes.py_object, ctypes.c_char_p]
+
+out = {}
+for name in json.load(sys.stdin):
+    pkg, srv = name.split("/")
+    try:
+        module = importlib.import_module(pkg + ".srv")
+    except ModuleNotFoundError as e:
+        if e.name not in (pkg, pkg + ".srv"):
+            raise
+        out[name] = None
+        continue
+    cls = getattr(module, srv)
+    cls.__class__.__import_type_support__()
+    handle = capsule_pointer(cls._TYPE_SUPPORT, None)
+    support = ServiceTypeSupport.from_address(handle)
+    assert support.typesupport_identifier == b"rosidl_typesupport_c", support.typesupport_identifier
+    h = support.get_type_hash_func(handle).contents
+    out[name] = "RIHS%02x_%s" % (h.version, bytes(h.value).hex())
+json.dump(out, sys.stdout)
+'''
+
+
+def typesupport_hashes(names, script: str = TYPESUPPORT_HASHES) -> dict[str, str | None]:
+    """The hash of each type as the installed typesupport reports it (with
+    :data:`SERVICE_TYPESUPPORT_HASHES`, of each service)."""
+    r = subprocess.run([str(VENV_PYTHON), "-c", script], input=json.dumps(sorted(names)),
                        capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr
     return json.loads(r.stdout)
 
 
-def wheel_description(name: str) -> dict | None:
+def wheel_description(name: str, kind: str = "msg") -> dict | None:
     """The type description the wheel installed beside the type
-    (``<venv>/share/<pkg>/msg/<Name>.json``), without default values."""
+    (``<venv>/share/<pkg>/msg/<Name>.json``; ``kind`` ``srv``: of a service),
+    without default values."""
     pkg, msg = name.split("/")
-    path = VENV / "share" / pkg / "msg" / f"{msg}.json"
+    path = VENV / "share" / pkg / kind / f"{msg}.json"
     if not path.is_file():
         return None
     description = json.loads(path.read_text())["type_description_msg"]
@@ -146,6 +196,76 @@ def test_definitions_found_on_the_search_path_hash_as_the_installed_typesupport(
     assert not missing, missing  # each of these is installed: found in the venv, or built into it
     print(f"\n{len(compared)} types of the search path compared ({len(from_msgpkgs)} from msgpkgs/: "
           f"{', '.join(from_msgpkgs)})")
+
+
+# --------------------------------------------------------------------------
+# Services
+
+
+def compare_services(store: TypeStore, names) -> tuple[list[str], list[str]]:
+    """:func:`compare` for services."""
+    ours = service_hashes(store, names)
+    theirs = typesupport_hashes(names, SERVICE_TYPESUPPORT_HASHES)
+    compared = [n for n in names if theirs[n] is not None]
+    missing = [n for n in names if theirs[n] is None]
+    wrong = [n for n in compared if ours[n] != theirs[n]]
+    if wrong:
+        n = wrong[0]
+        pytest.fail(f"{len(wrong)} of {len(compared)} service hashes differ from the typesupport's: {wrong}\n"
+                    f"{n}: ybgc {ours[n]}, typesupport {theirs[n]}\n"
+                    f"ybgc's description:  {json.dumps(service_description(store, n))}\n"
+                    f"the wheel's:         {json.dumps(wheel_description(n, 'srv'))}")
+    return compared, missing
+
+
+def test_every_kilted_service_ybgc_ships_hashes_as_the_installed_typesupport():
+    store = load_store("ros2", "kilted", environ={})
+    names = store.service_names()
+    assert "std_srvs/Trigger" in names and "nav_msgs/GetMap" in names
+    compared, missing = compare_services(store, names)
+    # a package without services here is one the setup does not install, or
+    # builds without them (tf2_msgs, msgpkgs/tf2_msgs: its messages only)
+    for n in missing:
+        assert not (VENV / "share" / n.split("/")[0] / "srv").exists(), n
+    packages = sorted({n.split("/")[0] for n in compared})
+    print(f"\n{len(compared)} of {len(names)} shipped Kilted services compared ({', '.join(packages)}); "
+          f"not installed: {', '.join(missing) or 'none'}")
+    assert {"std_srvs", "nav_msgs", "sensor_msgs", "diagnostic_msgs", "visualization_msgs"} <= set(packages)
+
+
+def test_services_found_on_the_search_path_hash_as_the_installed_typesupport():
+    # the wheels' own .srv files (rcl_interfaces, lifecycle_msgs...) and the
+    # setup's message packages (msgpkgs/ybg_demo_msgs/srv/LookAt.srv)
+    store = load_store("ros2", "kilted", [ROOT / "msgpkgs"], environ={"AMENT_PREFIX_PATH": str(VENV)})
+    vendored = Path(VENDORED_DIR)
+    names = [n for n in store.service_names() if vendored not in Path(store.service_path(n)).parents]
+    assert "ybg_demo_msgs/LookAt" in names
+    assert (ROOT / "msgpkgs") in Path(store.service_path("ybg_demo_msgs/LookAt")).parents
+    compared, missing = compare_services(store, names)
+    assert not missing, missing
+    print(f"\n{len(compared)} services of the search path compared: {', '.join(compared)}")
+
+
+def test_service_description_is_rosidls():
+    # the request, the response and the event of introspection, named in the
+    # service's namespace; an empty request has rosidl's one member
+    store = load_store("ros2", "kilted", environ={})
+    d = service_description(store, "std_srvs/srv/Trigger")
+    assert d == without_defaults(json.loads((VENV / "share/std_srvs/srv/Trigger.json").read_text())
+                                 ["type_description_msg"])
+    assert [f["name"] for f in d["type_description"]["fields"]] == \
+        ["request_message", "response_message", "event_message"]
+    assert [t["type_name"] for t in d["referenced_type_descriptions"]] == [
+        "builtin_interfaces/msg/Time", "service_msgs/msg/ServiceEventInfo", "std_srvs/srv/Trigger_Event",
+        "std_srvs/srv/Trigger_Request", "std_srvs/srv/Trigger_Response"]
+    # pkg/Name and pkg/srv/Name; Jazzy's definitions are Kilted's; none before Iron nor in ROS 1
+    assert service_hash(store, "std_srvs/Trigger") == service_hash(store, "std_srvs/srv/Trigger")
+    jazzy = load_store("ros2", "jazzy", environ={})
+    assert service_hashes(jazzy, ["std_srvs/SetBool", "nav_msgs/GetMap"]) == \
+        service_hashes(store, ["std_srvs/SetBool", "nav_msgs/GetMap"])
+    assert service_hash(load_store("ros2", "humble", environ={}), "std_srvs/Trigger") is None
+    with pytest.raises(LookupError):
+        service_hash(store, "std_srvs/Trigerr")
 
 
 # --------------------------------------------------------------------------

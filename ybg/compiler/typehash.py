@@ -24,8 +24,17 @@ generator does from the ``.idl`` that rosidl_adapter makes of a ``.msg``:
   above, separators ``", "`` and ``": "``, ASCII), written
   ``RIHS01_<64 hex digits>``.
 
+A service ``pkg/Name`` (:func:`service_hash`) is described as rosidl
+describes the ``.idl`` of a ``.srv``: the type ``pkg/srv/Name`` with three
+message fields, ``request_message`` (``pkg/srv/Name_Request``),
+``response_message`` (``pkg/srv/Name_Response``) and ``event_message``
+(``pkg/srv/Name_Event``: ``service_msgs/ServiceEventInfo info``,
+``Name_Request[<=1] request``, ``Name_Response[<=1] response``, the message of
+service introspection); the request and the response are described as
+messages of that name, and every type they reference is in the description.
+
 Humble predates type hashes, and ROS 1 has none (it has MD5 sums of another
-text): :func:`type_hash` gives ``None`` for them.
+text): :func:`type_hash` and :func:`service_hash` give ``None`` for them.
 
 Pure Python, the standard library and ybgc's message model only: it runs
 without ROS installed, and nothing imports it on the way of a command that
@@ -40,7 +49,7 @@ import os
 from typing import Any, Iterable, Mapping
 
 from .ir import Program, TypeRef
-from .msgtypes import MsgDef, TypeStore, load_store, normalize_name
+from .msgtypes import MsgDef, TypeStore, load_store, normalize_name, parse_msg
 from .options import Options
 
 RIHS01_PREFIX = "RIHS01_"
@@ -68,6 +77,27 @@ BOUNDED_STRING_IDS = {"string": 21, "wstring": 22}
 
 ARRAY_ID_OFFSET = {None: 0, "fixed": 48, "bounded": 96, "sequence": 144}
 """What an array adds to its element's type id: ``T[N]`` 48, ``T[<=N]`` 96, ``T[]`` 144."""
+
+
+SERVICE_EVENT_INFO = "service_msgs/ServiceEventInfo"
+"""The first field of every service's ``Name_Event`` message (its type, ``pkg/Name``)."""
+
+SERVICE_EVENT_INFO_MSG = """\
+uint8 REQUEST_SENT = 0
+uint8 REQUEST_RECEIVED = 1
+uint8 RESPONSE_SENT = 2
+uint8 RESPONSE_RECEIVED = 3
+uint8 event_type
+builtin_interfaces/Time stamp
+char[16] client_gid
+int64 sequence_number
+"""
+"""``service_msgs/msg/ServiceEventInfo.msg`` (ros2/rcl_interfaces, unchanged since
+Iron, comments left out), for a store that has no definition of it: ybgc
+ships no service_msgs, which only services' introspection uses."""
+
+SERVICE_SUFFIXES = ("_Request", "_Response", "_Event")
+"""The messages of a service ``pkg/Name``: ``pkg/srv/Name_Request`` ..."""
 
 
 def has_type_hashes(store: TypeStore) -> bool:
@@ -124,29 +154,68 @@ class _Descriptions:
         """By ``pkg/Name``; ``LookupError`` when the store has no (valid) definition."""
         if name not in self.made:
             msgdef = self.store.resolve(name)
+            if msgdef is None and name == SERVICE_EVENT_INFO and self.store.path_of(name) is None:
+                msgdef, _ = parse_msg(SERVICE_EVENT_INFO_MSG, name, "ros2")
             if msgdef is None:
                 raise LookupError(f"no definition of `{name}` ({self.store.ros}, {self.store.distro})")
             self.made[name] = individual_description(msgdef)
         return self.made[name]
 
-    def full(self, name: str) -> dict[str, Any]:
-        key = normalize_name(name)
-        if key is None:
-            raise LookupError(f"`{name}` is not a message type name (pkg/Name)")
-        top = self.individual(key)
+    def _closure(self, top: dict[str, Any], local: Mapping[str, dict[str, Any]]) -> dict[str, Any]:
+        """The full description of ``top``: it and every type it references,
+        by ``type_name``, from ``local`` (the types of a service) or the store."""
         referenced: dict[str, dict[str, Any]] = {}
-        queue = [key]
+        queue = [top]
         while queue:
-            for f in self.individual(queue.pop())["fields"]:
+            for f in queue.pop()["fields"]:
                 nested = f["type"]["nested_type_name"]
                 if nested and nested not in referenced:
-                    pkg, _, msg = nested.split("/")
-                    referenced[nested] = self.individual(f"{pkg}/{msg}")
-                    queue.append(f"{pkg}/{msg}")
+                    if nested in local:
+                        referenced[nested] = local[nested]
+                    else:
+                        pkg, _, msg = nested.split("/")
+                        referenced[nested] = self.individual(f"{pkg}/{msg}")
+                    queue.append(referenced[nested])
         return {
             "type_description": top,
             "referenced_type_descriptions": [referenced[n] for n in sorted(referenced)],
         }
+
+    def full(self, name: str) -> dict[str, Any]:
+        key = normalize_name(name)
+        if key is None:
+            raise LookupError(f"`{name}` is not a message type name (pkg/Name)")
+        return self._closure(self.individual(key), {})
+
+    def service(self, name: str) -> dict[str, Any]:
+        """The full description of the service ``name`` (``pkg/Name`` or ``pkg/srv/Name``)."""
+        srv = self.store.resolve_service(name)
+        if srv is None:
+            raise LookupError(f"no definition of the service `{name}` ({self.store.ros}, {self.store.distro})")
+        pkg, _, base = srv.name.partition("/")
+        prefix = f"{pkg}/srv/{base}"
+        request, response, event = (prefix + s for s in SERVICE_SUFFIXES)
+
+        def nested(type_name: str, bound: int | None = None) -> dict[str, Any]:
+            array = None if bound is None else "bounded"
+            return {"type_id": FIELD_TYPE_NESTED_TYPE + ARRAY_ID_OFFSET[array], "capacity": bound or 0,
+                    "string_capacity": 0, "nested_type_name": type_name}
+
+        local = {
+            request: {**individual_description(srv.request), "type_name": request},
+            response: {**individual_description(srv.response), "type_name": response},
+            event: {"type_name": event, "fields": [
+                {"name": "info", "type": nested(ros2_name(SERVICE_EVENT_INFO))},
+                {"name": "request", "type": nested(request, 1)},
+                {"name": "response", "type": nested(response, 1)},
+            ]},
+        }
+        top = {"type_name": prefix, "fields": [
+            {"name": "request_message", "type": nested(request)},
+            {"name": "response_message", "type": nested(response)},
+            {"name": "event_message", "type": nested(event)},
+        ]}
+        return self._closure(top, local)
 
 
 def type_description(store: TypeStore, name: str) -> dict[str, Any]:
@@ -176,6 +245,31 @@ def type_hashes(store: TypeStore, names: Iterable[str]) -> dict[str, str | None]
 def type_hash(store: TypeStore, name: str) -> str | None:
     """The RIHS01 hash of one type (see :func:`type_hashes`)."""
     return type_hashes(store, [name])[name]
+
+
+def service_description(store: TypeStore, name: str) -> dict[str, Any]:
+    """The ``TypeDescription`` of the service ``name`` (``pkg/Name`` or
+    ``pkg/srv/Name``) as hashed: ``pkg/srv/Name`` with its request, response
+    and event messages, and every type they reference, sorted by name, no
+    default values. ``LookupError`` when a definition is missing."""
+    return _Descriptions(store).service(name)
+
+
+def service_hashes(store: TypeStore, names: Iterable[str]) -> dict[str, str | None]:
+    """The RIHS01 hash of each of the services ``names`` by that name, from
+    ``store``'s definitions; all ``None`` for ROS 1 and Humble. ``LookupError``
+    when a definition is missing (the service's, or a type it references)."""
+    names = list(names)
+    if not has_type_hashes(store):
+        return {n: None for n in names}
+    descriptions = _Descriptions(store)
+    return {n: hash_description(descriptions.service(n)) for n in names}
+
+
+def service_hash(store: TypeStore, name: str) -> str | None:
+    """The RIHS01 hash of one service (see :func:`service_hashes`): the hash
+    a ROS 2 service server or client of that type advertises."""
+    return service_hashes(store, [name])[name]
 
 
 # --------------------------------------------------------------------------
@@ -216,5 +310,5 @@ def with_type_hashes(ir_dict: dict[str, Any], store: TypeStore | None) -> dict[s
 __all__ = [
     "RIHS01_PREFIX", "NO_TYPE_HASH_DISTROS", "FIELD_TYPE_IDS", "has_type_hashes", "field_type",
     "individual_description", "type_description", "hash_description", "type_hashes", "type_hash",
-    "program_store", "with_type_hashes",
+    "service_description", "service_hashes", "service_hash", "program_store", "with_type_hashes",
 ]
