@@ -48,10 +48,12 @@ def test_every_source_of_configs_is_found():
 
 @pytest.mark.parametrize("config", CONFIGS, ids=lambda p: str(p.relative_to(p.parents[1])))
 def test_check_passes_exactly_when_generation_succeeds(config: Path, tmp_path: Path):
+    # the examples of a user's own messages and services find them in msgpkgs/
+    extra = ["--msg-path", str(ROOT / "msgpkgs")] if config in SOURCES["examples"] else []
     for backend in backend_names():
-        checked, said = run("check", str(config), "--backend", backend)
+        checked, said = run("check", str(config), "--backend", backend, *extra)
         out = tmp_path / backend
-        generated, told = run("generate", str(config), "--backend", backend, "-o", str(out))
+        generated, told = run("generate", str(config), "--backend", backend, "-o", str(out), *extra)
         assert checked == generated, (
             f"{backend}: check {'passes' if checked == 0 else 'fails'} but generation "
             f"{'succeeds' if generated == 0 else 'fails'}\n--- check:\n{said}\n--- generate:\n{told}")

@@ -24,6 +24,8 @@ INVALID = sorted((ROOT / "tests" / "invalid").glob("*.ini"))
 LEGACY_DIR = ROOT.parent / "shared" / "legacy"
 LEGACY = sorted(LEGACY_DIR.glob("*.ini"))
 EXAMPLES = sorted((ROOT / "examples").glob("*.ini"))
+#: the examples of a user's own messages and services find them in msgpkgs/
+EXAMPLE_OPTIONS = Options(msg_path=(str(ROOT / "msgpkgs"),))
 
 #: the warnings each legacy file deserves, and why
 LEGACY_WARNINGS = {
@@ -146,7 +148,7 @@ def test_legacy_to_ros2_conversion_drops_seq():
 
 @pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)
 def test_example_checks_clean_and_is_canonical(path: Path):
-    result = compile_path(path)
+    result = compile_path(path, EXAMPLE_OPTIONS)
     assert result.form == "named"
     assert not result.errors and not result.warnings, result.diagnostics
     text = path.read_text(encoding="utf-8")
@@ -155,7 +157,7 @@ def test_example_checks_clean_and_is_canonical(path: Path):
 
 @pytest.mark.parametrize("path", EXAMPLES + LEGACY, ids=lambda p: p.stem)
 def test_ir_json_round_trip(path: Path):
-    p = compile_path(path).program
+    p = compile_path(path, EXAMPLE_OPTIONS).program
     assert ir.from_json(ir.to_json(p)) == p
 
 

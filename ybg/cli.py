@@ -340,8 +340,11 @@ def cmd_ir(args) -> int:
     _print([result], "text")
     if result.program is None:
         return EXIT_USAGE if _io_error(result) else EXIT_PROBLEMS
-    # the IR, and the type hash of each ROS topic (ybg/compiler/typehash.py)
-    d = with_type_hashes(ir.to_dict(result.program), program_store(result.program, options))
+    # the IR, and the type hash of each ROS topic and service (ybg/compiler/typehash.py)
+    if isinstance(result.program, ir.Commands):
+        d = ir.to_dict(result.program)
+    else:
+        d = with_type_hashes(ir.to_dict(result.program), program_store(result.program, options))
     sys.stdout.write(json.dumps(d, indent=2, ensure_ascii=False) + "\n")
     return EXIT_OK
 

@@ -192,6 +192,59 @@ def build(program: ir.Program) -> Graph:
     return Graph(program.module, program.source, tuple(nodes), tuple(edges))
 
 
+def _item_text(item: ir.BottleItem) -> str:
+    if item.kind == "literal":
+        return f'"{item.value}"' if item.type == "string" else f"{item.value}"
+    if item.kind == "field":
+        name = item.ref.dotted
+        return f"{item.converter.name}({name})" if item.converter is not None else name
+    if item.kind == "list":
+        return "(" + " ".join(_item_text(i) for i in item.items) + ")"
+    return "error"
+
+
+def _fill_text(fill: ir.Fill, bottle: str) -> str:
+    if fill.source == "element":
+        return f"{bottle}[{fill.start}:{'' if fill.stop is None else fill.stop}]" if fill.slice \
+            else f"{bottle}[{fill.start}]"
+    if fill.source == "text":
+        return f"{bottle} as text"
+    return _value(fill.value) if fill.source == "literal" else "error"
+
+
+def build_commands(program: ir.Commands) -> Graph:
+    """The graph of a config of commands: for each, who calls the module, the
+    message or Bottle it makes, what it calls, and what the answer fills."""
+    nodes: list[Node] = []
+    edges: list[tuple[str, str]] = []
+
+    def add(stage: str, name: str, detail: str) -> str:
+        node = Node(f"{_PREFIX[stage]}{sum(n.stage == stage for n in nodes)}", stage, name, _short(detail))
+        nodes.append(node)
+        return node.id
+
+    served: dict[str, str] = {}
+    for svc in program.services:
+        if svc.serves == "ros2":
+            caller = add("input", svc.service, f"ROS 2 service served, {svc.srv_type}")
+            made = add("mux", f"command {svc.name}", " ".join(_item_text(i) for i in svc.bottle))
+            callee = add("output", svc.port, f"YARP RPC port called, within {svc.timeout:g} s")
+            bottle = "reply"
+        else:
+            if svc.port not in served:
+                served[svc.port] = add("input", svc.port, "YARP RPC port served")
+            caller = served[svc.port]
+            made = add("mux", f"command {svc.name}", "request from args")
+            callee = add("output", svc.service, f"ROS 2 service called, {svc.srv_type}, within {svc.timeout:g} s")
+            bottle = "args"
+        edges += [(caller, made), (made, callee)]
+        for fill in svc.fills:
+            fid = add("field", ("response." if svc.serves == "ros2" else "request.") + fill.ref.dotted,
+                      _fill_text(fill, bottle))
+            edges += [(callee, fid)] if svc.serves == "ros2" else [(caller, fid), (fid, made)]
+    return Graph(program.module, program.source, tuple(nodes), tuple(edges))
+
+
 # --------------------------------------------------------------------------
 # Mermaid and DOT
 
@@ -337,6 +390,6 @@ FORMATS = {"svg": to_svg, "dot": to_dot, "mermaid": to_mermaid}
 SUFFIXES = {".svg": "svg", ".dot": "dot", ".gv": "dot", ".mmd": "mermaid", ".mermaid": "mermaid"}
 
 
-def render(program: ir.Program, fmt: str) -> str:
+def render(program: ir.Program | ir.Commands, fmt: str) -> str:
     """The picture of ``program`` in ``fmt`` (a key of :data:`FORMATS`)."""
-    return FORMATS[fmt](build(program))
+    return FORMATS[fmt](build_commands(program) if isinstance(program, ir.Commands) else build(program))

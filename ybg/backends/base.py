@@ -29,7 +29,7 @@ class Builds:
     the message features it builds (``ybg.backends.features.FEATURES``:
     ``"fixed_array"``, ``"message_array"``, ``"rows"``), and ``why``, for a
     feature it does not build for an output kind, the reason, which the
-    refusal says. ``ybgc check --backend`` and generation both refuse a
+    refusal says; ``commands``, whether it builds a config of commands. ``ybgc check --backend`` and generation both refuse a
     program from this declaration alone (E318, ``ybg.backends.support``),
     and the hint of a refusal names the backends whose declaration builds it."""
 
@@ -37,6 +37,10 @@ class Builds:
     inputs: frozenset[str]
     features: Mapping[str, frozenset[str]]
     why: Mapping[tuple[str, str], str] = field(default_factory=dict)
+    #: does it build a config of commands (``ir.Commands``: YARP RPC ports and
+    #: ROS 2 services)? Else ``why_not_commands`` says why not.
+    commands: bool = False
+    why_not_commands: str = ""
 
     def builds_feature(self, output: str, feature: str) -> bool:
         return feature in self.features.get(output, frozenset())

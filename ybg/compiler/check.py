@@ -16,7 +16,7 @@ from ybg.compiler import ast, ir
 from ybg.compiler.diagnostics import Sink
 from ybg.compiler.options import Options
 from ybg.compiler.passes import (bottles, converters, cuts, dialect, inputs, message, output, program,
-                                 images, sections, spans, typed)
+                                 images, sections, services, spans, typed)
 from ybg.compiler.passes.context import Context
 
 #: the passes, in the order they run
@@ -24,6 +24,8 @@ PASSES = (
     sections.run, dialect.run, inputs.run, converters.run, output.run,
     message.run, typed.run, bottles.run, images.run, cuts.run, program.run, spans.run,
 )
+#: the passes of a config of commands ([service] sections), after ``sections``
+COMMAND_PASSES = (dialect.run, services.run)
 
 
 def check_named(doc: ast.Document, source: str, sink: Sink, options: Options,
@@ -34,6 +36,7 @@ def check_named(doc: ast.Document, source: str, sink: Sink, options: Options,
     if legacy is None:
         legacy = any(d.code == "N601" for d in sink.items)
     ctx = Context(doc, source, sink, options, module_default, legacy)
-    for run in PASSES:
+    sections.run(ctx)
+    for run in COMMAND_PASSES if ctx.service_sections else PASSES[1:]:
         run(ctx)
     return ctx.program

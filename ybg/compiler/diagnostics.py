@@ -143,6 +143,12 @@ CODES: dict[str, str] = {
     "E342": "encoding other than the frame's",
     "E343": "image mixed with what its frame gives",
     "E344": "camera calibration file cannot be read",
+
+    "E350": "unknown service type",
+    "E351": "no answer for a failed call",
+    "E352": "a service bridges a ROS 2 service and a YARP port",
+    "E353": "command or service given twice, or a command the port answers itself",
+    "E354": "commands and a stream in one config",
     # names
     "E401": "invalid YARP port name",
     "E402": "invalid ROS topic name",
@@ -193,6 +199,10 @@ class Sink:
     @property
     def has_errors(self) -> bool:
         return any(d.severity is Severity.ERROR for d in self.items)
+
+    @property
+    def error_count(self) -> int:
+        return sum(d.severity is Severity.ERROR for d in self.items)
 
     def sorted(self) -> list[Diagnostic]:
         return sorted(self.items, key=Diagnostic.sort_key)

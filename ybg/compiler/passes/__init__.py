@@ -14,4 +14,9 @@ function ``run(ctx)`` over one shared :class:`~ybg.compiler.passes.context.Conte
     cuts        what the message reads of an undeclared port it cuts (W511)
     program     unused muxes, .msg problems, timing and policy -> Program
     spans       where each element of the Program came from
+
+A config of commands ([service] sections, docs/services.md) runs
+``sections``, ``dialect`` and then::
+
+    services    each command, between a YARP RPC port and a ROS 2 service -> Commands
 """

@@ -57,6 +57,8 @@ class Context:
     module_keys: dict[str, ast.Entry] = field(default_factory=dict)
     output_keys: dict[str, ast.Entry] = field(default_factory=dict)
     mux_keys: dict[str, dict[str, ast.Entry]] = field(default_factory=dict)
+    # sections: the [service <name>] sections of a config of commands, by name
+    service_sections: dict[str, ast.Section] = field(default_factory=dict)
 
     # dialect: the module name, where the output lives (None: not said),
     # where each mux's topics live, the config's ROS version and its
@@ -89,8 +91,9 @@ class Context:
     # without a range (W511); cuts tells their inputs what is read
     silent_cuts: set[str] = field(default_factory=set)
 
-    # program: the checked program, None when there are errors
-    program: ir.Program | None = None
+    # program (services, for a config of commands): the checked program, None
+    # when there are errors
+    program: ir.Program | ir.Commands | None = None
 
     def __post_init__(self) -> None:
         self.stores = Stores(self.options)

@@ -1,11 +1,12 @@
 """Pass ``sections``: the sections of a named-form config and their keys.
 
 Checks: entries outside a section (E107), unknown sections (E201), the
-name of [mux <name>] and that other sections have none (E104), duplicate
-sections (E205), missing [output] or [message] (E203), and unknown or
-duplicate keys of [module], [output] and each mux (E202, E206).
-Reads the document. Sets ``sections``, ``mux_sections``, ``module_keys``,
-``output_keys`` and ``mux_keys``.
+name of [mux <name>] and [service <name>] and that other sections have none
+(E104), duplicate sections (E205), missing [output] or [message] (E203), a
+stream's sections in a config of commands (E354), and unknown or duplicate
+keys of [module], [output] and each mux (E202, E206).
+Reads the document. Sets ``sections``, ``mux_sections``, ``service_sections``,
+``module_keys``, ``output_keys`` and ``mux_keys``.
 """
 
 from __future__ import annotations
@@ -24,7 +25,11 @@ SECTION_KEYS: dict[str, tuple[str, ...]] = {
     "message": (),
     # fields of sensor_msgs/CameraInfo, and `topic`, `calibration`: checked by the images pass
     "camera_info": (),
+    # a command between a YARP RPC port and a ROS 2 service: checked by the services pass
+    "service": (),
 }
+#: the sections of a config of streams, which a config of commands has none of
+STREAM_SECTIONS = ("output", "mux", "message", "camera_info")
 
 #: key -> the words it takes
 CHOICES: dict[str, tuple[str, ...]] = {
@@ -45,10 +50,23 @@ def run(ctx: Context) -> None:
                 "put it under a header such as `[output]`")
     out: dict[str, ast.Section] = {}
     muxes: dict[str, ast.Section] = {}
+    services: dict[str, ast.Section] = {}
     for sec in ctx.doc.sections:
         if sec.name not in SECTION_KEYS:
             s.error("E201", f"unknown section [{sec.title}]", sec.span,
-                    did_you_mean(sec.name, SECTION_KEYS) or "sections: [module], [output], [mux <name>], [message], [camera_info]")
+                    did_you_mean(sec.name, SECTION_KEYS) or "sections: [module], [output], [mux <name>], [message], "
+                                                            "[camera_info]; for commands [service <name>]")
+            continue
+        if sec.name == "service":
+            if sec.label is None:
+                s.error("E104", "a service section needs a name: `[service <name>]`", sec.span,
+                        "e.g. `[service home]`; on a YARP port the module serves, the name is the command's word")
+                continue
+            if sec.label in services:
+                s.error("E205", f"[service {sec.label}] is defined twice", sec.span,
+                        f"first defined on line {services[sec.label].span.line}")
+                continue
+            services[sec.label] = sec
             continue
         if sec.name == "mux":
             if sec.label is None:
@@ -68,6 +86,17 @@ def run(ctx: Context) -> None:
                     f"first given on line {out[sec.name].span.line}")
             continue
         out[sec.name] = sec
+    ctx.service_sections = services
+    if services:
+        for sec in ctx.doc.sections:
+            if sec.name in STREAM_SECTIONS:
+                s.error("E354", f"[{sec.title}] in a config of commands", sec.span,
+                        "a config holds [service] sections or a stream ([output], [mux], [message]), not both: "
+                        "put each in its own config")
+        ctx.sections = {k: v for k, v in out.items() if k == "module"}
+        module_sec = out.get("module")
+        ctx.module_keys = check_keys(module_sec, SECTION_KEYS["module"], s) if module_sec else {}
+        return
     image_port = "output" in out and any(e.key == "image" for e in out["output"].entries)
     for need in ("output",) if image_port else ("output", "message"):
         if need not in out:
