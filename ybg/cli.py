@@ -148,17 +148,22 @@ def _options(args):
 
 _CONFIG_SECTIONS = re.compile(r"(?m)^[ \t]*\[[ \t]*(general|output)[ \t]*\]")
 _MESSAGE_SECTION = re.compile(r"(?m)^[ \t]*\[[ \t]*message[ \t]*\]")
+_SERVICE_SECTION = re.compile(r"(?m)^[ \t]*\[[ \t]*service[ \t]+[^\]\s]+[ \t]*\]")
+_IMAGE_KEY = re.compile(r"(?m)^[ \t]*image[ \t]*=")
 
 
 def is_config_file(path: str) -> bool:
     """Does ``path`` look like a ybgc config (a [message] section and an
-    [output] or [general] one)? Unreadable files count as configs, so that
+    [output] or [general] one; an [output] of camera images, `image =`; or
+    [service <name>] sections)? Unreadable files count as configs, so that
     their error is reported."""
     try:
         text = Path(path).read_text(encoding="utf-8", errors="replace")
     except OSError:
         return True
-    return bool(_MESSAGE_SECTION.search(text) and _CONFIG_SECTIONS.search(text))
+    if _SERVICE_SECTION.search(text):
+        return True
+    return bool(_CONFIG_SECTIONS.search(text) and (_MESSAGE_SECTION.search(text) or _IMAGE_KEY.search(text)))
 
 
 def folder_configs(folder: Path = Path(".")) -> list[str]:
@@ -195,7 +200,7 @@ def folder_config(command: str) -> str:
     folder = Path.cwd()
     if not configs:
         _usage_error(f"no config named, and no ybgc config in {folder} (no {FOLDER_CONFIG}, and no .ini file "
-                     "there has a [message] section and an [output] or [general] one)",
+                     "there has a [message] section and an [output] or [general] one, nor [service] sections)",
                      f"name the config: ybgc {command} path/to/config.ini")
     _usage_error(f"no config named, and {len(configs)} ybgc configs in {folder}: {', '.join(configs)}",
                  f"name the one to use (ybgc {command} {configs[0]}), or call it {FOLDER_CONFIG}")
