@@ -21,6 +21,8 @@ from ybg.compiler.pipeline import compile_path, compile_text
 
 ROOT = Path(__file__).resolve().parent.parent
 INVALID = sorted((ROOT / "tests" / "invalid").glob("*.ini"))
+#: cases across configs: a folder of configs, each checking alone, wrong together
+INVALID_FOLDERS = sorted(p for p in (ROOT / "tests" / "invalid").iterdir() if p.is_dir())
 LEGACY_DIR = ROOT.parent / "shared" / "legacy"
 LEGACY = sorted(LEGACY_DIR.glob("*.ini"))
 EXAMPLES = sorted((ROOT / "examples").glob("*.ini"))
@@ -46,8 +48,40 @@ def test_every_code_is_documented_and_shown():
     doc = (ROOT / "docs" / "diagnostics.md").read_text(encoding="utf-8")
     rows = dict(re.findall(r"^\| ([EWN][0-9]{3}) \| ([^|]+?) \|", doc, re.M))
     assert rows == CODES, "docs/diagnostics.md and CODES disagree"
-    shown = {p.name[:4] for p in INVALID}
+    shown = {p.name[:4] for p in INVALID + INVALID_FOLDERS}
     assert set(CODES) - shown == {"E001"}  # E001 (unreadable file) is shown by test_cli
+
+
+@pytest.mark.parametrize("folder", INVALID_FOLDERS, ids=lambda p: p.name)
+def test_invalid_across_configs_said_in_each_config_naming_the_other(folder: Path, tmp_path: Path):
+    """`ybgc check` of the folder's configs, as a user runs it in that folder:
+    each config alone checks clean; together, each gets the code of the
+    folder's name at its `# expect:` line and column, naming the other's
+    file:line:column; the check exits 1 and writes nothing."""
+    import subprocess
+    import shutil
+    import sys
+
+    configs = sorted(folder.glob("*.ini"))
+    assert len(configs) >= 2
+    code = folder.name[:4]
+    for path in configs:
+        assert not compile_path(path).errors, f"{path.name} alone must check"
+    exe = shutil.which("ybgc", path=str(Path(sys.executable).parent)) or "ybgc"
+    r = subprocess.run([exe, "check", "--format", "json"], cwd=folder, capture_output=True, text=True, timeout=60)
+    assert r.returncode == 1, r.stderr
+    import json
+
+    found = json.loads(r.stdout)
+    found = found["diagnostics"] if isinstance(found, dict) else found
+    for path in configs:
+        m = re.search(r"# expect: ([EWN][0-9]{3}) ([0-9]+):([0-9]+)", path.read_text(encoding="utf-8"))
+        assert m and m.group(1) == code, f"{path.name}: `# expect: {code} LINE:COL`"
+        mine = [d for d in found if Path(d["file"]).name == path.name and d["code"] == code]
+        assert [(d["line"], d["column"]) for d in mine] == [(int(m.group(2)), int(m.group(3)))], (path.name, found)
+        others = [p.name for p in configs if p != path]
+        assert any(f"{o}:" in mine[0]["message"] for o in others), mine[0]["message"]
+    assert sorted(p.name for p in folder.iterdir()) == sorted(p.name for p in configs)
 
 
 def test_corpora_are_there():

@@ -241,6 +241,16 @@ def _compile(path: str, args, options):
 def cmd_check(args) -> int:
     options = _options(args)
     results = [_compile(f, args, options) for f in _select(args)]
+    if len(results) > 1:
+        # what no config can be wrong about alone: topics, ports, names, services across them
+        from ybg.compiler.across import check_across
+
+        by_file: dict[str, list] = {}
+        for d in check_across(results):
+            by_file.setdefault(d.file, []).append(d)
+        for r in results:
+            if r.path in by_file:
+                r.diagnostics = sorted(r.diagnostics + by_file[r.path], key=lambda d: d.sort_key())
     _print(results, args.format, args.verbose)
     if any(_io_error(r) for r in results):
         return EXIT_USAGE

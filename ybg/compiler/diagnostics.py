@@ -149,6 +149,11 @@ CODES: dict[str, str] = {
     "E352": "a service bridges a ROS 2 service and a YARP port",
     "E353": "command or service given twice, or a command the port answers itself",
     "E354": "commands and a stream in one config",
+
+    "E360": "one topic with two message types across configs",
+    "E361": "one YARP port opened by two configs",
+    "E362": "two configs with one module name",
+    "E363": "one ROS 2 service served twice or with two types across configs",
     # names
     "E401": "invalid YARP port name",
     "E402": "invalid ROS topic name",

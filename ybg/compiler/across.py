@@ -1,0 +1,151 @@
+"""Checks across configs: what no config can be wrong about alone.
+
+A robot runs many bridges at once, each from its own config; two of them
+can agree with their own `.msg` and `.srv` definitions and still break each
+other on the robot. ``ybgc check`` of several configs (a folder's, by
+default) runs :func:`check_across` on the programs that check:
+
+- E360: one ROS topic with two message types (published by one bridge,
+  published or read by another);
+- E361: one YARP port opened by two bridges (an output port, a served RPC
+  port);
+- E362: two bridges with one module name (the same ports `/<name>/...`,
+  the same ROS node name);
+- E363: one ROS 2 service served twice, or with two service types.
+
+Each problem is said in both configs, each at its own line and column,
+naming the other's ``file:line:column``. QoS needs no check across
+configs: every bridge subscribes best effort and volatile (docs/runtime.md),
+which matches every publisher's QoS.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import Iterable
+
+from ybg.compiler import ast, ir
+from ybg.compiler.diagnostics import NOWHERE, Diagnostic, Severity, Span
+
+
+@dataclass(frozen=True)
+class _End:
+    """One thing a bridge opens or uses on the robot's graph."""
+
+    file: str
+    span: Span
+    what: str  # how the message names it: "publishes", "reads", "opens", "serves", "calls"
+    type: str | None = None
+
+
+def _where(end: _End) -> str:
+    return f"{os.path.relpath(end.file) if os.path.isabs(end.file) else end.file}:{end.span.line}:{end.span.column}"
+
+
+def _module_span(document: ast.Document | None) -> Span:
+    if document is not None:
+        for sec in document.sections:
+            if sec.name == "module":
+                entry = sec.get("name")
+                if entry is not None and entry.items:
+                    return entry.items[0].span
+    return NOWHERE
+
+
+def _norm(name: str | None) -> str | None:
+    return None if name is None else name.replace("/msg/", "/").replace("/srv/", "/")
+
+
+def _ends(path: str, program: ir.Program | ir.Commands, document: ast.Document | None):
+    """(kind, name, end) of everything ``program`` opens or uses."""
+    yield "module", program.module, _End(path, _module_span(document), "is named")
+    if isinstance(program, ir.Commands):
+        for svc in program.services:
+            span = svc.span or NOWHERE
+            if svc.serves == "ros2":
+                yield "service", svc.service, _End(path, span, "serves", svc.srv_type)
+            else:
+                yield "service_call", svc.service, _End(path, span, "calls", svc.srv_type)
+        for port in program.served_ports:
+            first = program.on_port(port)[0]
+            yield "port", port, _End(path, first.span or NOWHERE, "serves")
+        return
+    out = program.output
+    span = out.span or NOWHERE
+    if out.kind in ("ros1", "ros2"):
+        yield f"topic_{out.kind}", out.name, _End(path, out.type_span or span, "publishes", out.msg_type)
+        if out.camera_info is not None:
+            yield "topic_ros2", out.camera_info.topic, _End(path, out.camera_info.span or span, "publishes",
+                                                           "sensor_msgs/CameraInfo")
+    else:
+        yield "port", out.name, _End(path, span, "writes")
+    for m in program.muxes:
+        for i in m.inputs:
+            if i.kind in ("ros1", "ros2") and i.ros_type is not None:
+                yield f"topic_{i.kind}", i.name, _End(path, i.span or NOWHERE, "reads", i.ros_type)
+
+
+def check_across(results: Iterable) -> list[Diagnostic]:
+    """The problems between the programs of ``results`` (pipeline ``Result``s;
+    those without a program are left out), sorted as diagnostics are."""
+    seen: dict[tuple[str, str], list[_End]] = {}
+    for r in results:
+        if r.program is None:
+            continue
+        for kind, name, end in _ends(r.path, r.program, r.document):
+            seen.setdefault((kind, name), []).append(end)
+    # a service served by one bridge and called by another: its type must agree
+    for (kind, name), ends in list(seen.items()):
+        if kind == "service_call" and ("service", name) in seen:
+            seen[("service", name)] = seen[("service", name)] + ends
+    out: list[Diagnostic] = []
+
+    def say(code: str, end: _End, other: _End, message: str, hint: str) -> None:
+        out.append(Diagnostic(Severity.ERROR, code, f"{message} ({_where(other)})", end.span, hint, end.file))
+
+    for (kind, name), ends in seen.items():
+        if len(ends) < 2:
+            continue
+        if kind == "module":
+            for a in ends:
+                for b in ends:
+                    if a is not b and a.file != b.file:
+                        say("E362", a, b, f"module `{name}` is also the name of another bridge",
+                            "two bridges of one name open the same ports (`/<name>/rpc:i` ...) and the same ROS "
+                            "node: give each its own `name` in [module]")
+                        break
+        elif kind == "port":
+            for a in ends:
+                other = next((b for b in ends if b is not a and b.file != a.file), None)
+                if other is not None:
+                    say("E361", a, other, f"the YARP port {name} is opened by another bridge too",
+                        "a YARP port is opened once on the network: give one bridge another port")
+        elif kind.startswith("topic_"):
+            types = {_norm(e.type) for e in ends}
+            if len(types) > 1:
+                for a in ends:
+                    other = next((b for b in ends if _norm(b.type) != _norm(a.type)), None)
+                    if other is not None:
+                        say("E360", a, other, f"the topic {name}: this bridge {a.what} {a.type}, another "
+                                              f"{other.what} {other.type}",
+                            "one topic has one message type: subscribers of the other type receive nothing")
+        elif kind == "service":
+            servers = [e for e in ends if e.what == "serves"]
+            if len(servers) > 1:
+                for a in servers:
+                    other = next(b for b in servers if b is not a)
+                    say("E363", a, other, f"the ROS 2 service {name} is served by another bridge too",
+                        "a service has one server: a client's call goes to either")
+            types = {_norm(e.type) for e in ends}
+            if len(types) > 1:
+                for a in ends:
+                    other = next((b for b in ends if _norm(b.type) != _norm(a.type)), None)
+                    if other is not None:
+                        say("E363", a, other, f"the ROS 2 service {name}: this bridge {a.what} it as {a.type}, "
+                                              f"another {other.what} it as {other.type}",
+                            "one service has one type: a call of the other type is never answered")
+    return sorted(out, key=Diagnostic.sort_key)
+
+
+__all__ = ["check_across"]
