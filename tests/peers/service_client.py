@@ -4,8 +4,10 @@ clients of its own.
 
 Config: {"node": "ybg_test_service_client", "callers": 1,
          "services": {"/icub/left_arm/home": "std_srvs/srv/Trigger", ...}}
-Commands: {"cmd": "wait_service", "service": name, "timeout": s}: event
-            "service" (service, ready: every caller's client sees the server)
+Commands: {"cmd": "wait_service", "service": name, "timeout": s, "ready": true}:
+            event "service" (service, ready: every caller's client sees the
+            server); with "ready": false, waits until none sees one (ready:
+            false once so)
           {"cmd": "call", "service": name, "id": x, "caller": i,
             "request": {...}, "timeout": s}: one call, event "response"
           {"cmd": "batch", "service": name, "requests": [[{...}, ...], ...],
@@ -79,10 +81,15 @@ def main():
             t.join()
         peer_io.emit("batch", service=service, n=sum(len(m) for m in requests), t0=t0, t1=time.time())
 
-    def wait_service(service, timeout):
+    def wait_service(service, timeout, want):
         end = time.monotonic() + timeout
-        ready = all(c.wait_for_service(timeout_sec=max(0.0, end - time.monotonic()))
-                    for c in clients[service])
+        if want:
+            ready = all(c.wait_for_service(timeout_sec=max(0.0, end - time.monotonic()))
+                        for c in clients[service])
+        else:
+            while any(c.service_is_ready() for c in clients[service]) and time.monotonic() < end:
+                time.sleep(0.02)
+            ready = any(c.service_is_ready() for c in clients[service])
         peer_io.emit("service", service=service, ready=ready)
 
     peer_io.emit("ready")
@@ -93,7 +100,8 @@ def main():
             break
         timeout = float(c.get("timeout") or 10.0)
         if c["cmd"] == "wait_service":
-            threading.Thread(target=wait_service, args=(c["service"], timeout), daemon=True).start()
+            threading.Thread(target=wait_service, args=(c["service"], timeout, c.get("ready", True)),
+                             daemon=True).start()
         elif c["cmd"] == "call":
             threading.Thread(target=call, args=(c["service"], int(c.get("caller") or 0), c.get("id"), 0,
                                                 c.get("request"), timeout), daemon=True).start()

@@ -11,7 +11,8 @@ and n (the service's request number from 0): "homed {n}", "x {x}"; a string
 Each request is answered in a thread of its own (a delay holds up only its
 own request).
 Commands: {"cmd": "script", "service": name, "response": {...}, "delay": s}
-            (event "script"), {"cmd": "quit"}.
+            (event "script"), {"cmd": "quit"} (the node destroyed and rclpy
+            shut down, as a server ends: its clients see it go at once).
 Events: ready; request (service, n, request, t: when it arrived);
         responded (service, n, response, t: when the callback returned it).
 """
@@ -76,7 +77,12 @@ def main():
         while True:
             c = q.get()
             if c is None or c.get("cmd") == "quit":
-                os._exit(0)  # rclpy threads stop with the process
+                try:
+                    ex.shutdown(timeout_sec=1.0)
+                    node.destroy_node()
+                    rclpy.shutdown()
+                finally:
+                    os._exit(0)  # rclpy threads stop with the process
             if c["cmd"] == "script":
                 with lock:
                     s = state[c["service"]]
