@@ -8,6 +8,10 @@ messages, the node's clock and parameters), written beside it as
 ``RenderOptions(package=True)`` the files of an ament_python package are
 generated around it, the runtime inside the package. :mod:`.lower` makes
 every decision; the templates only print.
+
+A config of commands (:class:`~ybg.compiler.ir.Commands`: YARP RPC ports and
+ROS 2 services, docs/services.md) is lowered by :mod:`.services` and printed
+by ``services_node.py.j2``; it runs on the runtime's ``services`` module.
 """
 
 from __future__ import annotations
@@ -19,14 +23,20 @@ from pathlib import Path
 import jinja2
 
 from ybg.backends.base import Backend, RenderOptions
+from ybg.backends.ros2 import services
 from ybg.backends.ros2.lower import lower, lower_package
-from ybg.backends.runtime import PY_PACKAGE, python_files, runtime_text_filter, runtime_view
+from ybg.backends.runtime import PY_MODULES, PY_PACKAGE, python_files, runtime_text_filter, runtime_view
+from ybg.compiler import ir
 from ybg.lower.errors import LoweringError
 from ybg.lower.package import launch_file
 from ybg.lower.python import PYTHON_FILTERS
 from ybg.lower.templates import py_comment_filter, template_environment, xml_comment_filter, xml_filter
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
+#: the runtime modules a node inlines with --single-file: a stream node's,
+#: and a node of commands'
+STREAM_MODULES = tuple(m for m in PY_MODULES if m != "services")
+COMMANDS_MODULES = ("services",)
 
 
 def _package_name(text) -> str:
@@ -53,10 +63,18 @@ class Ros2Backend(Backend):
     name = "ros2"
 
     def render(self, program, options: RenderOptions = RenderOptions()) -> dict[str, str]:
+        if isinstance(program, ir.Commands):
+            view = services.lower(program)
+            return self._render(view, services.lower_package(program, view) if options.package else None,
+                                "services_node.py.j2", COMMANDS_MODULES, options)
         view = lower(program)
+        return self._render(view, lower_package(program, view) if options.package else None, "node.py.j2",
+                            STREAM_MODULES, options)
+
+    def _render(self, view, pkg, template: str, modules: tuple[str, ...], options: RenderOptions) -> dict[str, str]:
         env = environment()
-        rt = runtime_view("py", options.single_file)
-        node = env.get_template("node.py.j2")
+        rt = runtime_view("py", options.single_file, modules)
+        node = env.get_template(template)
         if not options.package:
             # a script: the runtime package beside it, on its sys.path
             files = {view.filename: node.render(m=view, rt=rt, rt_import=f"import {PY_PACKAGE}",
@@ -64,7 +82,6 @@ class Ros2Backend(Backend):
             if not options.single_file:
                 files.update(python_files())
             return files
-        pkg = lower_package(program, view)
         files = {
             # a module of the package: the runtime a subpackage of it
             f"{pkg.package}/{view.filename}": node.render(m=view, rt=rt, rt_import=f"from . import {PY_PACKAGE}",
@@ -82,7 +99,11 @@ class Ros2Backend(Backend):
         return files
 
     def lower(self, program) -> None:
-        lower_package(program, lower(program))  # the node's and the package's lowering, without the templates
+        # the node's and the package's lowering, without the templates
+        if isinstance(program, ir.Commands):
+            services.lower_package(program, services.lower(program))
+        else:
+            lower_package(program, lower(program))
 
 
 __all__ = ["Ros2Backend", "LoweringError", "TEMPLATE_DIR", "environment"]
