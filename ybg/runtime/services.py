@@ -656,47 +656,79 @@ class Ros2Caller:
 # --------------------------------------------------------------------------
 # a YARP RPC port served by the node
 
+class _CommandReader(yarp.PortReader):
+    """What YARP calls for each command on a served port, in the thread of
+    the connection it came by: the connections of several callers are
+    answered at once (a `quit` is not kept waiting by a call in flight)."""
+
+    def __init__(self, served):
+        yarp.PortReader.__init__(self)
+        self.served = served
+
+    def read(self, connection):
+        return self.served.read(connection)
+
+
 class ServedPort:
-    """A YARP RPC port the node serves: read in its own thread (``read``
-    with a reply, ``reply``), each command answered by ``answer(command)``."""
+    """A YARP RPC port the node serves: each command answered by
+    ``answer(command)`` in the thread of its connection, the reply written
+    back on it. ``after_reply`` (quit) is called once a reply is sent."""
 
     def __init__(self, name, answer, log):
         self.name = name
         self.answer = answer
         self.log = log
         self.port = yarp.Port()
+        self.reader = _CommandReader(self)
         self.stopping = False
-        self.thread = threading.Thread(target=self._run, name="port " + name, daemon=True)
-        self.after_reply = None  # called once a reply is sent (quit)
+        self.busy = 0
+        self.lock = threading.Lock()
+        self.after_reply = None
 
     def open(self):
-        if not self.port.open(self.name):
-            return False
-        self.thread.start()
-        return True
+        self.port.setReader(self.reader)
+        return self.port.open(self.name)
 
-    def _run(self):
-        while not self.stopping:
+    def read(self, connection):
+        with self.lock:
+            self.busy += 1
+        try:
             command = yarp.Bottle()
-            if not self.port.read(command, True):
-                if self.stopping:
-                    return
-                time.sleep(0.01)
-                continue
+            if self.stopping or not command.read(connection):
+                return False
             try:
                 reply = self.answer(command)
-            except Exception as e:  # never a traceback out of the thread; never no answer
+            except Exception as e:  # never a traceback out of YARP's thread; never no answer
                 self.log("port %s: %s: %s" % (self.name, type(e).__name__, e))
                 reply = yarp.Bottle()
                 reply.addVocab32("fail")
                 reply.addString("%s: %s" % (type(e).__name__, e))
-            self.port.reply(reply)
-            then, self.after_reply = self.after_reply, None
+            writer = connection.getWriter()
+            if writer is not None:
+                reply.write(writer)
+            return True
+        except Exception as e:
+            self.log("port %s: %s: %s" % (self.name, type(e).__name__, e))
+            return False
+        finally:
+            with self.lock:
+                self.busy -= 1
+                then, self.after_reply = self.after_reply, None
             if then is not None:
                 then()
 
-    def stop(self):
+    def idle(self):
+        with self.lock:
+            return self.busy == 0
+
+    def stop(self, grace=0.3):
+        """No command taken any more; interrupted once none is being
+        answered (closing while YARP's thread waits to answer would deadlock)."""
         self.stopping = True
+        end = time.monotonic() + grace
+        while not self.idle() and time.monotonic() < end:
+            time.sleep(0.005)
+        time.sleep(0.05)  # the last reply (`bye` of quit) on its way before the port goes
         self.port.interrupt()
 
     def close(self):
@@ -936,7 +968,6 @@ class CommandsNode:
             for served in self.served:
                 served.stop()
             for served in self.served:
-                served.thread.join(0.5)
                 served.close()
                 closed.append(served.name)
             for caller in self.callers.values():
