@@ -171,7 +171,7 @@ def check_types(values, types):
     """``values`` as the declaration ``types`` takes them (a number as a
     float, an integer, a word, a bool), or Unfit."""
     if len(values) != len(types):
-        raise Unfit("%d elements, expected %d" % (len(values), len(types)))
+        raise Unfit("%d element%s, expected %d" % (len(values), "" if len(values) == 1 else "s", len(types)))
     out = []
     for k, (x, t) in enumerate(zip(values, types)):
         if t in _FLOAT_TYPES:
