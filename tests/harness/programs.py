@@ -12,6 +12,7 @@ and the example and legacy configs each backend builds.
 from __future__ import annotations
 
 import functools
+import re
 import math
 from pathlib import Path
 from typing import Callable
@@ -230,9 +231,15 @@ TIMED = "relay_bridge"
 # the example and legacy configs
 
 
+def is_commands(path: Path) -> bool:
+    """Is the config at ``path`` one of commands ([service] sections), which
+    tests/test_services*.py run, not the stream harness?"""
+    return re.search(r"(?m)^\[service ", path.read_text(encoding="utf-8")) is not None
+
+
 def config_paths() -> list[Path]:
-    """Every example and legacy config."""
-    return sorted(EXAMPLES.glob("*.ini")) + sorted(LEGACY_DIR.glob("*.ini"))
+    """Every example and legacy config of a stream (not of commands)."""
+    return [p for p in sorted(EXAMPLES.glob("*.ini")) + sorted(LEGACY_DIR.glob("*.ini")) if not is_commands(p)]
 
 
 @functools.lru_cache(maxsize=None)
@@ -301,6 +308,8 @@ def ros2_examples() -> tuple[str, ...]:
     """Stems of the examples that compile for the ros2 backend and involve ROS 2."""
     out = []
     for p in sorted(EXAMPLES.glob("*.ini")):
+        if is_commands(p):
+            continue
         result = check_result(compile_path(str(p)), "ros2")
         if result.ok and _targets_ros2(result.program) and not uses_images(result.program):
             out.append(p.stem)
