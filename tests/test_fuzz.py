@@ -20,6 +20,7 @@ from ybg.compiler.msgtypes import DISTROS, load_store
 from ybg.compiler.names import RESERVED
 from ybg.compiler.parser import lark_parser, parse_text
 from ybg.compiler.passes import converters, sections
+from ybg.compiler.options import Options
 from ybg.compiler.pipeline import compile_text
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -329,8 +330,10 @@ def test_fmt_keeps_program_of_examples():
             line if line.startswith("#") else line.replace(" = ", "=").replace(", ", " ,")
             for line in text.split("\n")
         ).replace("\n[", "\n\n\n[").replace("\n", "\r\n")
-        a = compile_text(text, str(f))  # by its path: a calibration file is beside it
-        b = compile_text(messy, str(f))
+        # by its path: a calibration file is beside it; a user's own service in msgpkgs/
+        options = Options(msg_path=(str(ROOT / "msgpkgs"),))
+        a = compile_text(text, str(f), options)
+        b = compile_text(messy, str(f), options)
         assert not b.errors, (f.name, b.errors)
         assert a.program == b.program
         doc, sink = _parse_clean(messy)

@@ -16,6 +16,7 @@ import pytest
 
 from harness.generated import YBGC
 from ybg.compiler import ir
+from ybg.compiler.options import Options
 from ybg.compiler.pipeline import compile_path
 from ybg.graph import render
 
@@ -36,7 +37,8 @@ def ybgc_in(folder: Path, *args) -> subprocess.CompletedProcess:
 
 
 def program_of(path: Path) -> ir.Program:
-    result = compile_path(str(path))
+    # the examples of a user's own services find them in msgpkgs/
+    result = compile_path(str(path), Options(msg_path=(str(ROOT / "msgpkgs"),)))
     assert result.ok, [str(d) for d in result.diagnostics]
     return result.program
 
@@ -55,9 +57,30 @@ def elements(start: int, stop: int | None, width: int | None) -> set[int]:
     return set(range(start, end))
 
 
+def expected_commands(program: ir.Commands):
+    """The nodes and edges of a config of commands: who calls the module (a
+    ROS 2 service served, or a YARP port served, once for its commands), the
+    command it makes, what it calls, and the fields the answer (serves ros2)
+    or the arguments (serves yarp) fill."""
+    nodes, edges = set(), set()
+    for svc in program.services:
+        made = ("mux", f"command {svc.name}")
+        caller = ("input", svc.service if svc.serves == "ros2" else svc.port)
+        callee = ("output", svc.port if svc.serves == "ros2" else svc.service)
+        nodes |= {made, caller, callee}
+        edges |= {(caller, made), (made, callee)}
+        for fill in svc.fills:
+            field = ("field", ("response." if svc.serves == "ros2" else "request.") + fill.ref.dotted)
+            nodes.add(field)
+            edges |= {(callee, field)} if svc.serves == "ros2" else {(caller, field), (field, made)}
+    return nodes, edges
+
+
 def expected(program: ir.Program):
     """The nodes, as (stage, name), and the edges between them that the
     IR implies."""
+    if isinstance(program, ir.Commands):
+        return expected_commands(program)
     nodes, edges = set(), set()
     out = ("output", program.output.name)
     nodes.add(out)
