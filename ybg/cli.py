@@ -29,7 +29,7 @@ from ybg import __version__
 from ybg.backends import REGISTRY, backend_names
 from ybg.graph import FORMATS, SUFFIXES
 
-COMMANDS = ("check", "fmt", "ir", "generate", "graph")
+COMMANDS = ("check", "fmt", "ir", "generate", "compose", "graph")
 #: the config a command takes when none is named
 FOLDER_CONFIG = "ybgc.ini"
 EXIT_OK, EXIT_PROBLEMS, EXIT_USAGE = 0, 1, 2
@@ -110,6 +110,20 @@ def build_parser() -> argparse.ArgumentParser:
                    help="write the runtime inside the module: one file, nothing beside it; by default the "
                         "runtime files are written beside the module")
     _common(g)
+
+    k = sub.add_parser("compose", help="compose several configs into one module: one process, one ROS 2 "
+                                       "context, one node per bridge (docs/compose.md)",
+                       formatter_class=argparse.RawDescriptionHelpFormatter, epilog=_backends_epilog())
+    k.add_argument("files", nargs="*", metavar="CONFIG", help="default: every config of the folder")
+    k.add_argument("--backend", "-b", required=True, choices=backend_names(), help="what to make (backends below)")
+    k.add_argument("--name", help="the composed module's name: its executable, its RPC port /<name>/rpc:i "
+                                  "(default: the folder's name)")
+    k.add_argument("-o", "--output", metavar="DIR", help="output folder (default: ./<name>)")
+    k.add_argument("--force", action="store_true",
+                   help="replace files that ybgc did not generate (never a config)")
+    k.add_argument("--package", action="store_true",
+                   help="one ament package with one executable and a launch file for every bridge")
+    _common(k)
 
     d = sub.add_parser("graph", help="draw the dataflow: ports -> muxes -> converters -> fields -> output")
     d.add_argument("file", nargs="?", metavar="CONFIG", help=_FOLDER_HELP)
@@ -410,6 +424,66 @@ def cmd_generate(args) -> int:
     return EXIT_OK
 
 
+def cmd_compose(args) -> int:
+    from ybg.backends import LoweringError, RenderOptions, get_backend, lowering_diagnostic
+    from ybg.compiler.across import check_across
+    from ybg.compiler.names import identifier_problem, sanitize_identifier
+    from ybg.writer import WriteError, write_files
+
+    files = list(args.files) or folder_configs()
+    if not files:
+        _usage_error(f"no config named, and no ybgc config in {Path.cwd()}",
+                     "name the configs: ybgc compose a.ini b.ini --backend cpp")
+    options = _options(args)
+    results = [_compile(f, args, options) for f in files]
+    by_file: dict[str, list] = {}
+    for d in check_across(results):
+        by_file.setdefault(d.file, []).append(d)
+    for r in results:
+        if r.path in by_file:
+            r.diagnostics = sorted(r.diagnostics + by_file[r.path], key=lambda d: d.sort_key())
+    _print(results, "text")
+    if any(_io_error(r) for r in results):
+        return EXIT_USAGE
+    if any(r.program is None or r.errors for r in results):
+        return EXIT_PROBLEMS
+    name = args.name or sanitize_identifier(Path(files[0]).resolve().parent.name)
+    problem = identifier_problem(name)
+    if problem:
+        _usage_error(f"the composed module's name `{name}` {problem}",
+                     f"give another with --name, e.g. --name {sanitize_identifier(name)}")
+    clash = next((r for r in results if r.program.module == name), None)
+    if clash is not None:
+        _usage_error(f"`{name}` is also the module name of {clash.path}: its RPC port /{name}/rpc:i would be "
+                     "opened twice", "give the composed module another name with --name")
+    backend = get_backend(args.backend)
+    outdir = Path(args.output) if args.output else Path(name)
+    programs = [r.program for r in results]
+    try:
+        out = backend.compose(programs, name, RenderOptions(package=args.package,
+                                                           extra={"workdir": str(outdir.resolve())}))
+    except LoweringError as e:
+        # which config the refusal is about: the program the backend names (its module)
+        who = getattr(e, "module", None)
+        r = next((r for r in results if r.program.module == who), results[0])
+        r.diagnostics = [lowering_diagnostic(e, args.backend, r)]
+        _print([r], "text")
+        return EXIT_PROBLEMS
+    except NotImplementedError as e:
+        sys.stderr.write(f"ybgc: error: the {args.backend} backend does not compose: {e}\n"
+                         f"    hint: compose with {', '.join(n for n in backend_names() if n != args.backend)}, "
+                         "or generate each config as a module of its own\n")
+        return EXIT_PROBLEMS
+    try:
+        rep = write_files(outdir, out, force=args.force, inputs=tuple(Path(r.path) for r in results))
+    except WriteError as e:
+        return _write_error(e)
+    n = len(rep.written)
+    sys.stderr.write(f"ybgc: {args.backend} module `{name}` of {len(programs)} bridges in {outdir}/ "
+                     f"({n} file{'s' if n != 1 else ''} written, {len(rep.unchanged)} unchanged)\n")
+    return EXIT_OK
+
+
 def cmd_graph(args) -> int:
     from ybg.graph import render
     from ybg.writer import WriteError, write_output
@@ -448,7 +522,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return EXIT_USAGE
     handler = {"check": cmd_check, "fmt": cmd_fmt, "ir": cmd_ir, "generate": cmd_generate,
-               "graph": cmd_graph}[args.command]
+               "compose": cmd_compose, "graph": cmd_graph}[args.command]
     try:
         return handler(args)
     except KeyboardInterrupt:

@@ -73,6 +73,16 @@ class Backend:
         """The files of ``program``'s module: ``{relative path: text}``."""
         raise NotImplementedError
 
+    def compose(self, programs: "list[Program]", name: str,
+                options: RenderOptions = RenderOptions()) -> dict[str, str]:
+        """The files of one module ``name`` that runs every program of
+        ``programs`` (each checked, together too) in one process
+        (docs/compose.md): ``{relative path: text}``. A refusal is a
+        ``LoweringError`` whose ``module`` attribute names the program it
+        refuses. A backend that does not compose raises
+        ``NotImplementedError`` with the reason."""
+        raise NotImplementedError("it builds one config a module")
+
     def lower(self, program: "Program") -> None:
         """Make every decision :meth:`render` makes, without printing: raises
         the ``LoweringError`` that :meth:`render` would. ``ybgc check
