@@ -363,11 +363,19 @@ class Rig:
         return procs[0] if len(procs) == 1 else procs
 
     def close(self) -> None:
-        for p in reversed(self.procs):
+        """Everything stopped at once (each a process group: SIGTERM, then SIGKILL)."""
+        import threading
+
+        def stop(p):
             try:
                 p.stop()
-            except Exception:  # noqa: BLE001 (stopping everything else first)
+            except Exception:  # noqa: BLE001 (stopping everything else all the same)
                 pass
+        threads = [threading.Thread(target=stop, args=(p,)) for p in reversed(self.procs)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
 
 
 # --------------------------------------------------------------------------

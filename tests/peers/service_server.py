@@ -71,31 +71,28 @@ def main():
         serve(name, spec)
     ex = MultiThreadedExecutor(num_threads=12)
     ex.add_node(node)
+    # the executor in a thread of its own: the main thread takes the commands,
+    # and the signals (a thread blocked in rclpy's wait would never see them)
+    threading.Thread(target=ex.spin, daemon=True).start()
     q = peer_io.commands()
-
-    def commands():
-        while True:
-            c = q.get()
-            if c is None or c.get("cmd") == "quit":
-                try:
-                    ex.shutdown(timeout_sec=1.0)
-                    node.destroy_node()
-                    rclpy.shutdown()
-                finally:
-                    os._exit(0)  # rclpy threads stop with the process
-            if c["cmd"] == "script":
-                with lock:
-                    s = state[c["service"]]
-                    if "response" in c:
-                        s["response"] = c["response"] or {}
-                    if "delay" in c:
-                        s["delay"] = float(c["delay"] or 0)
-                peer_io.emit("script", service=c["service"])
-
-    threading.Thread(target=commands, daemon=True).start()
     peer_io.emit("ready")
-    ex.spin()
-    return 0
+    while True:
+        c = q.get()
+        if c is None or c.get("cmd") == "quit":
+            try:
+                ex.shutdown(timeout_sec=1.0)
+                node.destroy_node()
+                rclpy.shutdown()
+            finally:
+                os._exit(0)  # rclpy threads stop with the process
+        if c["cmd"] == "script":
+            with lock:
+                s = state[c["service"]]
+                if "response" in c:
+                    s["response"] = c["response"] or {}
+                if "delay" in c:
+                    s["delay"] = float(c["delay"] or 0)
+            peer_io.emit("script", service=c["service"])
 
 
 if __name__ == "__main__":
