@@ -48,6 +48,10 @@ CPP_ROS2_SOURCES = ("ybgc_ros2.cpp", "ybgc_ros2_params.cpp")
 #: writes images (always one with ROS 2)
 CPP_IMAGES_HEADER = "ybgc_images.hpp"
 CPP_IMAGES_SOURCES = ("ybgc_images.cpp",)
+#: the C++ runtime's commands (YARP RPC ports and ROS 2 services), beside a
+#: module of commands (always with the ROS 2 side)
+CPP_SERVICES_HEADER = "ybgc_services.hpp"
+CPP_SERVICES_SOURCES = ("ybgc_services.cpp",)
 
 #: marks the lines of a runtime file that import another runtime file (left
 #: out when the runtime is inlined into a module)
@@ -86,36 +90,37 @@ def python_inline(modules: tuple[str, ...] = PY_MODULES) -> str:
     return "".join(parts)
 
 
-def _cpp_names(ros2: bool, images: bool = False) -> tuple[str, ...]:
+def _cpp_names(ros2: bool, images: bool = False, services: bool = False) -> tuple[str, ...]:
     """The C++ runtime's files, headers first (the order they are inlined in)."""
     return ((CPP_HEADER, CPP_INTERNAL_HEADER, *CPP_SOURCES)
-            + ((CPP_ROS2_HEADER, *CPP_ROS2_SOURCES) if ros2 or images else ())
-            + ((CPP_IMAGES_HEADER, *CPP_IMAGES_SOURCES) if images else ()))
+            + ((CPP_ROS2_HEADER, *CPP_ROS2_SOURCES) if ros2 or images or services else ())
+            + ((CPP_IMAGES_HEADER, *CPP_IMAGES_SOURCES) if images else ())
+            + ((CPP_SERVICES_HEADER, *CPP_SERVICES_SOURCES) if services else ()))
 
 
 def is_runtime_file(name: str) -> bool:
     """Is ``name`` (a path relative to a module's output folder) a file of the
     runtime library that ybgc writes beside a module, not of the module?"""
     parts = Path(name).parts
-    return PY_PACKAGE in parts[:-1] or (len(parts) == 1 and parts[0] in _cpp_names(True, True))
+    return PY_PACKAGE in parts[:-1] or (len(parts) == 1 and parts[0] in _cpp_names(True, True, True))
 
 
-def cpp_files(ros2: bool = False, images: bool = False) -> dict[str, str]:
+def cpp_files(ros2: bool = False, images: bool = False, services: bool = False) -> dict[str, str]:
     """The C++ runtime's headers and sources, beside a module (``ros2``: and
     its ROS 2 side, for a module that publishes to ROS 2 or reads a ROS 2
     topic; ``images``: and its camera images, for a module that reads or
-    writes them)."""
-    return {name: _banner("//") + _read(CPP_DIR / name) for name in _cpp_names(ros2, images)}
+    writes them; ``services``: and its commands, for a module of commands)."""
+    return {name: _banner("//") + _read(CPP_DIR / name) for name in _cpp_names(ros2, images, services)}
 
 
-def cpp_inline(ros2: bool = False, images: bool = False) -> str:
+def cpp_inline(ros2: bool = False, images: bool = False, services: bool = False) -> str:
     """The C++ runtime as one block of a module (``--single-file``): its
     files one after the other, headers first, in one translation unit (so
     no two of them define the same helper)."""
     parts = [f"// {'=' * 75}\n// ybgc runtime {VERSION}, inlined (--single-file): the same code as the\n"
              f"// files that ybgc writes beside a module by default ({CPP_HEADER} and the\n"
              f"// others below), one after the other.\n// {'=' * 75}\n"]
-    for name in _cpp_names(ros2, images):
+    for name in _cpp_names(ros2, images, services):
         parts.append(f"\n// --- {name} {'-' * (70 - len(name))}\n")
         parts.append(_without_internal_imports(_read(CPP_DIR / name)))
     return "".join(parts)
@@ -134,14 +139,14 @@ class RuntimeView:
 
 
 def runtime_view(language: str, single_file: bool, python_modules: tuple[str, ...] = PY_MODULES,
-                 ros2: bool = False, images: bool = False) -> RuntimeView:
+                 ros2: bool = False, images: bool = False, services: bool = False) -> RuntimeView:
     """The runtime of a ``language`` ("py" or "cpp") module (``ros2``: a C++
     module that publishes to ROS 2; ``images``: one that reads or writes
-    camera images)."""
+    camera images; ``services``: a C++ module of commands)."""
     literal = repr(VERSION) if language == "py" else '"' + VERSION + '"'
     inline = ""
     if single_file:
-        inline = python_inline(python_modules) if language == "py" else cpp_inline(ros2, images)
+        inline = python_inline(python_modules) if language == "py" else cpp_inline(ros2, images, services)
     return RuntimeView(VERSION, literal, single_file, inline)
 
 
@@ -154,5 +159,5 @@ def runtime_text_filter(text) -> str:
 
 __all__ = ["RuntimeView", "runtime_view", "runtime_text_filter", "VERSION", "PY_PACKAGE", "PY_MODULES", "CPP_HEADER",
            "CPP_INTERNAL_HEADER", "CPP_SOURCES", "CPP_ROS2_HEADER", "CPP_ROS2_SOURCES", "CPP_IMAGES_HEADER",
-           "CPP_IMAGES_SOURCES",
+           "CPP_IMAGES_SOURCES", "CPP_SERVICES_HEADER", "CPP_SERVICES_SOURCES",
            "python_files", "python_inline", "cpp_files", "cpp_inline", "is_runtime_file"]

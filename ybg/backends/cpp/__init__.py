@@ -15,6 +15,11 @@ application ``<module>.xml`` beside it (:mod:`ybg.lower.yarpmanager`);
 with ``--package``, a ROS 2 package around it (:mod:`.package`). :mod:`.lower` makes every
 decision and escapes every value with :mod:`.escape`; the templates only
 print.
+
+A config of commands (:class:`~ybg.compiler.ir.Commands`: YARP RPC ports and
+ROS 2 services, docs/services.md) is lowered by :mod:`.services` and printed
+by ``services.cpp.j2`` and ``services.CMakeLists.txt.j2``; it runs on the
+runtime's ``ybgc_services.*`` with its ROS 2 side.
 """
 
 from __future__ import annotations
@@ -28,8 +33,9 @@ import jinja2
 from ybg.backends.base import Backend, RenderOptions
 from ybg.backends.cpp.lower import lower
 from ybg.backends.cpp.package import lower_launch, lower_package
-from ybg.backends.runtime import (CPP_IMAGES_SOURCES, CPP_ROS2_SOURCES, CPP_SOURCES, cpp_files, runtime_text_filter,
-                                  runtime_view)
+from ybg.backends.runtime import (CPP_IMAGES_SOURCES, CPP_ROS2_SOURCES, CPP_SERVICES_SOURCES, CPP_SOURCES, cpp_files,
+                                  runtime_text_filter, runtime_view)
+from ybg.compiler import ir
 from ybg.lower import yarpmanager
 from ybg.lower.errors import LoweringError
 from ybg.lower.package import launch_file
@@ -61,6 +67,8 @@ class CppBackend(Backend):
     name = "cpp"
 
     def render(self, program, options: RenderOptions = RenderOptions()) -> dict[str, str]:
+        if isinstance(program, ir.Commands):
+            return self._render_commands(program, options)
         view = self._lower(program)
         ros2 = view.uses_ros2
         env = environment()
@@ -92,7 +100,40 @@ class CppBackend(Backend):
         return files
 
     def lower(self, program) -> None:
+        if isinstance(program, ir.Commands):
+            from ybg.backends.cpp import services
+            services.lower(program)  # the module's lowering, without the templates
+            return
         self._lower(program)  # the module's lowering, without the templates
+
+    @staticmethod
+    def _render_commands(commands: ir.Commands, options: RenderOptions) -> dict[str, str]:
+        """A module of commands (.services): the module, its CMakeLists.txt, and the
+        runtime with its ROS 2 side and commands beside it (or inlined)."""
+        from ybg.backends.cpp import services
+
+        view = services.lower(commands)
+        env = environment()
+        rt = runtime_view("cpp", options.single_file, ros2=True, services=True)
+        beside = not options.single_file
+        pkg = services.lower_package(commands, view) if options.package else None
+        launch = services.lower_launch(commands, pkg, view.executable) if pkg is not None else None
+        files = {
+            view.filename: env.get_template("services.cpp.j2").render(m=view, rt=rt),
+            "CMakeLists.txt": env.get_template("services.CMakeLists.txt.j2").render(
+                m=view, runtime_sources=list(CPP_SOURCES) if beside else None,
+                runtime_library=runtime_library() if beside else None,
+                ros2_sources=list(CPP_ROS2_SOURCES) + list(CPP_SERVICES_SOURCES) if beside else None,
+                package=pkg, project=pkg.package if pkg is not None else view.target,
+                launch_file=f"launch/{launch.launch_file}" if launch else None,
+                launch_file_name=launch.launch_file if launch else None),
+        }
+        if pkg is not None:
+            files["package.xml"] = env.get_template("package.xml.j2").render(p=pkg)
+            files[f"launch/{launch.launch_file}"] = launch_file(launch)
+        if beside:
+            files.update(cpp_files(ros2=True, services=True))
+        return files
 
     @staticmethod
     def _lower(program):

@@ -1,0 +1,649 @@
+"""Lowering of a checked config of commands (:class:`~ybg.compiler.ir.Commands`,
+docs/services.md) for the ``cpp`` backend: a native module of YARP RPC ports
+and ROS 2 services through rcl, on the runtime's ``ybgc_services.hpp``
+(with its ROS 2 side, ``ybgc_ros2.hpp``). ``templates/services.cpp.j2``
+prints the module, ``services.CMakeLists.txt.j2`` its CMakeLists.txt.
+
+Each service is a namespace of the module holding its C structs
+(``<pkg>/srv/<name>.h``: ``Request``, ``Response``) and its functions,
+written here line by line:
+
+- serves ros2: ``buildCommand(request, command)``, the command Bottle sent
+  to the YARP RPC port; ``fillResponse(reply, response, why)``, the response
+  filled from the reply's checked, converted elements (false, with why, when
+  one does not fit); ``fillFailure(reason, response)``, the failure answer;
+- serves yarp: ``fillRequest(args, request, why)``, the request filled from
+  the command's arguments; ``buildReply(response, reply)``, the reply Bottle;
+  ``buildFailure(response, reason, reply)``, the failure reply;
+
+and ``kService``, what the runtime needs of it (what it serves and calls, its
+timeout, the declaration and converters of the reply or arguments, the
+reasons of a failed call from :mod:`ybg.lower.services`). A value of the config
+reaches the source only through :mod:`.escape`; the semantics are the rclpy
+node's (:mod:`ybg.runtime.services`), so that both answer alike.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass
+
+from ybg.backends.cpp.escape import (comment, cpp_float, cpp_identifier, cpp_int, cpp_std_string, cpp_string,
+                                     mangle)
+from ybg.backends.cpp.lower import _executable  # (CMake target, executable name), as a stream module's
+from ybg.backends.cpp.package import PackageView
+from ybg.backends.cpp.rcl import RUNTIME_PACKAGES
+from ybg.compiler import ir
+from ybg.lower import services as texts
+from ybg.lower.errors import Line, LoweringError
+from ybg.lower.package import PackageView as LaunchView
+from ybg.lower.rosnames import package_name, snake_case
+from ybg.lower.wire import WIRE_YARP
+
+_FLOAT = ("float32", "float64")
+_INTS = ("int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64", "char", "byte")
+#: the element types an element of a Bottle fills (a field of another type is refused)
+_FILLED = _FLOAT + _INTS + ("bool", "string")
+#: the runtime's Wire of each Bottle tag
+_WIRE = {"int32": "ybgc::Wire::Int32", "int64": "ybgc::Wire::Int64", "float64": "ybgc::Wire::Float64",
+         "string": "ybgc::Wire::String"}
+#: names a service's namespace must not take (the module's own, and those it uses)
+_TAKEN = frozenset({"commands", "ybgc", "yarp", "std", "rosidl_runtime_c", "Request", "Response", "kService",
+                    "kCommands", "buildCommand", "fillResponse", "fillFailure", "fillRequest", "buildReply",
+                    "buildFailure", "main"})
+#: the element types a Bottle item of a declaration may have
+_DECLARED = _FILLED
+
+
+# --------------------------------------------------------------------------
+# view-model
+
+
+@dataclass(frozen=True)
+class ServiceView:
+    """One service: its namespace, the comment lines above it, the C structs
+    of its type, its functions (each a tuple of lines, the signature at
+    indent 0) and the lines of its ``kService``."""
+
+    namespace: str
+    comment: tuple[str, ...]
+    request: str          # the C struct of a request
+    response: str         # the C struct of a response
+    functions: tuple[tuple[Line, ...], ...]
+    spec: tuple[Line, ...]
+
+
+@dataclass(frozen=True)
+class PortView:
+    """A YARP RPC port the module serves, and what `help` answers there."""
+
+    port: str                 # string literal
+    comment: str
+    help: tuple[str, ...]     # string literals
+
+
+@dataclass(frozen=True)
+class CommandsView:
+    """Everything the module's template and its CMakeLists print."""
+
+    filename: str
+    target: str
+    executable: str
+    config_comment: str
+    header: tuple[str, ...]           # comment lines (already safe)
+    includes: tuple[str, ...]         # <pkg>/srv/<name>.h
+    services: tuple[ServiceView, ...]
+    ports: tuple[PortView, ...]
+    module: str                       # string literal
+    config: str                       # string literal
+    node: str                         # string literal
+    default_prefix: str               # string literal
+    description: tuple[str, ...]      # string literals (--help)
+    unknown_command: str              # string literal
+    ros2_packages: tuple[str, ...]    # the interface packages to link (the services', the runtime's)
+
+    # what the shared CMake templates ask of a module
+    ros1: bool = False
+    images: bool = False
+    uses_ros2: bool = True
+
+
+# --------------------------------------------------------------------------
+# names
+
+
+def split_srv(srv_type: str) -> tuple[str, str]:
+    """``pkg/Name`` or ``pkg/srv/Name`` -> (pkg, Name), both checked."""
+    parts = srv_type.split("/")
+    if len(parts) == 3 and parts[1] == "srv":
+        parts = [parts[0], parts[2]]
+    if len(parts) != 2 or not re.fullmatch(r"[a-z][a-z0-9_]*", parts[0]) \
+            or not re.fullmatch(r"[A-Za-z][A-Za-z0-9]*", parts[1]):
+        raise LoweringError(f"{srv_type!r} is not a ROS service type name (pkg/Name)")
+    return parts[0], parts[1]
+
+
+def srv_type_name(srv_type: str) -> str:
+    """``pkg/Name`` -> ``pkg/srv/Name``."""
+    pkg, name = split_srv(srv_type)
+    return f"{pkg}/srv/{name}"
+
+
+def c_struct(srv_type: str, part: str) -> str:
+    """The C struct of a request or response (``std_srvs__srv__Trigger_Request``)."""
+    pkg, name = split_srv(srv_type)
+    return f"{pkg}__srv__{name}_{part}"
+
+
+def c_header(srv_type: str) -> str:
+    """The header that declares a service's C structs, functions and type support."""
+    pkg, name = split_srv(srv_type)
+    return f"{pkg}/srv/{snake_case(name)}.h"
+
+
+def node_name(commands: ir.Commands) -> str:
+    """The ROS 2 node's name: the module's, made a ROS name (as the rclpy node's)."""
+    name = re.sub(r"\W", "_", commands.module, flags=re.ASCII)
+    return name if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name) else "ybgc_" + name
+
+
+def node_parameters(commands: ir.Commands) -> tuple[tuple[str, object], ...]:
+    """The node's parameters a launch file gives, with their defaults (the rclpy node's)."""
+    return (("prefix", "/" + commands.module), ("verbose", False), ("diagnostics", True))
+
+
+def describe(service: ir.Service) -> str:
+    """The start-up line of a service: what it serves and what it calls (the rclpy node's words)."""
+    kind = srv_type_name(service.srv_type)
+    timeout = texts.timeout_text(service.timeout)
+    if service.serves == "ros2":
+        return (f"service {service.name}: serves the ROS 2 service {service.service} ({kind}) and calls the "
+                f"YARP RPC port {service.port} (timeout {timeout} s)")
+    return (f"service {service.name}: serves `{texts.usage(service)}` on the YARP RPC port {service.port} and "
+            f"calls the ROS 2 service {service.service} ({kind}) (timeout {timeout} s)")
+
+
+def _member(ref: ir.FieldRef) -> str:
+    """A field of a request or response, as members of its C struct (``target.x``)."""
+    try:
+        return ".".join(cpp_identifier(part) for part in ref.path)
+    except ValueError as e:
+        raise LoweringError(f"field {ref.dotted!r} cannot be a member of a C struct ({e})") from None
+
+
+def _namespaces(commands: ir.Commands) -> dict[str, str]:
+    """A C++ namespace for each service: its name, else made one."""
+    out: dict[str, str] = {}
+    used: set[str] = set()
+    for s in commands.services:
+        try:
+            name = cpp_identifier(s.name)
+            if name in _TAKEN:
+                raise ValueError(name)
+        except ValueError:
+            try:
+                name = mangle("service_", s.name)
+            except ValueError as e:
+                raise LoweringError(f"service {s.name!r} cannot name a C++ namespace ({e})", s.span) from None
+        base, k = name, 2
+        while name in used:
+            name = f"{base}_{k}"
+            k += 1
+        used.add(name)
+        out[s.name] = name
+    return out
+
+
+# --------------------------------------------------------------------------
+# constants
+
+
+def _coerce(value, base: str):
+    if base in _FLOAT:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise LoweringError(f"{value!r} is not a number, for a {base} field")
+        return float(value)
+    if base == "bool":
+        return bool(value)
+    if base == "string":
+        return str(value)
+    if base in _INTS:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                or (isinstance(value, float) and not value.is_integer()):
+            raise LoweringError(f"{value!r} is not an integer, for a {base} field")
+        return int(value)
+    raise LoweringError(f"no constant of type {base!r}")
+
+
+def _c_literal(value, base: str) -> str:
+    v = _coerce(value, base)
+    if base in _FLOAT:
+        return cpp_float(v)
+    if base == "bool":
+        return "true" if v else "false"
+    if base == "byte" and not 0 <= v <= 255:
+        raise LoweringError(f"{v} is not a byte")
+    return cpp_int(v, 64)
+
+
+def _constant(target: str, value, typ: ir.TypeRef) -> str:
+    """The statement that sets a field to a constant of the config."""
+    if typ.array is None:
+        if isinstance(value, tuple):
+            raise LoweringError(f"a list for the scalar field of type {typ}")
+        if typ.base == "string":
+            return f"ybgc::ros2::setString({target}, {cpp_std_string(str(value))});"
+        return f"ybgc::ros2::assign({target}, {_c_literal(value, typ.base)});"
+    values = value if isinstance(value, tuple) else (value,)
+    if typ.array == "fixed" and typ.size is not None and len(values) != typ.size:
+        raise LoweringError(f"{len(values)} values for a field of type {typ}")
+    if typ.array == "sequence" and typ.size is not None and len(values) > typ.size:
+        raise LoweringError(f"{len(values)} values for a field of type {typ}")
+    if typ.base == "string":
+        return f"ybgc::ros2::setStrings({target}, {{{', '.join(cpp_std_string(str(v)) for v in values)}}});"
+    if not values:
+        return f"ybgc::ros2::resize({target}, 0);"
+    kind = "double" if typ.base in _FLOAT else "bool" if typ.base == "bool" else "std::int64_t"
+    return f"ybgc::ros2::setValues<{kind}>({target}, {{{', '.join(_c_literal(v, typ.base) for v in values)}}});"
+
+
+# --------------------------------------------------------------------------
+# fields filled by the module
+
+
+def _check_filled(ref: ir.FieldRef) -> ir.TypeRef:
+    typ = ref.type
+    if typ is None:
+        raise LoweringError(f"the field {ref.dotted} needs its type")
+    if typ.is_message or typ.base in ("time", "duration"):
+        raise LoweringError(f"the field {ref.dotted} is a {typ}: fill its fields")
+    return typ
+
+
+def _fill(fill: ir.Fill, msg: str, elements: str, failure: bool) -> list[str]:
+    """The statements that fill one field: ``msg`` the request or response,
+    ``elements`` the Elements of the Bottle (none in a failure answer)."""
+    ref = fill.ref
+    typ = _check_filled(ref)
+    target = f"{msg}.{_member(ref)}"
+    if fill.source == "literal":
+        return [_constant(target, fill.value, typ)]
+    if fill.source == "error":
+        if not failure:
+            raise LoweringError("`error` is the reason of a failed call: only in a failure answer")
+        if typ.base != "string" or typ.array is not None:
+            raise LoweringError(f"the reason of a failed call is a string, not a {typ} ({ref.dotted})")
+        return [f"ybgc::ros2::setString({target}, reason);"]
+    if failure:
+        raise LoweringError(f"a failure answer is constants and `error`, not {fill.source} ({ref.dotted})")
+    if fill.source == "text":
+        if typ.base != "string" or typ.array is not None:
+            raise LoweringError(f"a Bottle's text is a string, not a {typ} ({ref.dotted})")
+        return [f"ybgc::ros2::setString({target}, {elements}.text());"]
+    if fill.source != "element":
+        raise LoweringError(f"unknown source {fill.source!r} of the field {ref.dotted}")
+    if typ.base not in _FILLED:
+        raise LoweringError(f"no element fills the {typ.base} field {ref.dotted}")
+    if fill.start < 0 or (fill.stop is not None and fill.stop < fill.start):
+        raise LoweringError(f"the elements [{fill.start}:{fill.stop}] of the field {ref.dotted}")
+    if not fill.slice:
+        if typ.array is not None:
+            raise LoweringError(f"one element for the array field {ref.dotted} ({typ})")
+        call = f"{elements}.set({target}, {fill.start:d}, why)"
+    else:
+        if typ.array is None:
+            raise LoweringError(f"elements [{fill.start}:{'' if fill.stop is None else fill.stop}] for the "
+                                f"scalar field {ref.dotted}")
+        if typ.size is not None and fill.stop is not None:
+            n = fill.stop - fill.start
+            if (typ.array == "fixed" and n != typ.size) or n > typ.size:
+                raise LoweringError(f"{n} elements for the field {ref.dotted} ({typ})")
+        stop = "ybgc::kToEnd" if fill.stop is None else f"{fill.stop:d}"
+        bound = typ.size if typ.array == "sequence" and typ.size is not None else 0
+        call = (f"{elements}.setRange({target}, {fill.start:d}, {stop}, {bound:d}, "
+                f"{cpp_string(ref.dotted)}, why)")
+    return [f"if (!{call}) {{", "    return false;", "}"]
+
+
+def _what(fill: ir.Fill, bottle: str) -> str:
+    """A comment saying what fills a field."""
+    if fill.source == "element":
+        if fill.slice:
+            where = f"{bottle}[{fill.start}:{'' if fill.stop is None else fill.stop}]"
+        else:
+            where = f"{bottle}[{fill.start}]"
+        if fill.ref.type is not None and fill.ref.type.base == "bool":
+            where += ": a true word or a number not 0"
+        return where
+    if fill.source == "text":
+        return f"the {bottle} as text"
+    if fill.source == "error":
+        return "why the call failed"
+    return "a constant"
+
+
+def _fills(fills, msg: str, elements: str, failure: bool, bottle: str) -> list[Line]:
+    lines: list[Line] = []
+    for f in fills:
+        try:
+            statements = _fill(f, msg, elements, failure)
+        except LoweringError as e:
+            raise e.at(f.span)
+        lines.append(Line(1, f"// {comment(f.ref.dotted)} ({comment(str(f.ref.type))}): {_what(f, bottle)}"))
+        lines += [Line(1, s) for s in statements]
+    return lines
+
+
+# --------------------------------------------------------------------------
+# Bottles written by the module
+
+
+class _BottleWriter:
+    """The statements that add ``items`` to a Bottle: constants, a message's
+    fields (``msg``: the request or response), nested lists (a block each),
+    the reason of a failure (``reason``)."""
+
+    def __init__(self, msg: str, failure: bool):
+        self.msg = msg
+        self.failure = failure
+        self.lines: list[Line] = []
+        self.lists = 0
+
+    def items(self, bottle: str, items, indent: int = 1) -> None:
+        for item in items:
+            try:
+                self.item(bottle, item, indent)
+            except LoweringError as e:
+                raise e.at(item.span)
+
+    def item(self, bottle: str, item: ir.BottleItem, indent: int) -> None:
+        emit = lambda text, k=indent: self.lines.append(Line(k, text))  # noqa: E731
+        if item.kind == "literal":
+            emit(self.literal(bottle, item))
+        elif item.kind == "field":
+            if item.ref is None:
+                raise LoweringError("a field item names its field")
+            emit(f"// {comment(item.ref.dotted)} ({comment(str(item.ref.type))})"
+                 + (f", {comment(item.converter.name)}" if self._converted(item) else ""))
+            emit(self.field(bottle, item))
+        elif item.kind == "list":
+            self.lists += 1
+            name = f"items{self.lists}" if self.lists > 1 else "items"
+            emit("{")
+            emit(f"yarp::os::Bottle& {name} = {bottle}.addList();", indent + 1)
+            self.items(name, item.items, indent + 1)
+            emit("}")
+        elif item.kind == "error":
+            if not self.failure:
+                raise LoweringError("`error` is the reason of a failed call: only in the failure reply")
+            emit(f"{bottle}.addString(reason);  // why the call failed")
+        else:
+            raise LoweringError(f"unknown Bottle item {item.kind!r}")
+
+    @staticmethod
+    def literal(bottle: str, item: ir.BottleItem) -> str:
+        v, t = item.value, item.type
+        if isinstance(v, bool) or t == "bool":
+            return f"{bottle}.addInt32({1 if v else 0:d});"
+        if t == "string" or (t is None and isinstance(v, str)):
+            return f"{bottle}.addString({cpp_std_string(str(v))});"
+        if t == "float64" or (t is None and isinstance(v, float)):
+            return f"{bottle}.addFloat64({cpp_float(float(v))});"
+        if t in ("int32", "int64", None) and isinstance(v, int):
+            if t == "int32" and not -2**31 <= v < 2**31:
+                raise LoweringError(f"{v} is beyond an int32")
+            if t is None:
+                t = "int32" if -2**31 <= v < 2**31 else "int64"
+            if not -2**63 <= v < 2**63:
+                raise LoweringError(f"{v} is beyond an int64")
+            return f"{bottle}.add{'Int32' if t == 'int32' else 'Int64'}({cpp_int(v, 32 if t == 'int32' else 64)});"
+        raise LoweringError(f"a constant {v!r} of type {t!r} in a Bottle")
+
+    @staticmethod
+    def _converted(item: ir.BottleItem) -> bool:
+        return item.converter is not None and not item.converter.is_identity
+
+    def field(self, bottle: str, item: ir.BottleItem) -> str:
+        ref = item.ref
+        typ = ref.type
+        if typ is None:
+            raise LoweringError(f"the field {ref.dotted} needs its type")
+        if typ.is_message or typ.base in ("time", "duration"):
+            raise LoweringError(f"the field {ref.dotted} is a {typ}: a Bottle item is a number, a string "
+                                f"or a bool (name its fields)")
+        expr = f"{self.msg}.{_member(ref)}"
+        if self._converted(item):
+            conv = item.converter
+            if typ.base not in _FLOAT + _INTS:
+                raise LoweringError(f"the converter {conv.name} of the {typ.base} field {ref.dotted}")
+            each = "Each" if typ.array is not None else ""
+            return (f"ybgc::services::put{each}Converted({bottle}, {expr}, {cpp_float(float(conv.scale))}, "
+                    f"{cpp_float(float(conv.offset))});")
+        wire = WIRE_YARP.get(typ.base)
+        if wire not in _WIRE:
+            raise LoweringError(f"no Bottle item for the {typ.base} field {ref.dotted}")
+        each = "Each" if typ.array is not None else ""
+        return f"ybgc::services::put{each}({bottle}, {expr}, {_WIRE[wire]});"
+
+
+# --------------------------------------------------------------------------
+# one service
+
+
+def _function(signature: tuple[str, ...], doc: tuple[str, ...], body: list[Line]) -> tuple[Line, ...]:
+    return (*(Line(0, f"/// {d}") for d in doc), *(Line(0, s) for s in signature), Line(0, "{"), *body,
+            Line(0, "}"))
+
+
+def _declared(service: ir.Service) -> tuple[str, str]:
+    """(the declared flag, the types' initializer) of the reply or arguments."""
+    if service.layout is None:
+        return "false", "{}"
+    types = []
+    for g in service.layout:
+        if g.type not in _DECLARED or g.count < 0:
+            raise LoweringError(f"a declaration of {g.count} {g.type}", service.span)
+        types += [g.type] * g.count
+    return "true", "{" + ", ".join(cpp_string(t) for t in types) + "}"
+
+
+def _converters(service: ir.Service) -> str:
+    out = []
+    for c in service.converters:
+        if c.start < 0 or (c.stop is not None and c.stop < c.start):
+            raise LoweringError(f"the converter {c.name} on [{c.start}:{c.stop}]", c.span)
+        stop = "ybgc::kToEnd" if c.stop is None else f"{c.stop:d}"
+        out.append(f"{{{cpp_string(c.name)}, {cpp_float(float(c.scale))}, {cpp_float(float(c.offset))}, "
+                   f"{'true' if c.to_float else 'false'}, {c.start:d}, {stop}}}")
+    return "{" + ", ".join(out) + "}"
+
+
+def _declaration_text(service: ir.Service) -> str:
+    if service.layout is None:
+        return "taken as it comes"
+    return "declared " + ", ".join(f"{g.type} x{g.count}" for g in service.layout)
+
+
+def _service(service: ir.Service, namespace: str) -> ServiceView:
+    if service.serves not in ("ros2", "yarp"):
+        raise LoweringError(f"a service serves ros2 or yarp, not {service.serves!r}", service.span)
+    if not service.timeout > 0:
+        raise LoweringError(f"the timeout of service {service.name} is {service.timeout!r} s", service.span)
+    try:
+        pkg, name = split_srv(service.srv_type)
+    except LoweringError as e:
+        raise e.at(service.type_span or service.span)
+    type_name = f"{pkg}/srv/{name}"
+    request, response = c_struct(service.srv_type, "Request"), c_struct(service.srv_type, "Response")
+    reasons = texts.reasons(service)
+    declared, types = _declared(service)
+    what = _declaration_text(service)
+    if service.serves == "ros2":
+        bw = _BottleWriter("request", failure=False)
+        bw.items("command", service.bottle)
+        command = _function(
+            ("void buildCommand([[maybe_unused]] const Request& request, yarp::os::Bottle& command)",),
+            (f"The command Bottle sent to {comment(service.port)} for a request of {comment(service.service)}.",),
+            bw.lines)
+        fills = _fills(service.fills, "response", "reply", failure=False, bottle="reply")
+        fill = _function(
+            ("bool fillResponse([[maybe_unused]] const ybgc::services::Elements& reply, Response& response,",
+             "                  [[maybe_unused]] std::string& why)"),
+            (f"The response from the reply of {comment(service.port)} ({what}), its elements",
+             "checked and converted; false, with why, when one does not fit its field."),
+            fills + [Line(1, "return true;")])
+        failure = _function(
+            ("void fillFailure([[maybe_unused]] const std::string& reason, [[maybe_unused]] Response& response)",),
+            ("The answer of a failed call (`response` a fresh one, its other fields at their defaults), and why.",),
+            _fills(service.failure_fills, "response", "", failure=True, bottle="reply"))
+        functions = (command, fill, failure)
+        helper = f"ybgc::services::servesRos2<Request, Response, &buildCommand, &fillResponse, &fillFailure>()"
+        served = f"the ROS 2 service {comment(service.service)} ({comment(type_name)})"
+        called = f"the YARP RPC port {comment(service.port)}"
+        spec_lines = [
+            f"{cpp_string(service.service)},  // the ROS 2 service served",
+            f"{cpp_string(service.port)},  // the YARP RPC port called",
+        ]
+    else:
+        fills = _fills(service.fills, "request", "args", failure=False, bottle="args")
+        fill = _function(
+            ("bool fillRequest([[maybe_unused]] const ybgc::services::Elements& args, [[maybe_unused]] Request& "
+             "request,", "                 [[maybe_unused]] std::string& why)"),
+            (f"The request of {comment(service.service)} from the arguments of `{comment(texts.usage(service))}`",
+             f"(after the word; {what}), checked and converted; false, with why, when one does not fit its field."),
+            fills + [Line(1, "return true;")])
+        bw = _BottleWriter("response", failure=False)
+        bw.items("reply", service.bottle)
+        reply = _function(
+            ("void buildReply([[maybe_unused]] const Response& response, yarp::os::Bottle& reply)",),
+            (f"The reply Bottle from the response of {comment(service.service)}.",), bw.lines)
+        fw = _BottleWriter("response", failure=True)
+        fw.items("reply", service.failure_bottle)
+        failure = _function(
+            ("void buildFailure([[maybe_unused]] const Response& response, [[maybe_unused]] const std::string& "
+             "reason,", "                  yarp::os::Bottle& reply)"),
+            ("The reply of a failed call (`response` a fresh one), and why.",), fw.lines)
+        functions = (fill, reply, failure)
+        helper = f"ybgc::services::servesYarp<Request, Response, &fillRequest, &buildReply, &buildFailure>()"
+        served = f"`{comment(texts.usage(service))}` on the YARP RPC port {comment(service.port)}"
+        called = f"the ROS 2 service {comment(service.service)} ({comment(type_name)})"
+        spec_lines = [
+            f"{cpp_string(service.service)},  // the ROS 2 service called",
+            f"{cpp_string(service.port)},  // the YARP RPC port served",
+        ]
+    serves = "ybgc::services::Serves::Ros2" if service.serves == "ros2" else "ybgc::services::Serves::Yarp"
+    reason_items = [
+        (reasons["no_server"], "no server"),
+        (reasons["timed_out"], "no answer in time"),
+        (reasons["waited"] if service.serves == "ros2" else "", "waited its whole timeout for the calls before it"),
+        (reasons["unfit_reply"], "a reply that does not fit: {reply} {why}"),
+        (reasons["bad_arguments"] if service.serves == "yarp" else "", "arguments that do not fit: {why}"),
+    ]
+    words = "{" + ", ".join(cpp_string(w) for w in service.true_words) + "}"
+    spec = [
+        Line(0, "const ybgc::services::Service kService = {"),
+        Line(1, "{"),
+        Line(2, f"{cpp_string(service.name)},  // its name"),
+        Line(2, f"{serves},"),
+        *(Line(2, text) for text in spec_lines),
+        Line(2, f"{cpp_float(float(service.timeout))},  // timeout, seconds from a call's arrival"),
+        Line(2, f"{declared}, {types},  // the {'reply' if service.serves == 'ros2' else 'arguments'}: {what}"),
+        Line(2, f"{_converters(service)},  // converters: {{name, scale, offset, to float, start, stop}}"),
+        Line(2, f"{words},  // true words"),
+        Line(2, "{"),
+        *(Line(3, f"{cpp_string(text)},  // {why}") for text, why in reason_items),
+        Line(2, "},"),
+        Line(2, f"{cpp_string(describe(service))},"),
+        Line(1, "},"),
+        Line(1, f"ybgc::services::srvType<Request, &{request}__create, &{request}__destroy,"),
+        Line(1, f"                        Response, &{response}__create, &{response}__destroy>("),
+        Line(2, f"{cpp_string(type_name)}, ROSIDL_GET_SRV_TYPE_SUPPORT({pkg}, srv, {name})),"),
+        Line(1, helper + ","),
+        Line(0, "};"),
+    ]
+    header = (
+        f"Service {comment(service.name)}: serves {served} and calls {called},",
+        f"within {texts.timeout_text(service.timeout)} s of each call's arrival.",
+    )
+    return ServiceView(namespace=namespace, comment=header, request=request, response=response,
+                       functions=functions, spec=tuple(spec))
+
+
+# --------------------------------------------------------------------------
+# the module
+
+
+def lower(commands: ir.Commands) -> CommandsView:
+    """The view-model of the module generated for ``commands``."""
+    if not commands.services:
+        raise LoweringError("a config of commands with no service")
+    if commands.ros != "ros2":
+        raise LoweringError("the cpp backend serves and calls ROS 2 services, not ROS 1")
+    target, executable = _executable(commands.module)
+    namespaces = _namespaces(commands)
+    services = []
+    includes = set()
+    packages = set(RUNTIME_PACKAGES)
+    for s in commands.services:
+        try:
+            services.append(_service(s, namespaces[s.name]))
+            includes.add(c_header(s.srv_type))
+            packages.add(split_srv(s.srv_type)[0])
+        except LoweringError as e:
+            raise e.at(s.span)
+    ports = tuple(PortView(cpp_string(p), comment(p), tuple(cpp_string(line) for line in texts.help_lines(commands, p)))
+                  for p in commands.served_ports)
+    config_name = os.path.basename(commands.source) if commands.source else commands.module
+    n_ros2 = sum(1 for s in commands.services if s.serves == "ros2")
+    n_yarp = len(commands.services) - n_ros2
+    description = [f"module {commands.module}: {len(commands.services)} command(s) between YARP RPC ports and "
+                   f"ROS 2 services"] + [describe(s) for s in commands.services]
+    header = (
+        f"Module {comment(commands.module)}: {len(commands.services)} command(s) between YARP RPC ports and "
+        f"ROS 2 services,",
+        f"{n_ros2} ROS 2 service(s) served (each call sent to a YARP RPC port) and "
+        f"{n_yarp} command(s) on YARP RPC ports served (each a call of a ROS 2 service).",
+    )
+    return CommandsView(
+        filename=f"{executable}.cpp",
+        target=target,
+        executable=executable,
+        config_comment=comment(config_name),
+        header=header,
+        includes=tuple(sorted(includes)),
+        services=tuple(services),
+        ports=ports,
+        module=cpp_string(commands.module),
+        config=cpp_string(config_name),
+        node=cpp_string(node_name(commands)),
+        default_prefix=cpp_string("/" + commands.module),
+        description=tuple(cpp_string(d) for d in description),
+        unknown_command=cpp_string(texts.UNKNOWN_COMMAND),
+        ros2_packages=tuple(sorted(packages)),
+    )
+
+
+def lower_package(commands: ir.Commands, view: CommandsView) -> PackageView:
+    """The view-model of package.xml: the module's interface packages."""
+    config_name = os.path.basename(commands.source) if commands.source else commands.module
+    what = ", ".join(s.service for s in commands.services)
+    return PackageView(
+        config=config_name,
+        package=package_name(commands.module),
+        description=(f"Commands between YARP RPC ports and ROS 2 services ({what}), a native module through "
+                     f"rcl, generated by ybgc from {config_name}."),
+        depends=("rcl", "rosidl_runtime_c") + view.ros2_packages,
+    )
+
+
+def lower_launch(commands: ir.Commands, package: PackageView, executable: str) -> LaunchView:
+    """The view-model of the launch file: the module started by launch_ros with the node's parameters."""
+    return LaunchView(config=package.config, package=package.package, node_module=executable,
+                      executable=executable, node_name=node_name(commands), description=package.description,
+                      depends=package.depends, launch_file=f"{commands.module}.launch.py",
+                      parameters=node_parameters(commands))
+
+
+__all__ = ["CommandsView", "PortView", "ServiceView", "c_header", "c_struct", "describe", "lower", "lower_launch",
+           "lower_package", "node_name", "node_parameters", "split_srv", "srv_type_name"]
