@@ -32,7 +32,7 @@ CPP_DIR = RUNTIME_DIR / "cpp"
 #: the name of the runtime package beside a Python module
 PY_PACKAGE = "ybgc_runtime"
 #: the Python runtime's modules, in the order they are inlined
-PY_MODULES = ("geometry", "core", "yarp_io", "images", "ros2_io", "services")
+PY_MODULES = ("geometry", "core", "yarp_io", "images", "compose", "ros2_io", "services")
 #: the C++ runtime's files: the header a module includes, the header its
 #: sources share (not for modules), and its sources, one concern a file, in
 #: the order they are built and inlined

@@ -523,7 +523,9 @@ class Bridge:
                       for i in self.inputs]
             return inputs, self.published, self.skipped_cycles, self.build_errors
 
-    def _print_totals(self):
+    def _print_totals(self, prefix=""):
+        """The totals at exit; ``prefix`` heads each line (the bridge's name,
+        in a process of several bridges)."""
         lines = ["totals:"]
         for inp in self.inputs:
             line = ("  input %s: received %d, dropped %d, stale periods %d, unused %d"
@@ -531,7 +533,7 @@ class Bridge:
             lines.append(line + refused_text(inp))
         lines.append("  published %d messages, skipped %d cycles, build failures %d"
                      % (self.published, self.skipped_cycles, self.build_errors))
-        print("\n".join(lines), flush=True)
+        print("\n".join(prefix + line for line in lines), flush=True)
 
 
 def refused_text(inp):

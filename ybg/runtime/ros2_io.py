@@ -19,6 +19,7 @@ import time
 import rclpy
 import rclpy.time
 import rclpy.utilities
+import yarp
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.clock import Clock, ClockType
@@ -29,6 +30,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.qos_overriding_options import QoSOverridingOptions, QoSPolicyKind
 from rclpy.signals import SignalHandlerOptions
 
+from .compose import Composer, describe, load_failure  # ybgc:runtime-import
 from .core import _FLOAT_TYPES, _INT_TYPES, InputState, parse_accept, seconds_to_ns  # ybgc:runtime-import
 from .images import ImageInput, append_rows, fit_calibration, frame_of, message_frame  # ybgc:runtime-import
 from .yarp_io import YarpBridge  # ybgc:runtime-import
@@ -668,3 +670,109 @@ def run_node(spec, argv, node_name, default_prefix, default_rate, topic_inputs,
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
+
+
+# --- several nodes in one process (ybgc compose) ------------------------------------
+
+def _parse_composed_command_line(name, members, args):
+    parser = argparse.ArgumentParser(
+        prog=os.path.basename(sys.argv[0]) if sys.argv and sys.argv[0] else name,
+        description=describe(name, members),
+        epilog="Each bridge is a node of its own name with the parameters of its node alone (rate,\n"
+               "timeout, prefix, verbose, accept, diagnostics, diagnostic_updater.period,\n"
+               "qos_overrides.*, use_sim_time), given for one node as\n"
+               "  --ros-args -p NODE:NAME:=VALUE   or in a --params-file keyed by node name\n"
+               "(-p NAME:=VALUE gives every node the value). `yarp rpc /%s/rpc:i` answers\n"
+               "help, stats and quit." % name,
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.parse_args(args)
+
+
+def _stop_nodes(spinners, nodes):
+    """Every executor stopped at once, then the nodes destroyed."""
+    for spinner in spinners:
+        spinner.done.set()
+    end = time.monotonic() + 1.0
+    for spinner in spinners:
+        spinner.join(max(0.0, end - time.monotonic()))
+    for spinner in spinners:
+        spinner.executor.shutdown(timeout_sec=0.05)
+    for node in nodes:
+        node.destroy_node()
+
+
+def run_composed(name, members, argv, load):
+    """Run the bridges ``members`` (each loaded by ``load(member)``, a node
+    of the ``ros2`` backend) in this process: one rclpy context (one DDS
+    participant), one node per bridge with its own name, parameters,
+    executor thread and /diagnostics status; the YARP side is
+    compose.Composer's. Until SIGINT, SIGTERM or `quit` on
+    ``/<name>/rpc:i``; the exit status (2: a bad parameter, nothing opened)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    composer = Composer(name, members)
+    composer.handle_signals()
+    prog = sys.argv[0] if sys.argv and sys.argv[0] else name
+    _parse_composed_command_line(name, members, rclpy.utilities.remove_ros_args([prog] + argv)[1:])
+    try:
+        rclpy.init(args=[prog] + argv, signal_handler_options=SignalHandlerOptions.NO)
+    except Exception as e:
+        print("%s: cannot start ROS 2: %s" % (name, e), flush=True)
+        return 2
+    nodes = []
+    spinners = []
+    finished = []
+
+    def finish(stuck):
+        finished.append(True)
+        if not stuck:
+            _stop_nodes(spinners, nodes)
+            rclpy.try_shutdown()
+
+    try:
+        prepared = []
+        for member in members:
+            try:
+                module = load(member)
+                node_name = module.NODE_NAME
+            except (Exception, SystemExit) as e:
+                composer.refuse(member, load_failure(member, e))
+                continue
+            node = rclpy.create_node(node_name)
+            nodes.append(node)
+            try:
+                options = node_options(node, module.DEFAULT_PREFIX, module.DEFAULT_RATE, module.SPEC)
+            except ParameterError as e:
+                print("%s: %s" % (module.SPEC.module, e), flush=True)
+                return 2
+            try:
+                bridge = NodeBridge(module.SPEC, options, node, module.make_output(node), module.build_message,
+                                    module.compute, module.TOPIC_INPUTS)
+            except Exception as e:
+                composer.refuse(member, "%s: %s" % (type(e).__name__, e))
+                nodes.remove(node)
+                node.destroy_node()
+                continue
+            prepared.append((member, node, bridge, options))
+        yarp.Network.init()
+        if not yarp.Network.checkNetwork(3.0):
+            composer.log("cannot reach the YARP name server (is yarpserver running?)")
+            return 1
+        if not composer.open_rpc():
+            return 1
+        for member, node, bridge, options in prepared:
+            if composer.stop_event.is_set():
+                break
+            if not composer.start(member, bridge):
+                nodes.remove(node)
+                node.destroy_node()
+                continue
+            if options.diagnostics_period:
+                Diagnostics(bridge, node, options.diagnostics_period)
+            spinner = Spinner(node, bridge.log)
+            spinner.start()
+            spinners.append(spinner)
+        return composer.serve(finish)
+    finally:
+        if not finished:
+            _stop_nodes(spinners, nodes)
+            rclpy.try_shutdown()

@@ -653,32 +653,11 @@ class YarpBridge(Bridge):
         opened = []
         self.status = 1
         try:
-            for inp in self.inputs:
-                if not inp.open():
-                    self.log("cannot open the port %s" % inp.local)
-                    return 1
-                opened.append(inp)
-            if not self.output.open():
-                self.log("cannot open the output %s" % self.output.port_name)
+            problem = self.open_all(opened)
+            if problem is not None:
+                self.log(problem)
                 return 1
-            self.rpc = RpcPort(self, self.prefix + "/rpc:i")
-            if not self.rpc.open():
-                self.log("cannot open the RPC port %s" % self.rpc.name)
-                return 1
-            pairs = [(i.source, i.local, i) for i in self.inputs if i.spec.kind == "yarp"]
-            pairs.extend((src, dst, None) for src, dst in self.output.connections())
-            own = [i.port for i in self.inputs if i.spec.kind == "yarp"]
-            if getattr(self.output, "kind", None) == "yarp":
-                own.append(self.output.port)
-            self.watcher = Watcher(pairs, self.log, own)
-            self.watcher.start()
-            self.log("publishing %s on %s" % (self.output.describe(),
-                                              "event-driven" if self.rate is None
-                                              else "%g Hz" % self.rate))
-            if self.rate is None:
-                self._loop_event_driven()
-            else:
-                self._loop_fixed_rate()
+            self.loop()
             self.status = 0
             return 0
         finally:
@@ -688,10 +667,64 @@ class YarpBridge(Bridge):
                 self.stopping = True
             self._shut_down(opened)
 
+    def open_all(self, opened, rpc=True):
+        """Open the inputs (each added to ``opened``), the output and (``rpc``)
+        the RPC port, start the watcher of connections: None, or what could
+        not open. (A process of several bridges opens one RPC port of its
+        own, not each bridge's: ybgc_runtime.compose.)"""
+        for inp in self.inputs:
+            if not inp.open():
+                return "cannot open the port %s" % inp.local
+            opened.append(inp)
+        if not self.output.open():
+            return "cannot open the output %s" % self.output.port_name
+        if rpc:
+            self.rpc = RpcPort(self, self.prefix + "/rpc:i")
+            if not self.rpc.open():
+                return "cannot open the RPC port %s" % self.rpc.name
+        pairs = [(i.source, i.local, i) for i in self.inputs if i.spec.kind == "yarp"]
+        pairs.extend((src, dst, None) for src, dst in self.output.connections())
+        own = [i.port for i in self.inputs if i.spec.kind == "yarp"]
+        if getattr(self.output, "kind", None) == "yarp":
+            own.append(self.output.port)
+        self.watcher = Watcher(pairs, self.log, own)
+        self.watcher.start()
+        self.log("publishing %s on %s" % (self.output.describe(),
+                                          "event-driven" if self.rate is None
+                                          else "%g Hz" % self.rate))
+        return None
+
+    def loop(self):
+        """Publish until stopped: event-driven or at the fixed rate."""
+        if self.rate is None:
+            self._loop_event_driven()
+        else:
+            self._loop_fixed_rate()
+
     def _shut_down(self, opened):
         """Close every port (which unregisters it) within the 2 s budget: a
         port whose reader stalls can hang in close(); it is then unregistered
         by name and the process exits at once."""
+        watcher_done, stuck, unclosed = self.close_ports(opened)
+        self._print_totals()
+        if stuck:
+            self.unregister(unclosed)
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(self.status)
+        if watcher_done:
+            yarp.Network.fini()
+
+    def unregister(self, names):
+        """The ports that did not close in time, unregistered by name (said)."""
+        for name in names:
+            self.log("%s did not close in time (a stalled reader?); unregistering it" % name)
+            yarp.Network.unregisterName(name)
+
+    def close_ports(self, opened):
+        """Stop the watcher and close the ports within 1 s: (the watcher
+        stopped, a port did not close in time, the names of those not
+        closed)."""
         watcher_done = self.watcher.stop() if self.watcher is not None else True
         names = [inp.local for inp in opened] + [self.output.port_name]
         closed = []
@@ -726,17 +759,8 @@ class YarpBridge(Bridge):
         closer = threading.Thread(target=close_all, name="close ports", daemon=True)
         closer.start()
         closer.join(1.0)
-        self._print_totals()
-        if closer.is_alive() or len(closed) < len(names):
-            for name in names:
-                if name not in closed:
-                    self.log("%s did not close in time (a stalled reader?); unregistering it" % name)
-                    yarp.Network.unregisterName(name)
-            sys.stdout.flush()
-            sys.stderr.flush()
-            os._exit(self.status)
-        if watcher_done:
-            yarp.Network.fini()
+        stuck = closer.is_alive() or len(closed) < len(names)
+        return watcher_done, stuck, [name for name in names if name not in closed] if stuck else []
 
 
 # ===========================================================================
@@ -936,27 +960,8 @@ def rpc_respond(command, reply, bridge, meter):
         for line in RPC_HELP:
             reply.addString(line)
     elif word == "stats":
-        inputs, published, skipped, failures = bridge.totals()
         reply.addVocab32("many")
-        for source, received, dropped, stale, unused, refused in inputs:
-            item = reply.addList()
-            item.addString("input")
-            item.addString(source)
-            for key, n in (("received", received), ("dropped", dropped), ("stale", stale), ("unused", unused),
-                           ("refused", refused)):
-                item.addString(key)
-                item.addInt64(n)
-        item = reply.addList()
-        for key, n in (("published", published), ("skipped", skipped), ("failures", failures)):
-            item.addString(key)
-            item.addInt64(n)
-        # the rates as text, with the digits that mean something (a float64
-        # prints with 21 digits)
-        item = reply.addList()
-        item.addString("rate")
-        item.addString("%.2f" % meter.read(time.monotonic(), published))
-        item.addString("configured")
-        item.addString("event-driven" if bridge.rate is None else repr(float(bridge.rate)))
+        stats_items(reply, bridge, meter)
     elif word in ("quit", "exit", "bye"):
         bridge.log("asked to quit on the RPC port")
         bridge.quit_asked = True
@@ -966,6 +971,31 @@ def rpc_respond(command, reply, bridge, meter):
         reply.addString("unknown command %r; the commands: help, stats, quit" % word)
         return False
     return True
+
+
+def stats_items(reply, bridge, meter):
+    """What `stats` answers of ``bridge``, appended to ``reply`` (after its
+    vocab ``many``): one list per input, the messages, the rate."""
+    inputs, published, skipped, failures = bridge.totals()
+    for source, received, dropped, stale, unused, refused in inputs:
+        item = reply.addList()
+        item.addString("input")
+        item.addString(source)
+        for key, n in (("received", received), ("dropped", dropped), ("stale", stale), ("unused", unused),
+                       ("refused", refused)):
+            item.addString(key)
+            item.addInt64(n)
+    item = reply.addList()
+    for key, n in (("published", published), ("skipped", skipped), ("failures", failures)):
+        item.addString(key)
+        item.addInt64(n)
+    # the rates as text, with the digits that mean something (a float64
+    # prints with 21 digits)
+    item = reply.addList()
+    item.addString("rate")
+    item.addString("%.2f" % meter.read(time.monotonic(), published))
+    item.addString("configured")
+    item.addString("event-driven" if bridge.rate is None else repr(float(bridge.rate)))
 
 
 class RpcPort(yarp.PortReader):
@@ -986,6 +1016,10 @@ class RpcPort(yarp.PortReader):
         self.port.setReader(self)
         return self.port.open(self.name)
 
+    def respond(self, command, reply):
+        """``reply`` to ``command``: the module's own commands."""
+        rpc_respond(command, reply, self.bridge, self.meter)
+
     def read(self, connection):
         self.busy = True
         try:
@@ -993,7 +1027,7 @@ class RpcPort(yarp.PortReader):
             if self.bridge.stopping or not command.read(connection):
                 return False
             reply = yarp.Bottle()
-            rpc_respond(command, reply, self.bridge, self.meter)
+            self.respond(command, reply)
             writer = connection.getWriter()
             if writer is not None:
                 reply.write(writer)

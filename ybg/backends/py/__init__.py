@@ -51,6 +51,12 @@ class PyBackend(Backend):
             program, "python3", view.filename, options.extra.get("workdir"))
         return files
 
+    def compose(self, programs, name: str, options: RenderOptions = RenderOptions()) -> dict[str, str]:
+        """One process of the programs' bridges (.compose, docs/compose.md)."""
+        from ybg.backends.py.compose import compose
+
+        return compose(programs, name, options)
+
     def lower(self, program) -> None:
         lower(program)  # the module's lowering (ybg.backends.py.lower), without the templates
 

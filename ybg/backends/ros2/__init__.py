@@ -98,6 +98,12 @@ class Ros2Backend(Backend):
             files.update(python_files(f"{pkg.package}/{PY_PACKAGE}"))
         return files
 
+    def compose(self, programs, name: str, options: RenderOptions = RenderOptions()) -> dict[str, str]:
+        """One process of the programs' nodes (.compose, docs/compose.md)."""
+        from ybg.backends.ros2.compose import compose
+
+        return compose(programs, name, options)
+
     def lower(self, program) -> None:
         # the node's and the package's lowering, without the templates
         if isinstance(program, ir.Commands):

@@ -1,0 +1,235 @@
+"""``ybgc compose --backend ros2``: several configs, one process of rclpy
+nodes (docs/compose.md).
+
+Each bridge is the node that ``ybgc generate`` makes for its config, printed
+by the same lowering and template, in ``bridges/`` (``<package>/bridges/``
+with ``--package``); the composed module ``<name>_node.py`` imports each and
+runs them all on the runtime (``ros2_io.run_composed``): one rclpy context,
+one node per bridge with its own name, parameters and threads, one RPC port
+``/<name>/rpc:i``. With ``--package``: one ament_python package, one
+executable, and a launch file that gives each node its parameters from a
+parameter file keyed by node name (``config/<name>.yaml``).
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import os
+import re
+from dataclasses import dataclass
+
+import jinja2
+
+from ybg.backends.base import RenderOptions
+from ybg.backends.runtime import PY_PACKAGE, python_files, runtime_text_filter, runtime_view
+from ybg.compiler import ir
+from ybg.lower.errors import LoweringError
+from ybg.lower.python import PYTHON_FILTERS, py_literal
+from ybg.lower.rosnames import node_name, node_parameters, package_name, ros2_type_name, used_packages
+from ybg.lower.templates import py_comment_filter, template_environment, xml_comment_filter, xml_filter
+
+from .lower import lower
+
+#: the folder of the bridges' nodes, beside the composed module
+BRIDGES = "bridges"
+
+
+@dataclass(frozen=True)
+class MemberView:
+    """One bridge of the composed module; literals, but ``node_name`` and
+    ``summary`` (comment text)."""
+
+    module: str
+    config: str
+    at: str
+    where: str
+    node_name: str
+    summary: str
+
+
+@dataclass(frozen=True)
+class ComposedView:
+    filename: str
+    name: str          # a literal
+    name_text: str     # for comments
+    config_count: int
+    bridge_count: int
+    bridges_folder: str
+    members: tuple[MemberView, ...]
+    package: bool
+
+
+@dataclass(frozen=True)
+class NodeParameters:
+    name: str
+    parameters: tuple[tuple[str, object], ...]
+
+
+@dataclass(frozen=True)
+class ComposedPackageView:
+    """The ament_python package of a composed module (raw values: each
+    template escapes them for its file)."""
+
+    config: str
+    package: str
+    node_module: str
+    executable: str
+    description: str
+    depends: tuple[str, ...]
+    launch_file: str
+    params_file: str
+    nodes: tuple[str, ...]
+    node_parameters: tuple[NodeParameters, ...]
+
+
+_PLAIN_KEY = re.compile(r"[A-Za-z_/][A-Za-z0-9_./]*\Z")
+
+
+def yaml_key(text) -> str:
+    """A YAML mapping key: plain when it is a name, else double-quoted (JSON)."""
+    if not isinstance(text, str):
+        raise TypeError(f"expected a str, got {type(text).__name__}")
+    return text if _PLAIN_KEY.match(text) and text not in ("true", "false", "null") else json.dumps(text)
+
+
+def yaml_value(value) -> str:
+    """A YAML scalar of a ROS parameter: a bool, a number or a string."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value)
+    raise TypeError(f"not a parameter value: {value!r}")
+
+
+@functools.lru_cache(maxsize=None)
+def environment() -> jinja2.Environment:
+    from ybg.backends.ros2 import TEMPLATE_DIR, _package_name
+
+    return template_environment([TEMPLATE_DIR], {
+        **PYTHON_FILTERS,
+        "runtime_text": runtime_text_filter,
+        "xml": xml_filter,
+        "xml_comment": xml_comment_filter,
+        "py_comment": py_comment_filter,
+        "package_name": _package_name,
+        "yaml_key": yaml_key,
+        "yaml_value": yaml_value,
+    })
+
+
+def _refusal(program, message: str, span=None) -> LoweringError:
+    e = LoweringError(message, span)
+    e.module = program.module
+    return e
+
+
+def _at(program: ir.Program) -> str:
+    """Where the config writes the bridge's output: ``file:line:column``."""
+    config = os.path.basename(program.source) if program.source else program.module
+    span = program.output.span
+    return f"{config}:{span.line}:{span.column}" if span is not None else config
+
+
+def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> dict[str, str]:
+    """The files of the composed module ``name`` of ``programs`` (docs/compose.md)."""
+    from ybg.backends.ros2 import environment as node_environment
+
+    views = []
+    nodes: dict[str, str] = {}
+    for program in programs:
+        if isinstance(program, ir.Commands):
+            first = program.services[0] if program.services else None
+            raise _refusal(program, "a config of commands is not composed by the ros2 backend (yet): run it as "
+                                    "a node of its own (ybgc generate)", first.span if first is not None else None)
+        try:
+            view = lower(program)
+        except LoweringError as e:
+            if getattr(e, "module", None) is None:
+                e.module = program.module
+            raise
+        node = node_name(program)
+        if node in nodes:
+            raise _refusal(program, f"its node name {node} is also that of the bridge {nodes[node]}: two nodes "
+                                    "of one name in one process (set `node` in its [output])", program.output.span)
+        nodes[node] = program.module
+        views.append((program, view))
+
+    env = node_environment()
+    composed_env = environment()
+    package = package_name(name) if options.package else None
+    rt = runtime_view("py", False)
+    if package is None:
+        rt_import, rt_package, bridge_import, bridge_package = (f"import {PY_PACKAGE}", PY_PACKAGE,
+                                                                f"import {PY_PACKAGE}", PY_PACKAGE)
+        folder = ""
+    else:
+        rt_import, rt_package = f"from . import {PY_PACKAGE}", f".{PY_PACKAGE}"
+        bridge_import, bridge_package = f"from .. import {PY_PACKAGE}", f"..{PY_PACKAGE}"
+        folder = f"{package}/"
+
+    files: dict[str, str] = {}
+    members = []
+    node_template = env.get_template("node.py.j2")
+    for program, view in views:
+        files[f"{folder}{BRIDGES}/{view.filename}"] = node_template.render(
+            m=view, rt=rt, rt_import=bridge_import, rt_package=bridge_package)
+        stem = view.filename[: -len(".py")]
+        where = f"{BRIDGES}/{view.filename}" if package is None else f".{BRIDGES}.{stem}"
+        config = os.path.basename(program.source) if program.source else program.module
+        members.append(MemberView(
+            module=py_literal(program.module), config=py_literal(config), at=py_literal(_at(program)),
+            where=py_literal(where), node_name=node_name(program),
+            summary=_describe(program)))
+    filename = f"{name}_node.py"
+    composed = ComposedView(filename=filename, name=py_literal(name), name_text=name,
+                            config_count=len(programs), bridge_count=len(programs), bridges_folder=BRIDGES,
+                            members=tuple(members), package=package is not None)
+    files[f"{folder}{filename}"] = composed_env.get_template("compose_node.py.j2").render(
+        c=composed, rt=rt, rt_import=rt_import, rt_package=rt_package)
+    if package is None:
+        files.update(python_files())
+        return files
+
+    configs = ", ".join(os.path.basename(p.source) if p.source else p.module for p in programs)
+    depends: list[str] = ["rclpy", "diagnostic_msgs"]
+    for program in programs:
+        depends.extend(p for p in used_packages(program) if p not in depends)
+    pkg = ComposedPackageView(
+        config=f"{len(programs)} configs ({configs})",
+        package=package,
+        node_module=filename[: -len(".py")],
+        executable=filename[: -len(".py")],
+        description=f"{len(programs)} bridges between YARP and ROS 2 in one process, generated by ybgc "
+                    f"(ybgc compose) from {configs}.",
+        depends=tuple(depends),
+        launch_file=f"{name}.launch.py",
+        params_file=f"{name}.yaml",
+        nodes=tuple(node_name(program) for program, _ in views),
+        node_parameters=tuple(NodeParameters(node_name(program), node_parameters(program)) for program, _ in views),
+    )
+    files.update({
+        f"{package}/__init__.py": env.get_template("package_init.py.j2").render(p=pkg),
+        f"{package}/{BRIDGES}/__init__.py": composed_env.get_template("compose_bridges_init.py.j2").render(p=pkg),
+        "package.xml": env.get_template("package.xml.j2").render(p=pkg),
+        "setup.py": composed_env.get_template("compose_setup.py.j2").render(p=pkg, runtime_package=PY_PACKAGE),
+        "setup.cfg": env.get_template("setup.cfg.j2").render(p=pkg),
+        f"resource/{package}": env.get_template("resource_marker.j2").render(p=pkg),
+        f"launch/{pkg.launch_file}": composed_env.get_template("compose_launch.py.j2").render(p=pkg),
+        f"config/{pkg.params_file}": composed_env.get_template("compose_params.yaml.j2").render(p=pkg),
+    })
+    files.update(python_files(f"{package}/{PY_PACKAGE}"))
+    return files
+
+
+def _describe(program: ir.Program) -> str:
+    """What a bridge publishes, for a comment."""
+    out = program.output
+    if out.kind == "ros2":
+        return f"{ros2_type_name(out.msg_type or program.message.msg_type or '')} on {out.name}"
+    return f"the YARP port {out.name}"
+
+
+__all__ = ["compose", "environment", "yaml_key", "yaml_value", "BRIDGES"]
