@@ -54,7 +54,7 @@ Item Item::of(const yarp::os::Value& v)
 {
     Item x;
     if (v.isList()) {
-        x.text = v.toString();
+        x.text = "(" + v.asList()->toString() + ")";
     } else if (v.isString()) {
         x.kind = Kind::Word;
         x.text = v.asString();
@@ -124,7 +124,8 @@ bool Elements::check(bool declared, const std::vector<const char*>& types, const
 {
     if (declared) {
         if (items_.size() != types.size()) {
-            why = std::to_string(items_.size()) + " elements, expected " + std::to_string(types.size());
+            why = std::to_string(items_.size()) + (items_.size() == 1 ? " element" : " elements") + ", expected "
+                + std::to_string(types.size());
             return false;
         }
         for (std::size_t k = 0; k < items_.size(); ++k) {
@@ -635,6 +636,11 @@ struct Names
         std::lock_guard<std::mutex> lock(mutex);
         taken.erase(name);
     }
+    std::set<std::string> open()
+    {
+        std::lock_guard<std::mutex> lock(mutex);
+        return taken;
+    }
 };
 
 /// One client port and the thread that makes its blocking calls (open,
@@ -756,7 +762,8 @@ public:
     void stop();
     /// The thread ended; the port closed by `deadline` (false: a call still holds it).
     bool close(TimePoint deadline);
-    const std::string& local() const { return names_->base; }
+    /// The names of its ports still open.
+    std::set<std::string> openNames() const { return names_->open(); }
 
 private:
     void dispatch();
@@ -1712,7 +1719,9 @@ int Module::run()
             }
         }
         for (auto& [port, caller] : callers_) {
-            yarp::os::Network::unregisterName(caller->local());
+            for (const std::string& name : caller->openNames()) {
+                yarp::os::Network::unregisterName(name);
+            }
         }
         std::fflush(stdout);
         std::_Exit(status);
