@@ -5,7 +5,7 @@ bool-from-word rule, converters, integers from whole reals, slices into
 sequences and fixed arrays, the reasons of what does not fit), the values
 Bottles are made of (wire types, wrapping, bools as int32, converted
 arrays), a command's first word, the exit totals and `stats`, the reasons
-filled at run time. The same cases go through the C++ driver
+filled at run time, a service's status on /diagnostics. The same cases go through the C++ driver
 (tests/runtime/services/test_services_runtime.cpp, built against the
 ROS 2 wheels) and the Python runtime; their answers are the same, word for
 word, so that the native module and the rclpy node answer alike."""
@@ -97,6 +97,10 @@ FIRST = ["home", "[stat]", "3 x", "(a b) c", '"two words" x', "", "1.5"]
 
 TOTALS = [("home", 3, 1, 1, 0, 1), ("look_at", 0, 0, 0, 0, 0), ("track", 10, 2, 3, 4, 1)]
 
+#: (name, timeout, calls, answered, timed out, no server, unfit, its last call failed, why): a service on /diagnostics
+STATUSES = [("home", 5.0, 0, 0, 0, 0, 0, False, ""), ("home", 0.5, 2, 2, 0, 0, 0, False, ""),
+            ("look_at", 1.25, 3, 1, 1, 1, 0, True, "/gaze/rpc: no server (is the module that serves it running?)")]
+
 REASONS = [("/gaze/rpc replied {reply}: {why}", "(garbage 1.5) 42", "element 0 is a list (garbage 1.5)"),
            ("`track data:int32`: {why}", "", "0 elements, expected 1"),
            ("/x did not answer within 1 s", "r", "w")]
@@ -187,6 +191,13 @@ def python_answers() -> list[str]:
         out.append(f"{line}\t{stats.toString()}")
     for template, reply, why in REASONS:
         out.append(rt.reason_text(template, reply, why))
+    for name, timeout, calls, answered, timed_out, no_server, unfit_, failed, why in STATUSES:
+        c = rt.Counts()
+        c.calls, c.answered, c.timed_out, c.no_server, c.unfit = calls, answered, timed_out, no_server, unfit_
+        c.last = why if failed else None
+        level, message, values = rt.service_status(SimpleNamespace(name=name, timeout=timeout), c)
+        level = level[0] if isinstance(level, bytes) else int(level)  # a byte in rclpy
+        out.append(f"{level}\tnode: service {name}\t{message}\t" + ";".join(f"{k}={v}" for k, v in values))
     return out
 
 
@@ -203,6 +214,8 @@ def driver_input() -> str:
     lines += [f"first\t{text}" for text in FIRST]
     lines += ["\t".join(["totals", name, *map(str, counts)]) for name, *counts in TOTALS]
     lines += ["\t".join(["reason", *case]) for case in REASONS]
+    lines += ["\t".join(["status", name, repr(timeout), *map(str, counts), "1" if failed else "0", why])
+              for name, timeout, *counts, failed, why in STATUSES]
     return "\n".join(lines) + "\n"
 
 

@@ -16,6 +16,8 @@
 //   first BOTTLE                  firstWord
 //   totals NAME CALLS ANSWERED TIMED_OUT NO_SERVER UNFIT   totalsLine, then addStats' text
 //   reason TEMPLATE REPLY WHY     reasonText
+//   status NAME TIMEOUT CALLS ANSWERED TIMED_OUT NO_SERVER UNFIT LAST_FAILED LAST
+//                                 status() of node `node`: level, name, message, key=value;...
 #include "ybgc_services.hpp"
 
 #include <rosidl_runtime_c/primitives_sequence_functions.h>
@@ -265,6 +267,23 @@ int main()
             yarp::os::Bottle b;
             ybgc::services::addStats(b, f.at(1).c_str(), c);
             out = ybgc::services::totalsLine(f.at(1).c_str(), c) + "\t" + b.toString();
+        } else if (f[0] == "status") {
+            ybgc::services::Spec spec{};
+            spec.name = f.at(1).c_str();
+            spec.timeout = std::stod(f.at(2));
+            ybgc::services::Counts c;
+            c.calls = std::stoull(f.at(3));
+            c.answered = std::stoull(f.at(4));
+            c.timedOut = std::stoull(f.at(5));
+            c.noServer = std::stoull(f.at(6));
+            c.unfit = std::stoull(f.at(7));
+            c.lastFailed = f.at(8) == "1";
+            c.last = f.at(9);
+            const ybgc::ros2::Status st = ybgc::services::status(spec, c, "node");
+            out = std::to_string(st.level) + "\t" + st.name + "\t" + st.message + "\t";
+            for (std::size_t k = 0; k < st.values.size(); ++k) {
+                out += (k > 0 ? ";" : "") + st.values[k].first + "=" + st.values[k].second;
+            }
         } else if (f[0] == "reason") {
             out = ybgc::services::reasonText(f.at(1), f.at(2), f.at(3));
         } else {

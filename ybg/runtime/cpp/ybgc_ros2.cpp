@@ -215,6 +215,12 @@ bool Node::diagnosticsParameters()
     return true;
 }
 
+bool Node::diagnostics(double& period) const
+{
+    period = rcl_->period;
+    return rcl_->diagnostics;
+}
+
 void Node::publishDiagnostics(TotalsSource totals)
 {
     Rcl& r = *rcl_;

@@ -316,6 +316,10 @@ public:
     /// module's name, until closed; nothing with the parameter
     /// `diagnostics:=false`. The parameters were checked by open().
     void publishDiagnostics(TotalsSource totals);
+    /// The parameters of /diagnostics it was opened with (checked by open()):
+    /// whether to publish it (`diagnostics`), and every `period` seconds
+    /// (`diagnostic_updater.period`), for a node that publishes its own.
+    bool diagnostics(double& period) const;
 
 private:
     struct Rcl;

@@ -445,7 +445,7 @@ struct Commands
 /// Why a call failed, as it is counted.
 enum class Failure { None, TimedOut, NoServer, Unfit };
 
-/// What one service did (plain numbers: read and changed under the module's lock).
+/// What one service did (read and changed under the module's lock).
 struct Counts
 {
     std::uint64_t calls = 0;
@@ -453,10 +453,12 @@ struct Counts
     std::uint64_t timedOut = 0;
     std::uint64_t noServer = 0;
     std::uint64_t unfit = 0;
+    bool lastFailed = false;  // its last call failed: why in `last`
+    std::string last;
 
     std::uint64_t failed() const { return timedOut + noServer + unfit; }
-    /// One call ended: answered (Failure::None) or failed.
-    void count(Failure failure);
+    /// One call ended: answered (Failure::None) or failed, `why`.
+    void count(Failure failure, const std::string& why = "");
 };
 
 /// A service's line of the exit totals (ybg.lower.services.TOTALS_LINE).
@@ -465,6 +467,12 @@ std::string totalsLine(const char* name, const Counts& c);
 /// A service's list of `stats`: (service NAME calls N answered N failed N
 /// timed_out N no_server N unfit N).
 void addStats(yarp::os::Bottle& reply, const char* name, const Counts& c);
+
+/// The status of a service on /diagnostics, as the rclpy node says it:
+/// `<node>: service <name>`, OK until a call fails ("no call yet",
+/// "answered its last call"), WARN while its last call failed ("its last
+/// call failed: <why>"); its counts and its timeout as values.
+ybgc::ros2::Status status(const Spec& spec, const Counts& c, const std::string& node);
 
 /// What `help` answers on the module's RPC port (when no served port is it).
 extern const char* const kRpcHelp[3];
