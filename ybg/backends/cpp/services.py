@@ -320,7 +320,7 @@ def _what(fill: ir.Fill, bottle: str) -> str:
         return f"the {bottle} as text"
     if fill.source == "error":
         return "why the call failed"
-    return "a constant"
+    return comment(str(fill.value) if not isinstance(fill.value, bool) else str(fill.value).lower())
 
 
 def _fills(fills, msg: str, elements: str, failure: bool, bottle: str) -> list[Line]:
