@@ -599,12 +599,15 @@ def lower(commands: ir.Commands) -> CommandsView:
     n_yarp = len(commands.services) - n_ros2
     description = [f"module {commands.module}: {len(commands.services)} command(s) between YARP RPC ports and "
                    f"ROS 2 services"] + [describe(s) for s in commands.services]
-    header = (
-        f"Module {comment(commands.module)}: {len(commands.services)} command(s) between YARP RPC ports and "
-        f"ROS 2 services,",
-        f"{n_ros2} ROS 2 service(s) served (each call sent to a YARP RPC port) and "
-        f"{n_yarp} command(s) on YARP RPC ports served (each a call of a ROS 2 service).",
-    )
+    header = (f"Module {comment(commands.module)}: {len(commands.services)} command(s) between YARP RPC ports and "
+              f"ROS 2 services ({n_ros2} ROS 2 service(s) served, {n_yarp} YARP command(s) served):",)
+    for s in commands.services:
+        if s.serves == "ros2":
+            header += (f"  {comment(s.name)}: the ROS 2 service {comment(s.service)} -> the YARP RPC port "
+                       f"{comment(s.port)}",)
+        else:
+            header += (f"  {comment(s.name)}: `{comment(texts.usage(s))}` on the YARP RPC port {comment(s.port)} -> "
+                       f"the ROS 2 service {comment(s.service)}",)
     return CommandsView(
         filename=f"{executable}.cpp",
         target=target,
