@@ -42,6 +42,13 @@ COMPOSED_HELP = (
 
 #: the seconds every bridge has to close its ports, all at once
 CLOSE_BUDGET = 1.5
+#: the seconds from a stop (SIGINT, SIGTERM, `quit`) to the exit, at most
+EXIT_BUDGET = 1.8
+#: the interpreter's switch interval in a process of several bridges: a
+#: bridge's loop waiting for the interpreter lock gets it within about this
+#: (Python's default, 5 ms, let a loop of 100 Hz that several threads kept
+#: waiting miss its cycle)
+SWITCH_INTERVAL = 0.001
 
 
 def load_file(path, name):
@@ -92,6 +99,7 @@ class Composer:
         self.failed = {}    # module -> why it is not running
         self.threads = []
         self.stop_event = threading.Event()
+        self.stopped_at = None  # when the stop was asked (time.monotonic())
         self.stopping = False
         self.quit_asked = False
         self.rpc = None
@@ -106,6 +114,8 @@ class Composer:
         signal.signal(signal.SIGTERM, self.request_stop)
 
     def request_stop(self, *_):
+        if self.stopped_at is None:
+            self.stopped_at = time.monotonic()
         self.stopping = True
         self.stop_event.set()
         for bridge in list(self.bridges.values()):
@@ -182,10 +192,18 @@ class Composer:
         return status
 
     # -- stop
+    def time_left(self):
+        """The seconds left before the exit is due (EXIT_BUDGET after the stop)."""
+        if self.stopped_at is None:
+            self.stopped_at = time.monotonic()
+        return self.stopped_at + EXIT_BUDGET - time.monotonic()
+
     def shut_down(self):
         """Stop every bridge and close its ports, all at once (a bridge whose
         reader stalls delays no other's), then print each one's totals under
         its name: (a port did not close in time, every watcher stopped)."""
+        if self.stopped_at is None:
+            self.stopped_at = time.monotonic()
         self.stopping = True
         self.stop_event.set()
         bridges = list(self.bridges.items())
@@ -276,6 +294,7 @@ def run_bridges(name, members, argv, load):
     `quit` on ``/<name>/rpc:i``; the exit status. Each runs with its
     config's options (its own port prefix, rate, timeouts)."""
     argv = sys.argv[1:] if argv is None else list(argv)
+    sys.setswitchinterval(SWITCH_INTERVAL)
     parser = argparse.ArgumentParser(
         prog=os.path.basename(sys.argv[0]) if sys.argv and sys.argv[0] else name,
         description=describe(name, members),

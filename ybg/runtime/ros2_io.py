@@ -30,7 +30,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.qos_overriding_options import QoSOverridingOptions, QoSPolicyKind
 from rclpy.signals import SignalHandlerOptions
 
-from .compose import Composer, describe, load_failure  # ybgc:runtime-import
+from .compose import SWITCH_INTERVAL, Composer, describe, load_failure  # ybgc:runtime-import
 from .core import _FLOAT_TYPES, _INT_TYPES, InputState, parse_accept, seconds_to_ns  # ybgc:runtime-import
 from .images import ImageInput, append_rows, fit_calibration, frame_of, message_frame  # ybgc:runtime-import
 from .yarp_io import YarpBridge  # ybgc:runtime-import
@@ -709,6 +709,7 @@ def run_composed(name, members, argv, load):
     compose.Composer's. Until SIGINT, SIGTERM or `quit` on
     ``/<name>/rpc:i``; the exit status (2: a bad parameter, nothing opened)."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    sys.setswitchinterval(SWITCH_INTERVAL)
     composer = Composer(name, members)
     composer.handle_signals()
     prog = sys.argv[0] if sys.argv and sys.argv[0] else name
@@ -723,10 +724,25 @@ def run_composed(name, members, argv, load):
     finished = []
 
     def finish(stuck):
+        # the nodes destroyed within the exit's budget (each entity destroyed
+        # is told to every participant, which on a busy machine can take
+        # seconds for a dozen nodes): else the process exits at once, its
+        # ports closed and its totals printed already
         finished.append(True)
-        if not stuck:
+        if stuck:
+            return
+        done = threading.Event()
+
+        def stop_ros():
             _stop_nodes(spinners, nodes)
             rclpy.try_shutdown()
+            done.set()
+
+        threading.Thread(target=stop_ros, name="stop ROS 2", daemon=True).start()
+        if not done.wait(max(0.1, composer.time_left())):
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(1 if composer.failed else 0)
 
     try:
         prepared = []
