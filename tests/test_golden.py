@@ -21,11 +21,11 @@ from typing import Callable
 import pytest
 
 from harness.generated import without_runtime
-from harness.programs import (CPP_GOLDEN_PROGRAMS, PY_GOLDEN_PROGRAMS, config_program, ros2_example, ros2_examples,
-                              supported_configs)
+from harness.programs import (CPP_GOLDEN_PROGRAMS, PY_GOLDEN_PROGRAMS, command_examples, command_program,
+                              config_program, ros2_example, ros2_examples, supported_configs)
 from ybg.backends import RenderOptions, get_backend
 from ybg.backends.runtime import cpp_files, is_runtime_file
-from ybg.compiler.ir import Program
+from ybg.compiler.ir import Commands, Program
 
 GOLDEN = Path(__file__).resolve().parent / "golden"
 #: the ROS 2 examples whose golden files hold their ament package too
@@ -51,10 +51,14 @@ def _configs(backend: str) -> list[Case]:
 
 CASES = ([Case("cpp", key, make) for key, make in CPP_GOLDEN_PROGRAMS.items()] + _configs("cpp")
          + [Case("py", key, make) for key, make in PY_GOLDEN_PROGRAMS.items()] + _configs("py")
-         + [Case("ros2", stem, lambda stem=stem: ros2_example(stem)) for stem in ros2_examples()])
+         + [Case("ros2", stem, lambda stem=stem: ros2_example(stem)) for stem in ros2_examples()]
+         # the examples of commands, by both backends that build them
+         + [Case(b, p.stem, lambda p=p, b=b: command_program(p, b)) for b in ("cpp", "ros2") for p in command_examples()])
 
 
 def uses_rcl(program: Program) -> bool:
+    if isinstance(program, Commands):
+        return True
     return program.output.kind == "ros2" or any(i.kind == "ros2" for m in program.muxes for i in m.inputs)
 
 
@@ -77,7 +81,8 @@ def check_rendered(case: Case, program: Program, files: dict[str, str]) -> None:
         if name.endswith(".py"):
             compile(text, name, "exec")
     if case.backend == "cpp":  # the module's three files, and the runtime library's (its ROS 2 side for rcl)
-        own = {f"{program.module}.cpp", "CMakeLists.txt", f"{program.module}.xml"}
+        own = {f"{program.module}.cpp", "CMakeLists.txt"} | (
+            set() if isinstance(program, Commands) else {f"{program.module}.xml"})
         runtime = set(files) - own
         assert own <= set(files) and all(is_runtime_file(name) for name in runtime), sorted(files)
         assert set(cpp_files(ros2=uses_rcl(program))) <= runtime, sorted(files)

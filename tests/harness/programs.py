@@ -22,6 +22,7 @@ from hypothesis import strategies as st
 
 from harness.env import EXAMPLES, LEGACY_DIR
 from ybg.backends import check_result
+from ybg.compiler.options import Options
 from ybg.compiler.ir import (Converter, Counter, Default, ElementGroup, Field, Input, Literal, Mux,
                              MuxRef, Output, Policy, Program, Seconds, Struct, Timestamp, Timing,
                              TypeRef)
@@ -235,6 +236,20 @@ def is_commands(path: Path) -> bool:
     """Is the config at ``path`` one of commands ([service] sections), which
     tests/test_services*.py run, not the stream harness?"""
     return re.search(r"(?m)^\[service ", path.read_text(encoding="utf-8")) is not None
+
+
+def command_examples() -> list[Path]:
+    """The examples of commands ([service] sections)."""
+    return [p for p in sorted(EXAMPLES.glob("*.ini")) if is_commands(p)]
+
+
+def command_program(path: Path, backend: str):
+    """The Commands of a config of commands, checked for ``backend`` (a
+    user's own services from msgpkgs/)."""
+    options = Options(msg_path=(str(EXAMPLES.parent / "msgpkgs"),))
+    result = check_result(compile_path(path, options), backend)
+    assert result.ok, "\n".join(str(d) for d in result.diagnostics)
+    return result.program
 
 
 def config_paths() -> list[Path]:
