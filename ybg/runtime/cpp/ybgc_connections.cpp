@@ -56,7 +56,10 @@ Watcher::Watcher(std::vector<Link> links, std::vector<yarp::os::Contact> own) : 
 void Watcher::start()
 {
     std::shared_ptr<State> state = state_;
-    thread_ = std::thread([state] { run(*state); });
+    thread_ = std::thread([state, who = tModule] {
+        tModule = who;  // in a process of several bridges, its bridge's name
+        run(*state);
+    });
 }
 
 std::function<void()> Watcher::waker() const

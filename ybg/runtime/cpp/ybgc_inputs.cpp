@@ -412,6 +412,7 @@ bool Input::fromAccepted(const std::string& source)
 
 void Input::onRead(SourcedBottle& in)
 {
+    tModule = shared_.module;  // what this thread says is said under its bridge's name
     const SteadyClock::time_point now = SteadyClock::now();
     if (!fromAccepted(in.source)) {
         return;
@@ -438,6 +439,7 @@ void Input::onRead(SourcedBottle& in)
 void Input::onFrame(const std::string& source, Frame& frame, bool hasEnvelope, double envelope, int pending,
                     const std::string& why)
 {
+    tModule = shared_.module;  // what this thread says is said under its bridge's name
     const SteadyClock::time_point now = SteadyClock::now();
     if (!fromAccepted(source)) {
         return;
@@ -459,6 +461,7 @@ void Input::onFrame(const std::string& source, Frame& frame, bool hasEnvelope, d
 
 void Input::deliver(Reading& reading)
 {
+    tModule = shared_.module;  // what this thread says is said under its bridge's name
     const SteadyClock::time_point now = SteadyClock::now();
     if (spec.image != nullptr) {  // a camera image: its frame, or why it has none
         std::lock_guard<std::mutex> lock(shared_.mutex);

@@ -19,6 +19,8 @@
 #include <utility>
 #include <vector>
 
+#include <signal.h>
+
 #include <yarp/os/Bottle.h>
 #include <yarp/os/BufferedPort.h>
 #include <yarp/os/ConnectionReader.h>
@@ -57,6 +59,7 @@ struct Shared
     ArrivalListener* listener = nullptr;
     std::function<void()> foreign;  // an input refused a Bottle of another port: the watcher closes its connection
     FramePorts frames = nullptr;    // makes the ports of the YARP camera image inputs (ybgc_images.cpp)
+    const char* module = nullptr;   // the bridge's name, said by the threads of its ports' callbacks (tModule)
 };
 
 /// An input Bottle with the name of the port that sent it: YARP's name for
@@ -264,6 +267,12 @@ private:
     std::uint64_t before_ = 0;
 };
 
+/// What `stats` answers of a bridge, appended to `out` (after its vocab
+/// `many`): one list per input (input SOURCE received N dropped N stale N
+/// unused N refused N), (published N skipped N failures N), (rate ACHIEVED
+/// configured HZ|event-driven); `rate`: the configured rate, 0 event-driven.
+void statsItems(yarp::os::Bottle& out, const Totals& totals, double achieved, double rate);
+
 /// The module's RPC port `<prefix>/rpc:i`, as YARP modules have one (`yarp
 /// rpc /<module>/rpc:i`): `help`, `stats`, `quit` (also `exit`, `bye`: the
 /// RFModule convention). Each command is answered in YARP's own thread for
@@ -298,6 +307,68 @@ private:
     std::mutex meterMutex_;
     RateMeter meter_;
     yarp::os::RpcServer port_;
+};
+
+// --- SIGINT and SIGTERM (ybgc_runtime.cpp) ----------------------------------------------
+
+/// Blocks SIGINT and SIGTERM in every thread (construct it before any
+/// thread starts) and waits for them in a thread of its own: the first one
+/// asks the process to stop; if it is not closed 1.9 s later, or a second
+/// signal comes, the process exits at once.
+class SignalWatch
+{
+public:
+    SignalWatch();
+    void start(std::function<void()> onStop);
+    /// Everything is closed: end the thread.
+    void finish();
+
+private:
+    void run(const std::function<void()>& onStop);
+
+    sigset_t set_;
+    std::thread thread_;
+    std::atomic<bool> finished_{false};
+};
+
+// --- a bridge in a process of several (ybgc compose: ybgc_compose.cpp) -----------------
+
+/// What the process of several bridges holds of one of them once it runs.
+struct Running
+{
+    std::function<Totals()> totals;  // its totals as they stand (under its lock)
+    std::function<void()> stop;      // asks it to stop, from any thread
+    double rate = 0.0;               // its configured rate, Hz (0: event-driven)
+};
+
+/// The process that runs a bridge among others (ybgc compose), set in the
+/// thread that runs the bridge (Host::current()): run() then uses the
+/// process's YARP network, signals and RPC port instead of opening its
+/// own, and tells it how the bridge starts and ends; a ROS 2 node opens on
+/// the process's one rcl context (ybgc_ros2.cpp).
+class Host
+{
+public:
+    virtual ~Host() = default;
+    /// The host of this thread's bridge (nullptr: a module of its own).
+    static Host* current();
+    static void setCurrent(Host* host);
+
+    /// Only its command line and parameters are checked, nothing opens:
+    /// run() returns 0 once they are.
+    virtual bool checking() const = 0;
+    /// It runs (its ports and nodes open) until `running.stop`.
+    virtual void started(Running running) = 0;
+    /// It cannot start (`why`: the reason, said already); what it opened is closed.
+    virtual void refused(const std::string& why) = 0;
+    /// It stopped and closed its ports: `totals`, the lines of its exit
+    /// totals (each headed by its name); `clean` false when a peer held a
+    /// port (the names were unregistered: the process exits without waiting
+    /// for it, and this thread never returns).
+    virtual void closed(const std::string& totals, bool clean) = 0;
+    /// Runs `finish` once every bridge has closed, before the process exits
+    /// (the ROS 2 context of the process, shut down); the last given first.
+    virtual void atEnd(std::function<void()> finish) = 0;
 };
 
 // --- the command line (ybgc_options.cpp) ------------------------------------------------

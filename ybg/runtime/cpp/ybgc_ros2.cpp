@@ -3,6 +3,7 @@
 // and the helpers of the message builders. The parameters, QoS overrides and
 // statuses they use are computed in ybgc_ros2_params.cpp.
 #include "ybgc_ros2.hpp"  // ybgc:runtime-import
+#include "ybgc_internal.hpp"  // ybgc:runtime-import
 
 #include <rcl/error_handling.h>
 #include <rcl/rcl.h>
@@ -132,7 +133,9 @@ int checkRosArgs(const std::vector<std::string>& rosArgs, const char* node, std:
 struct Node::Rcl
 {
     rcl_allocator_t allocator = rcl_get_default_allocator();
-    rcl_context_t context = rcl_get_zero_initialized_context();
+    rcl_context_t context = rcl_get_zero_initialized_context();  // its own (a module of its own)
+    rcl_context_t* shared = nullptr;  // else the process's (ybgc compose: one context, one node per bridge)
+    rcl_context_t* ctx() { return shared != nullptr ? shared : &context; }
     rcl_node_t node = rcl_get_zero_initialized_node();
     rcl_params_t* params = nullptr;  // the command line's parameters (nullptr: none)
     std::string fqn;                 // the node's fully qualified name
@@ -165,34 +168,97 @@ Node::~Node()
     close();
 }
 
-bool Node::open()
+namespace {
+
+/// rcl_init of `context` with the ROS arguments `rosArgs` (for a program
+/// named `name`); false, said, when it fails.
+bool initContext(rcl_context_t& context, const std::string& name, const std::vector<std::string>& rosArgs)
 {
-    Rcl& r = *rcl_;
     rcl_init_options_t options = rcl_get_zero_initialized_init_options();
-    if (rcl_init_options_init(&options, r.allocator) != RCL_RET_OK) {
+    if (rcl_init_options_init(&options, rcl_get_default_allocator()) != RCL_RET_OK) {
         say("cannot start ROS 2: " + rclError());
         return false;
     }
     // the domain (ROS_DOMAIN_ID) and discovery range come from the environment, as for every ROS 2 process
-    std::vector<const char*> argv{name_.c_str()};
-    for (const std::string& arg : rosArgs_) {
+    std::vector<const char*> argv{name.c_str()};
+    for (const std::string& arg : rosArgs) {
         argv.push_back(arg.c_str());
     }
-    const rcl_ret_t init = rcl_init(static_cast<int>(argv.size()), argv.data(), &options, &r.context);
+    const rcl_ret_t init = rcl_init(static_cast<int>(argv.size()), argv.data(), &options, &context);
     finished(rcl_init_options_fini(&options));
     if (init != RCL_RET_OK) {
         say("cannot start ROS 2: " + rclError());
         return false;
     }
-    r.contextOk = true;
+    return true;
+}
+
+/// The one rcl context of a process of several bridges (ybgc compose), and
+/// so its one DDS participant: made by the first node that opens, with the
+/// process's ROS arguments (every bridge is given them), shut down once
+/// every bridge has closed. Never destroyed (the process may exit while a
+/// thread still uses it).
+struct ProcessContext
+{
+    std::mutex mutex;
+    rcl_context_t context = rcl_get_zero_initialized_context();
+    bool ok = false;
+};
+
+ProcessContext& processContext()
+{
+    static ProcessContext* const process = new ProcessContext;
+    return *process;
+}
+
+/// The process's context for a node of the bridge `host` runs (made the
+/// first time); nullptr, said, when ROS 2 cannot start.
+rcl_context_t* sharedContext(Host& host, const std::string& name, const std::vector<std::string>& rosArgs)
+{
+    ProcessContext& p = processContext();
+    std::lock_guard<std::mutex> lock(p.mutex);
+    if (!p.ok) {
+        if (!initContext(p.context, name, rosArgs)) {
+            return nullptr;
+        }
+        p.ok = true;
+        host.atEnd([] {
+            ProcessContext& p = processContext();
+            std::lock_guard<std::mutex> lock(p.mutex);
+            if (p.ok) {
+                finished(rcl_shutdown(&p.context));
+                finished(rcl_context_fini(&p.context));
+                p.ok = false;
+            }
+        });
+    }
+    return &p.context;
+}
+
+}  // namespace
+
+bool Node::open()
+{
+    Rcl& r = *rcl_;
+    if (Host* host = Host::current()) {
+        r.shared = sharedContext(*host, name_, rosArgs_);
+        if (r.shared == nullptr) {
+            return false;
+        }
+    } else {
+        if (!initContext(r.context, name_, rosArgs_)) {
+            return false;
+        }
+        r.contextOk = true;
+    }
     rcl_node_options_t nodeOptions = rcl_node_get_default_options();
-    if (rcl_node_init(&r.node, name_.c_str(), "", &r.context, &nodeOptions) != RCL_RET_OK) {
+    if (rcl_node_init(&r.node, name_.c_str(), "", r.ctx(), &nodeOptions) != RCL_RET_OK) {
         say("cannot create the ROS 2 node " + name_ + ": " + rclError());
         return false;
     }
     r.nodeOk = true;
     r.fqn = rcl_node_get_fully_qualified_name(&r.node);
-    if (rcl_arguments_get_param_overrides(&r.context.global_arguments, &r.params) != RCL_RET_OK) {
+    if (rcl_arguments_get_param_overrides(&r.ctx()->global_arguments, &r.params) != RCL_RET_OK) {
         rcl_reset_error();
         r.params = nullptr;
     }
@@ -239,7 +305,10 @@ void Node::publishDiagnostics(TotalsSource totals)
         return;
     }
     r.diagnosticsOk = true;
-    r.diagnosticsThread = std::thread([this, totals = std::move(totals)] { diagnose(totals); });
+    r.diagnosticsThread = std::thread([this, totals = std::move(totals), who = tModule] {
+        tModule = who;  // in a process of several bridges, its bridge's name
+        diagnose(totals);
+    });
 }
 
 namespace {
@@ -338,7 +407,10 @@ bool Node::startClock()
         say("cannot use the simulated time: " + rclError());
         return false;
     }
-    r.clockThread = std::thread([this] { followClock(); });
+    r.clockThread = std::thread([this, who = tModule] {
+        tModule = who;
+        followClock();
+    });
     say("use_sim_time: stamps from /clock");
     return true;
 }
@@ -347,7 +419,7 @@ void Node::followClock()
 {
     Rcl& r = *rcl_;
     rcl_wait_set_t waitSet = rcl_get_zero_initialized_wait_set();
-    if (rcl_wait_set_init(&waitSet, 1, 0, 0, 0, 0, 0, &r.context, r.allocator) != RCL_RET_OK) {
+    if (rcl_wait_set_init(&waitSet, 1, 0, 0, 0, 0, 0, r.ctx(), r.allocator) != RCL_RET_OK) {
         say("cannot wait for /clock: " + rclError());
         return;
     }
@@ -400,7 +472,7 @@ bool Node::qos(const char* topic, const char* entity, rmw_qos_profile_t& qos, st
 
 rcl_context_t* Node::context()
 {
-    return &rcl_->context;
+    return rcl_->ctx();
 }
 
 rcl_node_t* Node::node()
@@ -635,7 +707,10 @@ bool Subscriptions::open(Deliver deliver)
         names += (names.empty() ? "" : ", ") + resolved + " (" + t.type.name + "; " + describeQos(options.qos) + ")";
     }
     say("reading the ROS 2 topics " + names + " on the node " + node_->name());
-    r.thread = std::thread([this] { follow(); });
+    r.thread = std::thread([this, who = tModule] {
+        tModule = who;
+        follow();
+    });
     return true;
 }
 

@@ -35,66 +35,52 @@ namespace ybgc {
 
 // --- SIGINT and SIGTERM ----------------------------------------------------------------
 
-/// Blocks SIGINT and SIGTERM in every thread (construct it before any
-/// thread starts) and waits for them in a thread of its own: the first one
-/// asks the loop to stop; if the module is not closed 1.9 s later, or a
-/// second signal comes, the process exits at once.
-class SignalWatch
+SignalWatch::SignalWatch()
 {
-public:
-    SignalWatch()
-    {
-        sigemptyset(&set_);
-        sigaddset(&set_, SIGINT);
-        sigaddset(&set_, SIGTERM);
-        pthread_sigmask(SIG_BLOCK, &set_, nullptr);
-    }
+    sigemptyset(&set_);
+    sigaddset(&set_, SIGINT);
+    sigaddset(&set_, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &set_, nullptr);
+}
 
-    void start(std::function<void()> onStop)
-    {
-        thread_ = std::thread([this, onStop] { run(onStop); });
-    }
+void SignalWatch::start(std::function<void()> onStop)
+{
+    thread_ = std::thread([this, onStop] { run(onStop); });
+}
 
-    /// Everything is closed: end the thread.
-    void finish()
-    {
-        if (!thread_.joinable()) {
-            return;
-        }
-        finished_ = true;
-        pthread_kill(thread_.native_handle(), SIGTERM);
-        thread_.join();
+void SignalWatch::finish()
+{
+    if (!thread_.joinable()) {
+        return;
     }
+    finished_ = true;
+    pthread_kill(thread_.native_handle(), SIGTERM);
+    thread_.join();
+}
 
-private:
-    void run(const std::function<void()>& onStop)
-    {
-        int sig = 0;
-        while (sigwait(&set_, &sig) != 0) {
-        }
+void SignalWatch::run(const std::function<void()>& onStop)
+{
+    int sig = 0;
+    while (sigwait(&set_, &sig) != 0) {
+    }
+    if (finished_) {
+        return;
+    }
+    onStop();
+    const timespec limit = {1, 900000000};
+    while (true) {
+        const int r = sigtimedwait(&set_, nullptr, &limit);
         if (finished_) {
             return;
         }
-        onStop();
-        const timespec limit = {1, 900000000};
-        while (true) {
-            const int r = sigtimedwait(&set_, nullptr, &limit);
-            if (finished_) {
-                return;
-            }
-            if (r < 0 && errno == EINTR) {
-                continue;
-            }
-            say(r < 0 ? "closing takes too long; exiting without closing every port"
-                      : "second signal; exiting without closing every port");
-            std::_Exit(1);
+        if (r < 0 && errno == EINTR) {
+            continue;
         }
+        say(r < 0 ? "closing takes too long; exiting without closing every port"
+                  : "second signal; exiting without closing every port");
+        std::_Exit(1);
     }
-
-    sigset_t set_;
-    std::thread thread_;
-    std::atomic<bool> finished_{false};
-};
+}
 
 // --- ROS 1 -------------------------------------------------------------------------------
 
@@ -153,6 +139,7 @@ public:
         shared_.queue = spec.queue;
         shared_.listener = this;
         shared_.frames = frames;
+        shared_.module = spec.module;
         for (const InputSpec& in : spec.inputs) {
             const std::string mux = spec.muxes[static_cast<std::size_t>(in.mux)].name;
             const std::string index = std::to_string(in.index);
@@ -216,39 +203,119 @@ public:
     /// Opens everything, loops until stopped, closes; the exit status.
     int run()
     {
+        const int status = open(true);
+        if (status == 0) {
+            serve();
+        }
+        // Closing waits for the peers; one that does not answer (a stalled
+        // reader) would hold it: after a deadline the names are unregistered
+        // and the process ends without waiting any longer.
+        const Closed closed = close();
+        printLines(totalsText(""));
+        if (!closed.ports || !closed.watcher) {
+            if (!closed.ports) {
+                say("a peer did not answer while the ports closed; their names were unregistered");
+            }
+            std::fflush(stdout);
+            std::_Exit(status);
+        }
+        return status;
+    }
+
+    /// The same in a process of several bridges (ybgc compose): no RPC port
+    /// of its own (the process has one); `host` hears that it runs, or why
+    /// it cannot start, and its totals once closed. The exit status.
+    int run(Host& host)
+    {
+        if (open(false) != 0) {
+            const Closed closed = close();  // what it opened
+            host.refused(failure_);
+            if (!closed.ports || !closed.watcher) {
+                hold();
+            }
+            return 1;
+        }
+        host.started({[this] { return totals(); }, [this] { requestStop(); }, eventDriven_ ? 0.0 : options_.rate});
+        serve();
+        const Closed closed = close();
+        if (!closed.ports) {
+            say("a peer did not answer while the ports closed; their names were unregistered");
+        }
+        host.closed(totalsText(std::string(spec_.module) + ": "), closed.ports && closed.watcher);
+        if (!closed.ports || !closed.watcher) {
+            hold();
+        }
+        return 0;
+    }
+
+    /// An input accepted a Bottle (its callback thread, Shared::mutex held).
+    void arrived(Input& /*input*/, bool wasFresh) override
+    {
+        if (!wasFresh) {
+            shared_.wake.notify_all();  // the loop sleeps until the next stale deadline
+        }
+        if (!eventDriven_ || !publishing_ || shared_.stopping) {
+            return;
+        }
+        while (!shared_.stopping && matcher_->ready(SteadyClock::now(), true)) {
+            publish();
+        }
+    }
+
+private:
+    /// What closing ended with: the ports closed (else their names were
+    /// unregistered), the watcher stopped, each within its deadline.
+    struct Closed
+    {
+        bool ports;
+        bool watcher;
+    };
+
+    /// Says why it cannot run, and keeps it (failure_).
+    void fail(const std::string& why)
+    {
+        say(why);
+        failure_ = why;
+    }
+
+    /// Opens the inputs, the output, the inputs read outside YARP and, with
+    /// `rpc`, the RPC port; makes the watcher of connections: 0, or 1 when
+    /// one cannot open (said; failure_ says why).
+    int open(bool rpc)
+    {
         int status = 0;
-        std::size_t opened = 0;
-        bool outputOpen = false;
-        for (; opened < inputs_.size(); ++opened) {
-            if (!inputs_[opened]->open()) {
-                say("cannot open the port " + inputs_[opened]->local);
+        for (; opened_ < inputs_.size(); ++opened_) {
+            if (!inputs_[opened_]->open()) {
+                fail("cannot open the port " + inputs_[opened_]->local);
                 status = 1;
                 break;
             }
         }
         if (status == 0) {
-            outputOpen = output_.open();
-            if (!outputOpen) {
+            outputOpen_ = output_.open();
+            if (!outputOpen_) {
                 output_.close();
-                say(std::string("cannot open the output ") + spec_.output.port);
+                fail(std::string("cannot open the output ") + spec_.output.port);
                 status = 1;
             }
         }
-        bool feedOpen = false;
         if (status == 0 && feed_ != nullptr) {
-            feedOpen = feed_->open([this](std::size_t k, Reading& reading) { inputs_[k]->deliver(reading); });
-            if (!feedOpen) {
+            feedOpen_ = feed_->open([this](std::size_t k, Reading& reading) { inputs_[k]->deliver(reading); });
+            if (!feedOpen_) {
                 feed_->close();
+                failure_ = "cannot read its ROS 2 topics";  // the feed said why
                 status = 1;
             }
         }
-        RpcPort rpc(
-            options_.prefix + "/rpc:i", [this] { return totals(); }, [this] { requestStop(); },
-            eventDriven_ ? 0.0 : options_.rate);
-        const bool rpcOpen = status == 0 && rpc.open();
-        if (status == 0 && !rpcOpen) {
-            say("cannot open the RPC port " + rpc.name);
-            status = 1;
+        if (rpc) {
+            rpc_ = std::make_unique<RpcPort>(
+                options_.prefix + "/rpc:i", [this] { return totals(); }, [this] { requestStop(); },
+                eventDriven_ ? 0.0 : options_.rate);
+            rpcOpen_ = status == 0 && rpc_->open();
+            if (status == 0 && !rpcOpen_) {
+                fail("cannot open the RPC port " + rpc_->name);
+                status = 1;
+            }
         }
         std::vector<Link> links;
         for (const auto& in : inputs_) {
@@ -268,63 +335,57 @@ public:
         if (spec_.output.kind == OutputKind::Yarp) {
             own.push_back(output_.where());
         }
-        Watcher watcher(std::move(links), std::move(own));
+        watcher_ = std::make_unique<Watcher>(std::move(links), std::move(own));
         {
             std::lock_guard<std::mutex> lock(shared_.mutex);
-            shared_.foreign = watcher.waker();
-        }
-        if (status == 0) {
-            // a ROS 2 node among them reports the totals (its /diagnostics)
-            output_.watch([this] { return totals(); });
-            if (feed_ != nullptr) {
-                feed_->watch([this] { return totals(); });
-            }
-            say("publishing " + output_.describe() + ", "
-                + (eventDriven_ ? std::string("event-driven") : formatNumber(options_.rate) + " Hz"));
-            watcher.start();
-            if (eventDriven_) {
-                loopEventDriven();
-            } else {
-                loopFixedRate();
-            }
-        }
-        if (rpcOpen) {
-            rpc.close();
-        }
-        // Closing waits for the peers; one that does not answer (a stalled
-        // reader) would hold it: after a deadline the names are unregistered
-        // and the process ends without waiting any longer.
-        const bool watcherStopped = watcher.stop(std::chrono::milliseconds(300));
-        if (feedOpen) {
-            feed_->close();  // before the output, whose node it may share
-        }
-        const bool closed = closeAll(opened, outputOpen, std::chrono::milliseconds(800));
-        printTotals();
-        if (!closed || !watcherStopped) {
-            if (!closed) {
-                say("a peer did not answer while the ports closed; their names were unregistered");
-            }
-            std::fflush(stdout);
-            std::_Exit(status);
+            shared_.foreign = watcher_->waker();
         }
         return status;
     }
 
-    /// An input accepted a Bottle (its callback thread, Shared::mutex held).
-    void arrived(Input& /*input*/, bool wasFresh) override
+    /// Once open: publishes until stopped.
+    void serve()
     {
-        if (!wasFresh) {
-            shared_.wake.notify_all();  // the loop sleeps until the next stale deadline
+        // a ROS 2 node among them reports the totals (its /diagnostics)
+        output_.watch([this] { return totals(); });
+        if (feed_ != nullptr) {
+            feed_->watch([this] { return totals(); });
         }
-        if (!eventDriven_ || !publishing_ || shared_.stopping) {
-            return;
-        }
-        while (!shared_.stopping && matcher_->ready(SteadyClock::now(), true)) {
-            publish();
+        say("publishing " + output_.describe() + ", "
+            + (eventDriven_ ? std::string("event-driven") : formatNumber(options_.rate) + " Hz"));
+        watcher_->start();
+        if (eventDriven_) {
+            loopEventDriven();
+        } else {
+            loopFixedRate();
         }
     }
 
-private:
+    /// Closes what is open: the RPC port, the watcher, the inputs read
+    /// outside YARP, the ports and the output.
+    Closed close()
+    {
+        if (rpcOpen_) {
+            rpc_->close();
+        }
+        const bool watcherStopped = watcher_->stop(std::chrono::milliseconds(300));
+        if (feedOpen_) {
+            feed_->close();  // before the output, whose node it may share
+        }
+        const bool closed = closeAll(opened_, outputOpen_, std::chrono::milliseconds(800));
+        return {closed, watcherStopped};
+    }
+
+    /// A thread left closing a port (or the watcher) still uses this bridge:
+    /// its thread never returns; the process exits without it.
+    [[noreturn]] static void hold()
+    {
+        std::fflush(stdout);
+        for (;;) {
+            std::this_thread::sleep_for(std::chrono::hours(1));
+        }
+    }
+
     /// Closes the ports in a thread of their own; false if that did not end
     /// within `limit`: the ports' names are then unregistered.
     bool closeAll(std::size_t opened, bool outputOpen, std::chrono::milliseconds limit)
@@ -336,12 +397,20 @@ private:
             bool done = false;
         };
         auto state = std::make_shared<Done>();
-        std::thread closer([this, opened, outputOpen, state] {
+        std::thread closer([this, opened, outputOpen, state, who = tModule] {
+            tModule = who;
             for (std::size_t k = 0; k < opened; ++k) {
                 inputs_[k]->interrupt();
             }
-            for (std::size_t k = 0; k < opened; ++k) {
-                inputs_[k]->close();
+            {
+                // one port after the other in the process: YARP ports closed by
+                // several threads at once (the bridges of a composed process)
+                // stall for a second each; one after the other, milliseconds
+                static std::mutex closing;
+                std::lock_guard<std::mutex> lock(closing);
+                for (std::size_t k = 0; k < opened; ++k) {
+                    inputs_[k]->close();
+                }
             }
             if (outputOpen) {
                 output_.close();
@@ -459,18 +528,19 @@ private:
         }
     }
 
-    void printTotals()
+    /// The exit totals, each line headed by `prefix`.
+    std::string totalsText(const std::string& prefix) const
     {
-        std::string out = "totals:\n";
+        std::string out = prefix + "totals:\n";
         for (const auto& in : inputs_) {
-            out += "  input " + std::string(in->spec.source) + ": received " + std::to_string(in->received)
+            out += prefix + "  input " + std::string(in->spec.source) + ": received " + std::to_string(in->received)
                 + ", dropped " + std::to_string(in->dropped) + ", stale periods "
                 + std::to_string(in->stalePeriods) + ", unused " + std::to_string(in->unused);
             out += refusedText(*in) + "\n";
         }
-        out += "  published " + std::to_string(published_) + " messages, skipped "
+        out += prefix + "  published " + std::to_string(published_) + " messages, skipped "
             + std::to_string(skippedCycles_) + " cycles, build failures " + std::to_string(buildFailures_) + "\n";
-        printLines(out);
+        return out;
     }
 
     const BridgeSpec& spec_;
@@ -481,6 +551,13 @@ private:
     MessageSink& output_;
     InputFeed* feed_;  // the inputs read outside YARP (nullptr: none)
     const bool eventDriven_;
+    std::size_t opened_ = 0;    // the inputs opened
+    bool outputOpen_ = false;
+    bool feedOpen_ = false;
+    std::unique_ptr<RpcPort> rpc_;  // a module of its own: its RPC port
+    bool rpcOpen_ = false;
+    std::unique_ptr<Watcher> watcher_;
+    std::string failure_;       // why it cannot run
     bool publishing_ = false;  // guarded by Shared::mutex
     std::atomic<std::uint64_t> published_{0};
     std::atomic<std::uint64_t> skippedCycles_{0};
@@ -522,9 +599,54 @@ int run(const BridgeSpec& spec, int argc, char* argv[], MakeMessage make, InputF
     return run(spec, argc, argv, *output, feed);
 }
 
+namespace {
+
+/// The host of the bridge run by this thread (Host::current()).
+thread_local Host* tHost = nullptr;
+
+/// Does the bridge read or write ROS 1 topics?
+bool usesRos1(const BridgeSpec& spec)
+{
+    bool ros1 = spec.output.kind == OutputKind::Ros1;
+    for (const InputSpec& input : spec.inputs) {
+        ros1 = ros1 || input.kind == InputKind::Ros1;
+    }
+    return ros1;
+}
+
+/// The bridge in a process of several (ybgc compose): the process holds
+/// the YARP network and the signals, and hears from it (Host).
+int runHosted(Host& host, const BridgeSpec& spec, const Options& options, MessageSink& output, InputFeed* feed,
+              FramePorts frames)
+{
+    std::string why;
+    if (usesRos1(spec) && !ros1Available(why)) {
+        say("cannot use ROS 1 topics: " + why);
+        host.refused("cannot use ROS 1 topics: " + why);
+        return 1;
+    }
+    Bridge bridge(spec, options, output, feed, frames);
+    return bridge.run(host);
+}
+
+}  // namespace
+
+Host* Host::current()
+{
+    return tHost;
+}
+
+void Host::setCurrent(Host* host)
+{
+    tHost = host;
+}
+
 int run(const BridgeSpec& spec, int argc, char* argv[], MessageSink& output, InputFeed* feed, FramePorts frames)
 {
-    gModule = spec.module;
+    Host* host = Host::current();
+    if (host == nullptr) {
+        gModule = spec.module;
+    }
     Options options;
     const int status = parseOptions(spec, argc, argv, options);
     if (status >= 0) {
@@ -534,6 +656,9 @@ int run(const BridgeSpec& spec, int argc, char* argv[], MessageSink& output, Inp
         std::fprintf(stderr, "%s: an event-driven bridge needs at least one input; give --rate\n", spec.module);
         return 2;
     }
+    if (host != nullptr) {
+        return host->checking() ? 0 : runHosted(*host, spec, options, output, feed, frames);
+    }
     SignalWatch signals;  // before YARP starts any thread
     std::signal(SIGPIPE, SIG_IGN);
     yarp::os::Network network;
@@ -541,12 +666,8 @@ int run(const BridgeSpec& spec, int argc, char* argv[], MessageSink& output, Inp
         say("cannot reach the YARP name server (is yarpserver running?)");
         return 1;
     }
-    bool ros1 = spec.output.kind == OutputKind::Ros1;
-    for (const InputSpec& input : spec.inputs) {
-        ros1 = ros1 || input.kind == InputKind::Ros1;
-    }
     std::string why;
-    if (ros1 && !ros1Available(why)) {
+    if (usesRos1(spec) && !ros1Available(why)) {
         say("cannot use ROS 1 topics: " + why);
         return 1;
     }

@@ -57,7 +57,13 @@ using SteadyClock = std::chrono::steady_clock;
 /// Name printed in front of every message ("<module>: ...").
 extern const char* gModule;
 
-/// Prints "<module>: <text>" on stdout, at once.
+/// The name this thread prints instead of gModule (nullptr: gModule): in a
+/// process of several bridges (ybgc compose), every thread of a bridge (its
+/// loop, its ports' callbacks, its watcher, its ROS 2 threads) says its
+/// bridge's module name.
+extern thread_local const char* tModule;
+
+/// Prints "<module>: <text>" on stdout, at once (the module: tModule, else gModule).
 void say(const std::string& text);
 
 /// Prints lines as they are (totals, verbose values).

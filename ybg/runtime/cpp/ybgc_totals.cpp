@@ -19,6 +19,7 @@
 namespace ybgc {
 
 const char* gModule = "";
+thread_local const char* tModule = nullptr;
 
 std::mutex& printMutex()
 {
@@ -30,7 +31,7 @@ std::mutex& printMutex()
 void say(const std::string& text)
 {
     std::lock_guard<std::mutex> lock(printMutex());
-    std::fprintf(stdout, "%s: %s\n", gModule, text.c_str());
+    std::fprintf(stdout, "%s: %s\n", tModule != nullptr ? tModule : gModule, text.c_str());
     std::fflush(stdout);
 }
 
@@ -92,6 +93,34 @@ double RateMeter::read(SteadyClock::time_point now, std::uint64_t published)
     return rate;
 }
 
+void statsItems(yarp::os::Bottle& out, const Totals& totals, double achieved, double rate)
+{
+    for (const Totals::PerInput& in : totals.inputs) {
+        yarp::os::Bottle& item = out.addList();
+        item.addString("input");
+        item.addString(in.source);
+        for (const auto& [key, n] : {std::pair<const char*, std::uint64_t>{"received", in.received},
+                                     {"dropped", in.dropped}, {"stale", in.stale}, {"unused", in.unused},
+                                     {"refused", in.refused}}) {
+            item.addString(key);
+            item.addInt64(static_cast<std::int64_t>(n));
+        }
+    }
+    yarp::os::Bottle& counts = out.addList();
+    for (const auto& [key, n] : {std::pair<const char*, std::uint64_t>{"published", totals.published},
+                                 {"skipped", totals.skipped}, {"failures", totals.failures}}) {
+        counts.addString(key);
+        counts.addInt64(static_cast<std::int64_t>(n));
+    }
+    // the rates as text, with the digits that mean something (a float64
+    // prints with 21 digits)
+    yarp::os::Bottle& line = out.addList();
+    line.addString("rate");
+    line.addString(rateText(achieved));
+    line.addString("configured");
+    line.addString(rate > 0 ? reprFloat(rate) : std::string("event-driven"));
+}
+
 RpcPort::RpcPort(std::string name, std::function<Totals()> totals, std::function<void()> quit, double rate) :
         name(std::move(name)), totals_(std::move(totals)), quit_(std::move(quit)), rate_(rate),
         meter_(SteadyClock::now())
@@ -146,33 +175,12 @@ bool RpcPort::respond(const yarp::os::Bottle& command, yarp::os::Bottle& reply)
     } else if (word == "stats") {
         const Totals totals = totals_();
         reply.addVocab32("many");
-        for (const Totals::PerInput& in : totals.inputs) {
-            yarp::os::Bottle& item = reply.addList();
-            item.addString("input");
-            item.addString(in.source);
-            for (const auto& [key, n] : {std::pair<const char*, std::uint64_t>{"received", in.received},
-                                         {"dropped", in.dropped}, {"stale", in.stale}, {"unused", in.unused},
-                                         {"refused", in.refused}}) {
-                item.addString(key);
-                item.addInt64(static_cast<std::int64_t>(n));
-            }
-        }
-        yarp::os::Bottle& counts = reply.addList();
-        for (const auto& [key, n] : {std::pair<const char*, std::uint64_t>{"published", totals.published},
-                                     {"skipped", totals.skipped}, {"failures", totals.failures}}) {
-            counts.addString(key);
-            counts.addInt64(static_cast<std::int64_t>(n));
-        }
-        // the rates as text, with the digits that mean something (a float64
-        // prints with 21 digits)
-        yarp::os::Bottle& rate = reply.addList();
-        rate.addString("rate");
+        double achieved = 0.0;
         {
             std::lock_guard<std::mutex> lock(meterMutex_);
-            rate.addString(rateText(meter_.read(SteadyClock::now(), totals.published)));
+            achieved = meter_.read(SteadyClock::now(), totals.published);
         }
-        rate.addString("configured");
-        rate.addString(rate_ > 0 ? reprFloat(rate_) : std::string("event-driven"));
+        statsItems(reply, totals, achieved, rate_);
     } else if (word == "quit" || word == "exit" || word == "bye") {
         say("asked to quit on the RPC port");
         quitAsked_ = true;
