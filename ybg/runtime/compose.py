@@ -35,7 +35,8 @@ COMPOSED_HELP = (
     "help: this list",
     "stats: one list per bridge, its name then its own stats: per input (input SOURCE received N dropped N "
     "stale N unused N refused N), (published N skipped N failures N), (rate ACHIEVED configured "
-    "HZ|event-driven); a bridge that is not running: (NAME \"not running\" WHY)",
+    "HZ|event-driven); a node of commands: per service (service NAME calls N answered N failed N timed_out N "
+    "no_server N unfit N); a bridge that is not running: (NAME \"not running\" WHY)",
     "quit: stop every bridge (each closes its ports and prints its totals; exit 0, or 1 if a bridge could "
     "not start)",
 )
@@ -243,8 +244,7 @@ class Composer:
             if result is None:  # still closing: every port of it unregistered by name
                 stuck = True
                 watchers_done = False
-                names = [inp.local for inp in self.opened[module]] + [bridge.output.port_name]
-                bridge.unregister(names)
+                bridge.unregister(self._port_names(bridge, self.opened[module]))
                 continue
             done, late, unclosed = result
             watchers_done = watchers_done and done
@@ -252,6 +252,13 @@ class Composer:
                 stuck = True
                 bridge.unregister(unclosed)
         return stuck, watchers_done
+
+    @staticmethod
+    def _port_names(bridge, opened):
+        names = getattr(bridge, "port_names", None)  # a node of commands
+        if names is not None:
+            return names(opened)
+        return [inp.local for inp in opened] + [bridge.output.port_name]
 
     # -- the RPC port
     def respond(self, command, reply):
@@ -270,6 +277,8 @@ class Composer:
                 if member.module in self.failed or bridge is None:
                     item.addString("not running")
                     item.addString(self.failed.get(member.module, "starting"))
+                elif hasattr(bridge, "stats_items"):  # a node of commands: its services
+                    bridge.stats_items(item)
                 else:
                     stats_items(item, bridge, self.meters[member.module])
         elif word in ("quit", "exit", "bye"):

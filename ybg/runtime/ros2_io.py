@@ -749,20 +749,30 @@ def run_composed(name, members, argv, load):
         for member in members:
             try:
                 module = load(member)
-                node_name = module.NODE_NAME
+                # a node of commands (its spec lists services): its runtime is
+                # the module its run_commands comes from
+                commands = sys.modules[module.run_commands.__module__] if hasattr(module.SPEC, "services") \
+                    else None
+                node_name = module.SPEC.node_name if commands is not None else module.NODE_NAME
             except (Exception, SystemExit) as e:
                 composer.refuse(member, load_failure(member, e))
                 continue
             node = rclpy.create_node(node_name)
             nodes.append(node)
             try:
-                options = node_options(node, module.DEFAULT_PREFIX, module.DEFAULT_RATE, module.SPEC)
-            except ParameterError as e:
+                if commands is not None:
+                    options = commands.node_options(node, module.SPEC.default_prefix)
+                else:
+                    options = node_options(node, module.DEFAULT_PREFIX, module.DEFAULT_RATE, module.SPEC)
+            except (ParameterError, getattr(commands, "ParameterError", ParameterError)) as e:
                 print("%s: %s" % (module.SPEC.module, e), flush=True)
                 return 2
             try:
-                bridge = NodeBridge(module.SPEC, options, node, module.make_output(node), module.build_message,
-                                    module.compute, module.TOPIC_INPUTS)
+                if commands is not None:
+                    bridge = commands.ComposedCommands(module.SPEC, node, options)
+                else:
+                    bridge = NodeBridge(module.SPEC, options, node, module.make_output(node), module.build_message,
+                                        module.compute, module.TOPIC_INPUTS)
             except Exception as e:
                 composer.refuse(member, "%s: %s" % (type(e).__name__, e))
                 nodes.remove(node)
@@ -781,6 +791,9 @@ def run_composed(name, members, argv, load):
             if not composer.start(member, bridge):
                 nodes.remove(node)
                 node.destroy_node()
+                continue
+            if not isinstance(bridge, NodeBridge):  # a node of commands: its loop runs its executor
+                bridge.start_diagnostics(options.diagnostics_period)
                 continue
             if options.diagnostics_period:
                 Diagnostics(bridge, node, options.diagnostics_period)

@@ -764,6 +764,9 @@ class CommandsNode:
             if isinstance(s, ServeYarp):
                 self.by_port.setdefault(s.port, {})[s.name] = s
         self.help = {p.name: tuple(p.help) for p in spec.ports}
+        #: its own RPC port (help, stats, quit): not in a process of several
+        #: bridges, which has one of its own (ybgc_runtime.compose)
+        self.own_rpc = True
 
     def log(self, text):
         with _LOG_LOCK:
@@ -836,7 +839,7 @@ class CommandsNode:
         if s is not None:
             return self.serve_yarp(s, command)
         reply = yarp.Bottle()
-        own = port == self.rpc_name
+        own = port == self.rpc_name and self.own_rpc
         if word == "help":
             # a served port: its commands (stats and quit unlisted where it is the module's own too)
             reply.addVocab32("many")
@@ -910,7 +913,7 @@ class CommandsNode:
                 return False
             self.callers[port] = caller
         ports = [p.name for p in self.spec.ports]
-        if self.rpc_name not in ports:
+        if self.rpc_name not in ports and self.own_rpc:
             ports.append(self.rpc_name)
         for name in ports:
             served = ServedPort(name, lambda command, name=name: self._answer_then(name, command), self.log)
@@ -986,10 +989,12 @@ class CommandsNode:
                     yarp.Network.unregisterName(name)
         return done
 
-    def print_totals(self):
+    def print_totals(self, prefix=""):
+        """The totals at exit; ``prefix`` heads each line (the bridge's name,
+        in a process of several bridges)."""
         with self.lock:
             lines = ["totals:"] + totals_lines(self.spec.services, self.counts)
-        print("\n".join(lines), flush=True)
+        print("\n".join(prefix + line for line in lines), flush=True)
 
 
 # --------------------------------------------------------------------------
@@ -1036,6 +1041,82 @@ class ServiceDiagnostics:
 
     def publish(self):
         self.publisher.publish(self.array())
+
+
+# --------------------------------------------------------------------------
+# a node of commands among the bridges of one process (ybgc compose)
+
+class ComposedCommands:
+    """The node of commands as one bridge of a composed process
+    (ybgc_runtime.compose.Composer): its services, served ports and callers
+    as alone, but not its own RPC port (the process has one); its executor
+    (threads of its own) run by the bridge's loop thread."""
+
+    def __init__(self, spec, node, options):
+        self.spec = spec
+        self.node = node
+        self.cond = threading.Condition(threading.RLock())  # as a bridge's (the composer takes it to stop it)
+        self.stopping = False
+        self.commands = CommandsNode(spec, node, options.prefix, options.verbose)
+        self.commands.own_rpc = False
+        self.executor = None
+        self.problem = None
+        log = self.commands.log
+
+        def said(text):  # what could not open, for the composer
+            self.problem = text
+            log(text)
+        self.commands.log = said
+        self.log = log
+
+    def open_all(self, opened, rpc=False):
+        """Open every port, service and client: None, or what could not open."""
+        if not self.commands.open(ReentrantCallbackGroup()):
+            return self.problem or "cannot open its ports and services"
+        self.commands.log = self.log
+        self.executor = MultiThreadedExecutor(num_threads=_executor_threads(self.spec))
+        self.executor.add_node(self.node)
+        for s in self.spec.services:
+            self.log(s.description)
+        return None
+
+    def start_diagnostics(self, period):
+        if period:
+            ServiceDiagnostics(self.commands, self.node, period)
+
+    def loop(self):
+        _spin(self.executor, self.commands.stop_event, self.log)
+
+    def request_stop(self, *_):
+        self.stopping = True
+        self.commands.request_stop()
+
+    def port_names(self, opened):
+        return [p.name for p in self.commands.served] + [c.local for c in self.commands.callers.values()]
+
+    def close_ports(self, opened):
+        """The calls in flight answered, the executor stopped, every port
+        closed: (True, a port did not close in time, [] (those are
+        unregistered by name already))."""
+        self.request_stop()
+        self.commands.begin_stop(0.5)
+        if self.executor is not None:
+            closer = threading.Thread(target=self.executor.shutdown, kwargs={"timeout_sec": 0.3}, daemon=True)
+            closer.start()
+            closer.join(0.4)
+        return True, not self.commands.shut_down(), []
+
+    def unregister(self, names):
+        for name in names:
+            yarp.Network.unregisterName(name)
+
+    def stats_items(self, reply):
+        """What `stats` answers of it: one list per service."""
+        with self.commands.lock:
+            stats_reply(reply, self.spec.services, self.commands.counts)
+
+    def _print_totals(self, prefix=""):
+        self.commands.print_totals(prefix)
 
 
 # --------------------------------------------------------------------------

@@ -8,7 +8,9 @@ runs them all on the runtime (``ros2_io.run_composed``): one rclpy context,
 one node per bridge with its own name, parameters and threads, one RPC port
 ``/<name>/rpc:i``. With ``--package``: one ament_python package, one
 executable, and a launch file that gives each node its parameters from a
-parameter file keyed by node name (``config/<name>.yaml``).
+parameter file keyed by node name (``config/<name>.yaml``). A config of
+commands is a bridge too: its node as ``services_node.py.j2`` prints it, run
+by the runtime's ``services.ComposedCommands``.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from ybg.lower.python import PYTHON_FILTERS, py_literal
 from ybg.lower.rosnames import node_name, node_parameters, package_name, ros2_type_name, used_packages
 from ybg.lower.templates import py_comment_filter, template_environment, xml_comment_filter, xml_filter
 
+from . import services
 from .lower import lower
 
 #: the folder of the bridges' nodes, beside the composed module
@@ -126,10 +129,14 @@ def _refusal(program, message: str, span=None) -> LoweringError:
     return e
 
 
-def _at(program: ir.Program) -> str:
-    """Where the config writes the bridge's output: ``file:line:column``."""
+def _at(program) -> str:
+    """Where the config writes the bridge's output (a config of commands: its
+    first service): ``file:line:column``."""
     config = os.path.basename(program.source) if program.source else program.module
-    span = program.output.span
+    if isinstance(program, ir.Commands):
+        span = program.services[0].span if program.services else None
+    else:
+        span = program.output.span
     return f"{config}:{span.line}:{span.column}" if span is not None else config
 
 
@@ -140,20 +147,17 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
     views = []
     nodes: dict[str, str] = {}
     for program in programs:
-        if isinstance(program, ir.Commands):
-            first = program.services[0] if program.services else None
-            raise _refusal(program, "a config of commands is not composed by the ros2 backend (yet): run it as "
-                                    "a node of its own (ybgc generate)", first.span if first is not None else None)
         try:
-            view = lower(program)
+            view = services.lower(program) if isinstance(program, ir.Commands) else lower(program)
         except LoweringError as e:
             if getattr(e, "module", None) is None:
                 e.module = program.module
             raise
-        node = node_name(program)
+        node = _node_name(program)
         if node in nodes:
+            span = program.services[0].span if isinstance(program, ir.Commands) else program.output.span
             raise _refusal(program, f"its node name {node} is also that of the bridge {nodes[node]}: two nodes "
-                                    "of one name in one process (set `node` in its [output])", program.output.span)
+                                    "of one name in one process (set `node` in its [output])", span)
         nodes[node] = program.module
         views.append((program, view))
 
@@ -172,16 +176,16 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
 
     files: dict[str, str] = {}
     members = []
-    node_template = env.get_template("node.py.j2")
     for program, view in views:
-        files[f"{folder}{BRIDGES}/{view.filename}"] = node_template.render(
+        template = env.get_template("services_node.py.j2" if isinstance(program, ir.Commands) else "node.py.j2")
+        files[f"{folder}{BRIDGES}/{view.filename}"] = template.render(
             m=view, rt=rt, rt_import=bridge_import, rt_package=bridge_package)
         stem = view.filename[: -len(".py")]
         where = f"{BRIDGES}/{view.filename}" if package is None else f".{BRIDGES}.{stem}"
         config = os.path.basename(program.source) if program.source else program.module
         members.append(MemberView(
             module=py_literal(program.module), config=py_literal(config), at=py_literal(_at(program)),
-            where=py_literal(where), node_name=node_name(program),
+            where=py_literal(where), node_name=_node_name(program),
             summary=_describe(program)))
     filename = f"{name}_node.py"
     composed = ComposedView(filename=filename, name=py_literal(name), name_text=name,
@@ -196,7 +200,8 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
     configs = ", ".join(os.path.basename(p.source) if p.source else p.module for p in programs)
     depends: list[str] = ["rclpy", "diagnostic_msgs"]
     for program in programs:
-        depends.extend(p for p in used_packages(program) if p not in depends)
+        used = services.used_packages(program) if isinstance(program, ir.Commands) else used_packages(program)
+        depends.extend(p for p in used if p not in depends)
     pkg = ComposedPackageView(
         config=f"{len(programs)} configs ({configs})",
         package=package,
@@ -207,8 +212,8 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
         depends=tuple(depends),
         launch_file=f"{name}.launch.py",
         params_file=f"{name}.yaml",
-        nodes=tuple(node_name(program) for program, _ in views),
-        node_parameters=tuple(NodeParameters(node_name(program), node_parameters(program)) for program, _ in views),
+        nodes=tuple(_node_name(program) for program, _ in views),
+        node_parameters=tuple(NodeParameters(_node_name(program), _node_parameters(program)) for program, _ in views),
     )
     files.update({
         f"{package}/__init__.py": env.get_template("package_init.py.j2").render(p=pkg),
@@ -224,8 +229,19 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
     return files
 
 
-def _describe(program: ir.Program) -> str:
-    """What a bridge publishes, for a comment."""
+def _node_name(program) -> str:
+    return services.node_name(program) if isinstance(program, ir.Commands) else node_name(program)
+
+
+def _node_parameters(program):
+    return services.node_parameters(program) if isinstance(program, ir.Commands) else node_parameters(program)
+
+
+def _describe(program) -> str:
+    """What a bridge publishes (a node of commands: what it serves), for a comment."""
+    if isinstance(program, ir.Commands):
+        return "commands: " + ", ".join(s.service if s.serves == "ros2" else f"{s.name} on {s.port}"
+                                        for s in program.services)
     out = program.output
     if out.kind == "ros2":
         return f"{ros2_type_name(out.msg_type or program.message.msg_type or '')} on {out.name}"
