@@ -621,6 +621,67 @@ def test_ros2_package_one_executable_parameters_by_node_name(tmp_path):
 
 
 # --------------------------------------------------------------------------
+# ros2: configs of commands among the bridges
+
+
+def test_ros2_commands_among_the_bridges(tmp_path):
+    """Two configs of commands composed with a stream config: a ROS 2 service
+    served by calling a YARP RPC port (home_arm_trigger.ini), and a YARP RPC
+    port served by calling a ROS 2 service (yarp_rpc_to_ros2.ini, the port
+    named like the module's own RPC port): each call answered in the one
+    process, its counts in the process's `stats` and in its totals under its
+    name; the commands' own `stats`/`quit` are the process's, not the port's."""
+    from harness.services import RpcClient, RpcServer, ServiceClient, ServiceServer, reply, require_services
+
+    require_services()
+    out = tmp_path / "mix"
+    configs = [ICUB / "head.ini", EXAMPLES / "home_arm_trigger.ini", EXAMPLES / "yarp_rpc_to_ros2.ini"]
+    r = ybgc("compose", *configs, "--backend", "ros2", "--name", "mix", "-o", out)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert {p.name for p in (out / "bridges").iterdir()} == {"icub_head_node.py", "left_arm_homing_node.py",
+                                                             "robot_gate_node.py"}
+    with Ros2Domain() as domain, YarpServer(install=yarp_install("3.5")) as server:
+        env = ros2_environment(server.env, domain)
+        homing = RpcServer(env, "/icub/left_arm/homing/rpc:i", [reply("home", "ok")])
+        robot = ServiceServer(env, {"/robot/home": {"type": "std_srvs/srv/Trigger",
+                                                    "response": {"success": True, "message": "homed"}}})
+        caller = ServiceClient(env, {"/icub/left_arm/home": "std_srvs/srv/Trigger"})
+        gate = RpcClient(env, "/robot_gate/rpc:i")
+        peers = [homing, robot, caller]
+        try:
+            run_parallel(*(p.start for p in peers))
+            node = Node(env, out / "mix_node.py")
+            node.start()
+            node.wait_log("mix: 3 bridges running")
+            caller.wait_service("/icub/left_arm/home")
+            got = caller.call("/icub/left_arm/home")
+            assert got.response == {"success": True, "message": "ok"}, got
+            assert homing.wait_commands(1)[-1]["data"] == ["home", "all"]
+            gate.start()
+            peers.append(gate)
+            gate.connect()
+            answer = gate.call(["home"])
+            assert answer.ok and "homed" in answer.text, answer
+            stats = composed_stats(server, "/mix/rpc:i")
+            assert sorted(stats) == ["icub_head", "left_arm_homing", "robot_gate"], stats
+            assert stats["left_arm_homing"] == "(service home calls 1 answered 1 failed 0 timed_out 0 no_server 0 " \
+                                               "unfit 0)", stats
+            assert "(service home calls 1 answered 1 failed 0" in stats["robot_gate"], stats
+            assert "(service track calls 0" in stats["robot_gate"], stats
+            assert "quit" not in gate.call(["help"]).text  # the port's own commands, not the process's
+            assert "[bye]" in rpc(server, "/mix/rpc:i", "quit")
+            assert node.popen.wait(10) == 0, node.log_text()[-3000:]
+            log = node.log_text()
+            assert "Traceback" not in log
+            assert re.search(r"^left_arm_homing: service home: calls 1, answered 1, failed 0", log, re.M), log[-2000:]
+            assert re.search(r"^robot_gate: service home: calls 1, answered 1, failed 0", log, re.M), log[-2000:]
+            assert re.search(r"^icub_head:   published 0 messages", log, re.M)
+        finally:
+            for p in peers:
+                p.stop()
+
+
+# --------------------------------------------------------------------------
 # py: YARP bridges in one process
 
 PY_CONFIGS = {
