@@ -52,6 +52,10 @@ CPP_IMAGES_SOURCES = ("ybgc_images.cpp",)
 #: module of commands (always with the ROS 2 side)
 CPP_SERVICES_HEADER = "ybgc_services.hpp"
 CPP_SERVICES_SOURCES = ("ybgc_services.cpp",)
+#: the C++ runtime's process of several bridges (ybgc compose), beside a
+#: composed module
+CPP_COMPOSE_HEADER = "ybgc_compose.hpp"
+CPP_COMPOSE_SOURCES = ("ybgc_compose.cpp",)
 
 #: marks the lines of a runtime file that import another runtime file (left
 #: out when the runtime is inlined into a module)
@@ -90,27 +94,30 @@ def python_inline(modules: tuple[str, ...] = PY_MODULES) -> str:
     return "".join(parts)
 
 
-def _cpp_names(ros2: bool, images: bool = False, services: bool = False) -> tuple[str, ...]:
+def _cpp_names(ros2: bool, images: bool = False, services: bool = False, compose: bool = False) -> tuple[str, ...]:
     """The C++ runtime's files, headers first (the order they are inlined in)."""
     return ((CPP_HEADER, CPP_INTERNAL_HEADER, *CPP_SOURCES)
             + ((CPP_ROS2_HEADER, *CPP_ROS2_SOURCES) if ros2 or images or services else ())
             + ((CPP_IMAGES_HEADER, *CPP_IMAGES_SOURCES) if images else ())
-            + ((CPP_SERVICES_HEADER, *CPP_SERVICES_SOURCES) if services else ()))
+            + ((CPP_SERVICES_HEADER, *CPP_SERVICES_SOURCES) if services else ())
+            + ((CPP_COMPOSE_HEADER, *CPP_COMPOSE_SOURCES) if compose else ()))
 
 
 def is_runtime_file(name: str) -> bool:
     """Is ``name`` (a path relative to a module's output folder) a file of the
     runtime library that ybgc writes beside a module, not of the module?"""
     parts = Path(name).parts
-    return PY_PACKAGE in parts[:-1] or (len(parts) == 1 and parts[0] in _cpp_names(True, True, True))
+    return PY_PACKAGE in parts[:-1] or (len(parts) == 1 and parts[0] in _cpp_names(True, True, True, True))
 
 
-def cpp_files(ros2: bool = False, images: bool = False, services: bool = False) -> dict[str, str]:
+def cpp_files(ros2: bool = False, images: bool = False, services: bool = False,
+              compose: bool = False) -> dict[str, str]:
     """The C++ runtime's headers and sources, beside a module (``ros2``: and
     its ROS 2 side, for a module that publishes to ROS 2 or reads a ROS 2
     topic; ``images``: and its camera images, for a module that reads or
-    writes them; ``services``: and its commands, for a module of commands)."""
-    return {name: _banner("//") + _read(CPP_DIR / name) for name in _cpp_names(ros2, images, services)}
+    writes them; ``services``: and its commands, for a module of commands;
+    ``compose``: and its process of several bridges, for a composed module)."""
+    return {name: _banner("//") + _read(CPP_DIR / name) for name in _cpp_names(ros2, images, services, compose)}
 
 
 def cpp_inline(ros2: bool = False, images: bool = False, services: bool = False) -> str:
@@ -159,5 +166,6 @@ def runtime_text_filter(text) -> str:
 
 __all__ = ["RuntimeView", "runtime_view", "runtime_text_filter", "VERSION", "PY_PACKAGE", "PY_MODULES", "CPP_HEADER",
            "CPP_INTERNAL_HEADER", "CPP_SOURCES", "CPP_ROS2_HEADER", "CPP_ROS2_SOURCES", "CPP_IMAGES_HEADER",
-           "CPP_IMAGES_SOURCES", "CPP_SERVICES_HEADER", "CPP_SERVICES_SOURCES",
+           "CPP_IMAGES_SOURCES", "CPP_SERVICES_HEADER", "CPP_SERVICES_SOURCES", "CPP_COMPOSE_HEADER",
+           "CPP_COMPOSE_SOURCES",
            "python_files", "python_inline", "cpp_files", "cpp_inline", "is_runtime_file"]
