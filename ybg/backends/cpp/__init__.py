@@ -99,6 +99,12 @@ class CppBackend(Backend):
             program, f"build/{view.executable}" if workdir else view.executable, "", workdir)
         return files
 
+    def compose(self, programs, name: str, options: RenderOptions = RenderOptions()) -> dict[str, str]:
+        """One native executable running every program's bridge (.compose, docs/compose.md)."""
+        from ybg.backends.cpp.compose import compose
+
+        return compose(programs, name, options)
+
     def lower(self, program) -> None:
         if isinstance(program, ir.Commands):
             from ybg.backends.cpp import services
