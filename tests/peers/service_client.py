@@ -2,8 +2,13 @@
 records each response with its times; several callers at once, each with
 clients of its own.
 
-Config: {"node": "ybg_test_service_client", "callers": 1,
+Config: {"node": "ybg_test_service_client", "callers": 1, "depth": 1000,
          "services": {"/icub/left_arm/home": "std_srvs/srv/Trigger", ...}}
+Each client keeps the last ``depth`` responses (rclpy's default keeps 10):
+Fast DDS delivers every response of a service to every client of it, each
+taking its own, and with 8 callers a client's own response is otherwise
+sometimes pushed out by the others' before it is taken (a lost call, with
+any server).
 Commands: {"cmd": "wait_service", "service": name, "timeout": s, "ready": true}:
             event "service" (service, ready: every caller's client sees the
             server); with "ready": false, waits until none sees one (ready:
@@ -34,6 +39,7 @@ def main():
     import rclpy
     from rclpy.callback_groups import ReentrantCallbackGroup
     from rclpy.executors import MultiThreadedExecutor
+    from rclpy.qos import QoSProfile
     from rclpy.signals import SignalHandlerOptions
 
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
@@ -41,7 +47,8 @@ def main():
     group = ReentrantCallbackGroup()
     callers = int(cfg.get("callers") or 1)
     classes = {name: msg_class(t) for name, t in cfg["services"].items()}
-    clients = {name: [node.create_client(cls, name, callback_group=group) for _ in range(callers)]
+    qos = QoSProfile(depth=int(cfg.get("depth") or 1000))
+    clients = {name: [node.create_client(cls, name, qos_profile=qos, callback_group=group) for _ in range(callers)]
                for name, cls in classes.items()}
     ex = MultiThreadedExecutor(num_threads=4)
     ex.add_node(node)

@@ -14,7 +14,8 @@
 // false and a message. One thread: rcl_wait on the service, take the
 // request, call, send the response (the calls one after another, as the
 // module makes them on its one connection). No statistics, no checks of
-// the reply's layout: only the work. SIGINT/SIGTERM end it (exit 0).
+// the reply's layout: only the work. SIGINT/SIGTERM end it (exit 0),
+// printing "requests N answered N" (taken, and responses sent).
 #include "common.hpp"
 
 #include <rosidl_runtime_c/string_functions.h>
@@ -90,6 +91,8 @@ int main(int argc, char* argv[])
     yarp::os::Bottle reply;
     std::printf("ready\n");
     std::fflush(stdout);
+    long requests = 0;
+    long answered = 0;
     while (!gStop) {
         bench::check(rcl_wait_set_clear(&ws));
         bench::check(rcl_wait_set_add_service(&ws, &service, nullptr));
@@ -103,6 +106,7 @@ int main(int argc, char* argv[])
         }
         rmw_service_info_t info;
         while (rcl_take_request_with_info(&service, &info, &request) == RCL_RET_OK) {
+            ++requests;
             reply.clear();
             if (rpc.write(command, reply)) {
                 response.success = reply.size() > 0 && isTrue(reply.get(0).toString());
@@ -114,12 +118,16 @@ int main(int argc, char* argv[])
                     yarp::os::Network::connect(rpc.getName(), target, "tcp", true);
                 }
             }
-            if (rcl_send_response(&service, &info.request_id, &response) != RCL_RET_OK) {
+            if (rcl_send_response(&service, &info.request_id, &response) == RCL_RET_OK) {
+                ++answered;
+            } else {
                 rcl_reset_error();
             }
         }
         rcl_reset_error();
     }
+    std::printf("requests %ld answered %ld\n", requests, answered);
+    std::fflush(stdout);
     bench::check(rcl_wait_set_fini(&ws));
     std_srvs__srv__Trigger_Request__fini(&request);
     std_srvs__srv__Trigger_Response__fini(&response);
