@@ -728,23 +728,27 @@ PY_CONFIGS = {
           "convert = deg_to_rad\n\n[message]\nv = m\n",
     "pb": "[output]\nport = /pb/out:o\n\n[mux m]\nports = /src/b:o\n\n[message]\nn = counter\nv = m\n",
     "pc": "[output]\nport = /pc/out:o\nrate = 20\n\n[mux m]\nports = /src/c:o (int32 x2)\n\n[message]\nv = m\n",
+    "pd": "[output]\nport = /pd/out:o\n\n[mux m]\nports = /src/d:o\n\n[message]\nv = m\n",
 }
 
 
 def test_py_bridges_in_one_process(tmp_path):
-    """Three YARP-output configs composed by the py backend: one process
+    """Four YARP-output configs composed by the py backend: one process
     whose bridges publish their values (one at a fixed rate, one
     event-driven fed a malformed Bottle too), while the third cannot start
-    (its output port is taken): said with its config, listed as not running
-    in `stats`; `quit` stops the others, each printing its totals, and the
-    process exits 1 within 2 s."""
+    (its output port is taken) and the fourth's module does not load (it
+    imports a package that is not installed): each said with its config,
+    listed as not running in `stats`; `quit` stops the others, each printing
+    its totals, and the process exits 1 within 2 s."""
     for name, text in PY_CONFIGS.items():
         (tmp_path / f"{name}.ini").write_text(text)
     out = tmp_path / "trio"
     r = ybgc("compose", *(tmp_path / f"{n}.ini" for n in PY_CONFIGS), "--backend", "py", "--name", "trio",
              "-o", out)
     assert r.returncode == 0, r.stdout + r.stderr
-    assert {p.name for p in (out / "bridges").iterdir()} == {"pa.py", "pb.py", "pc.py"}
+    assert {p.name for p in (out / "bridges").iterdir()} == {"pa.py", "pb.py", "pc.py", "pd.py"}
+    module = out / "bridges" / "pd.py"
+    module.write_text("import ybg_missing_msgs  # a package not installed\n" + module.read_text())
     app = (out / "trio.xml").read_text()
     assert "<parameters>trio.py</parameters>" in app
     assert all(f"<from>/src/{k}:o</from>" in app and f"<to>/p{k}/m/in0:i</to>" in app for k in "abc"), app
@@ -759,7 +763,9 @@ def test_py_bridges_in_one_process(tmp_path):
             run_parallel(*(p.start for p in peers))
             node = Node(env, out / "trio.py")
             node.start()
-            node.wait_log("trio: 2 bridges running; not running: pc")
+            node.wait_log("trio: 2 bridges running; not running: pc, pd")
+            node.wait_log("trio: bridge pd (pd.ini:2:1) cannot start: cannot load its module bridges/pd.py "
+                          "(ModuleNotFoundError: No module named 'ybg_missing_msgs'); the other bridges run")
             log = node.wait_log("trio: bridge pc (pc.ini:2:1) cannot start: cannot open the output /pc/out:o; "
                                 "the other bridges run")
             (a, *_) = ra.wait_for(3)
@@ -773,6 +779,7 @@ def test_py_bridges_in_one_process(tmp_path):
             assert [x.data for x in b] == [[0, 1, 2.5, -3], [1, 4, 5.5, 6]], [x.data for x in b]
             stats = composed_stats(server, "/trio/rpc:i")
             assert stats["pc"] == '"not running" "cannot open the output /pc/out:o"', stats
+            assert stats["pd"].startswith('"not running" "cannot load its module bridges/pd.py'), stats
             assert bridge_stats(stats["pb"])["inputs"] == {"/src/b:o": (3, 1, 0, 0, 0)}, stats
             assert bridge_stats(stats["pa"])["rate"][1] == "50.0"
             assert not server.exists("/pa/rpc:i") and not server.exists("/pb/rpc:i")
@@ -786,6 +793,7 @@ def test_py_bridges_in_one_process(tmp_path):
             assert bridge_totals(log, "pb") == {"/src/b:o": (3, 1, 0, 0), "published": 2}, log[-2000:]
             assert bridge_totals(log, "pa")["published"] > 0
             assert "pc: not started (cannot open the output /pc/out:o)" in log
+            assert "pd: not started (cannot load its module" in log
             assert not server.exists("/trio/rpc:i") and not server.exists("/pa/out:o")
         finally:
             for p in peers:
