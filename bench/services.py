@@ -509,6 +509,13 @@ def notes(data: dict) -> list:
                "(docs/services.md): with 8 callers the calls queue in the bridge, and the calls per "
                "second are those of one YARP round trip after another; the YARP round trip alone "
                f"(`yarp`, {CALLERS} clients of their own) is not held to that.")
+    out.append("Each caller's client keeps the last 1000 responses (`trigger_caller --depth`): Fast DDS "
+               "delivers every response of a service to every client of it, and with rcl's default of 10 "
+               f"a client's own response was sometimes pushed out by the other {CALLERS - 1} callers' before "
+               "it was taken, a lost call with the bare rcl server as with every bridge.")
+    out.append("Bridge CPU per call: user + system CPU seconds of the bridge process over the latency stage "
+               "(warm-up calls included), divided by its calls. A bridge's median follows its CPU per call "
+               "when the machine is loaded, as it was in this run (see the load average above).")
     return out
 
 
@@ -561,6 +568,7 @@ def main(argv=None) -> int:
     if args.report_only:
         data = json.loads(json_path.read_text())
         data["targets"] = targets(data)
+        data["notes"] = notes(data)
         write_section(section(data), args.docs_file)
         say(f"written: {args.docs_file} (section {SECTION!r})")
         return 0
