@@ -88,7 +88,9 @@ class FaultRig:
     def ready(self) -> None:
         """The module serves its ROS 2 service and YARP port, and sees the
         ROS 2 server it calls (a call until one is answered: until the
-        module has discovered the server, it answers that there is none)."""
+        module has discovered the server, it answers that there is none, or,
+        seeing it before its responses reach the module, that it did not
+        answer)."""
         self.caller.wait_service(ROS_SERVED, timeout=60)
         self.caller.wait_service(ROS_CALLED, timeout=60)
         self.yarp_caller.connect()
@@ -97,7 +99,7 @@ class FaultRig:
             r = self.yarp_caller.call(["look", 0.0, 0.0, 0.0, TIMEOUT])
             if r.data[0] == 1:
                 return
-            assert r.data == [0, self.reasons["look"]["no_server"]], r
+            assert r.data in ([0, self.reasons["look"]["no_server"]], [0, self.reasons["look"]["timed_out"]]), r
             assert time.monotonic() < end, "the module does not see the ROS 2 server within 30 s"
 
     def ros_gone(self) -> None:
@@ -228,13 +230,17 @@ def test_ros2_server_gone_and_back(faults):
     assert r.data == [0, faults.reasons["look"]["no_server"]] == [0, "/faults/ros/look_at: no server"], r
     assert r.seconds <= LIMIT, f"answered after {r.seconds:.3f} s"
     faults.ros_back()
-    # once the module sees it again, it is used again (no restart)
+    # once the module sees it again, it is used again (no restart); until
+    # then a failure answer within the timeout: no server, or no answer
+    # (discovery is not symmetric in time: a client may see the server
+    # before the server's responses reach it)
+    reasons = faults.reasons["look"]
     end = time.monotonic() + 30
     while True:
         r = faults.yarp_caller.call(["look", 7.0, 8.0, 9.0, TIMEOUT])
         if r.data[0] == 1 or time.monotonic() > end:
             break
-        assert r.data == [0, faults.reasons["look"]["no_server"]], r
+        assert r.data in ([0, reasons["no_server"]], [0, reasons["timed_out"]]), r
         assert r.seconds <= LIMIT, f"answered after {r.seconds:.3f} s"
         time.sleep(0.1)
     assert r.data == [1, "x 7.0 y 8.0 z 9.0"], f"the server back was not used again within 30 s: {r}"
