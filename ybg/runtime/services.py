@@ -546,7 +546,16 @@ class YarpCaller:
                 except ValueError:
                     pass
                 return None, "waited"
-            return None, "timed_out"
+        # a server that left the name server while the call waited (it quit) is no
+        # server, whether or not its leaving broke the connection before the deadline
+        # (the C++ runtime says the same); one still registered did not answer in time
+        return None, "timed_out" if self._registered() else "no_server"
+
+    def _registered(self):
+        try:
+            return yarp.Network.queryName(self.target).isValid()
+        except Exception:  # a name server that cannot be asked: as before, no answer in time
+            return True
 
     def _run(self):
         while True:

@@ -811,6 +811,8 @@ class YarpCaller
 {
 public:
     YarpCaller(Module& module, std::string local, std::string remote, double timeout);
+    /// Is the port called registered with the name server (asked once, at a call's deadline)?
+    bool serverRegistered() const;
 
     void start();
     /// A request to call it with: answered by the module once the call ends.
@@ -1194,8 +1196,16 @@ bool YarpCaller::call(const yarp::os::Bottle& command, TimePoint deadline, yarp:
             given_.push_back(link);
         }
     }
-    failure = Failure::TimedOut;
+    // a server that left the name server while the call waited (it quit) is no server,
+    // whether or not its leaving broke the connection before the deadline (the Python
+    // runtime says the same); one that is still registered did not answer in time
+    failure = !stopped && !serverRegistered() ? Failure::NoServer : Failure::TimedOut;
     return false;
+}
+
+bool YarpCaller::serverRegistered() const
+{
+    return yarp::os::Network::queryName(remote_).isValid();
 }
 
 bool YarpCaller::close(TimePoint deadline)
