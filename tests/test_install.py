@@ -45,6 +45,8 @@ YARP_CONFIG = EXAMPLES / "yarp_to_yarp_end_effector.ini"
 #: YARP ports in, ROS 2 out: the ros2 node, the C++ module through rcl
 ROS2_CONFIG = EXAMPLES / "vizzy_rviz_joint_states.ini"
 LEGACY_CONFIG = ROOT / "tests" / "canonical" / "legacy_vizzy_upper_body.ini"
+#: a config of commands: the .srv definitions and the runtime of commands
+SERVICES_CONFIG = EXAMPLES / "home_arm_trigger.ini"
 #: a robot's own YARP .ini file, which the pre-commit hooks skip
 FOREIGN_INI = "device controlboardwrapper2\nsubdevice fakeMotionControl\n\n[GENERAL]\nJoints 4\n"
 
@@ -174,7 +176,7 @@ def sdist_install(dists, tmp_path_factory) -> Install:
 
 #: the configs the commands read, copied into the folder they run in (so
 #: that the paths in what they print and write are the same for every run)
-CONFIGS = {p.name: p for p in (YARP_CONFIG, ROS2_CONFIG, LEGACY_CONFIG)}
+CONFIGS = {p.name: p for p in (YARP_CONFIG, ROS2_CONFIG, LEGACY_CONFIG, SERVICES_CONFIG)}
 
 #: every command, each reading the data files of its own: the grammar and
 #: the .msg definitions (all of them), the templates and runtime of each
@@ -193,6 +195,12 @@ COMMANDS = (
     (YARP_CONFIG.name, "--backend", "py", "-o", "py"),
     (ROS2_CONFIG.name, "--backend", "ros2", "-o", "ros2"),
     (ROS2_CONFIG.name, "--backend", "ros2", "--package", "-o", "ros2_package"),
+    ("ir", SERVICES_CONFIG.name),
+    (SERVICES_CONFIG.name, "--backend", "cpp", "-o", "cpp_commands"),
+    (SERVICES_CONFIG.name, "--backend", "ros2", "-o", "ros2_commands"),
+    ("compose", YARP_CONFIG.name, ROS2_CONFIG.name, "--backend", "cpp", "--name", "robot", "-o", "cpp_robot"),
+    ("compose", YARP_CONFIG.name, ROS2_CONFIG.name, SERVICES_CONFIG.name, "--backend", "ros2", "--name", "robot",
+     "-o", "ros2_robot"),
 )
 
 
