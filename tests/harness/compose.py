@@ -36,6 +36,8 @@ import time
 from pathlib import Path
 from types import SimpleNamespace
 
+import pytest
+
 from harness import geometry_reference
 from harness.env import EXAMPLES, VENV_PYTHON
 from harness.images import ImagePeer, frame, sha_of
@@ -511,7 +513,10 @@ def check_isolation(icub):
     A machine whose cores are all taken (other processes) makes every
     bridge of the process miss cycles alike, at random; a stall that
     delayed the others would delay them in every window: a window short
-    of 1 % is tried again, twice at most, and one must hold."""
+    of 1 % is tried again, twice at most, and one must hold (unless, in
+    every window, the process's threads waited for a CPU longer than
+    they ran: then nothing can be said of its rates, and the test is
+    skipped with the figures)."""
     for topic in ("/joint_states", "/icub/imu", "/tf", *[w[1] for w in WRENCHES.values()]):
         icub.subs[topic].wait_for(10)
     attempts = []
@@ -524,6 +529,10 @@ def check_isolation(icub):
                         f"load {w.load:.1f}: rates {w.rates}; messages "
                         f"received {w.counted}; cycles skipped {w.skipped}" for w in attempts)
     print(summary)
+    if w.short and all(a.waited > a.cpu for a in attempts):
+        # its threads waited for a CPU longer than they ran, in every
+        # window: the machine's other processes, not this process's bridges
+        pytest.skip(f"the machine left the composed process too little CPU to hold 100 Hz:\n{summary}")
     assert not w.short, f"no window held every rate within 1 %:\n{summary}"
     # the stalled bridge: nothing after its input went stale (timeout 1 s), in every window
     for a in attempts:
