@@ -26,6 +26,8 @@ Modules
     module      a running module: its log, exit totals, clean exit, RPC stats
     launchers   how each backend's module is started (one Launcher a backend)
     differential    the native ROS 2 module and the rclpy node on the same streams
+    services    commands: YARP RPC and rclpy service peers, a rig of modules of commands
+    compose     a composed robot (examples/icub_robot): its producers, subscribers and checks
 
 Behaviour
     programs    the programs the tests run, and the configs each backend builds
