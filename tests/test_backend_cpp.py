@@ -20,6 +20,7 @@ tests/test_golden.py).
 """
 from __future__ import annotations
 
+import functools
 import json
 import math
 import os
@@ -58,6 +59,15 @@ ROOT = Path(__file__).resolve().parents[1]
 # the behaviour harness on the C++ modules (its Launcher: harness/launchers.py)
 
 
+def on_today_yarp(test):
+    """A test of the behaviour harness, with its parameters, run on today's
+    YARP (4.0) only: for a behaviour that other tests show on every release."""
+    @functools.wraps(test)
+    def run(self, *args, **kwargs):
+        return test(self, *args, **kwargs)
+    return pytest.mark.yarp_min((4, 0))(run)
+
+
 class TestCppBehaviour(BridgeBehaviour, Ros1Behaviour, ModuleCommandLine):
     backend = "cpp"
     help_options = ("--name P", "--prefix P", "--rate HZ", "--timeout S", "--verbose", "--from FILE", "--context CTX",
@@ -66,6 +76,35 @@ class TestCppBehaviour(BridgeBehaviour, Ros1Behaviour, ModuleCommandLine):
     @pytest.fixture
     def modules(self, builds, request) -> CppModules:
         return CppModules(builds, request)
+
+    # What the runtime decides by its own clock and options, on today's YARP
+    # only: the period of a fixed rate and the cycles it skips (std::chrono in
+    # ybgc_runtime.cpp, no YARP call), the hold policy with trigger = any, the
+    # command line's options. The YARP side of each runs on every release in
+    # the harness's other tests: a fixed rate (at 100 Hz in
+    # test_stalled_consumer_does_not_stall_the_module), NaN passing
+    # (test_nan_passes_by_default), hold with trigger = any
+    # (test_event_driven_wakes_on_arrival, test_config_end_to_end[mixed_types_yarp]),
+    # --prefix and --timeout (test_producer_killed_and_restarted), --verbose
+    # (test_verbose_prints_values_after_conversion).
+
+    test_fixed_rate_50hz_with_nan_passing = on_today_yarp(
+        BridgeBehaviour.test_fixed_rate_50hz_with_nan_passing)
+    test_fixed_rate_skips_overrun_cycles = on_today_yarp(BridgeBehaviour.test_fixed_rate_skips_overrun_cycles)
+    test_hold_policy_and_cli_options = on_today_yarp(BridgeBehaviour.test_hold_policy_and_cli_options)
+    test_hold_policy_and_trigger_any = on_today_yarp(BridgeBehaviour.test_hold_policy_and_trigger_any)
+
+    # waiting for inputs that never deliver on every release; at a fixed rate
+    # too (the runtime's own loop, which calls no YARP while nothing comes) on
+    # today's only
+    @pytest.mark.parametrize("args", [()], ids=["event-driven"])
+    def test_producer_never_starts(self, modules, yarp_server, env, args):
+        super().test_producer_never_starts(modules, yarp_server, env, args)
+
+    @pytest.mark.yarp_min((4, 0))
+    @pytest.mark.parametrize("args", [("--rate", "20")], ids=["fixed-rate"])
+    def test_producer_never_starts_at_a_fixed_rate(self, modules, yarp_server, env, args):
+        super().test_producer_never_starts(modules, yarp_server, env, args)
 
 
 # --------------------------------------------------------------------------
@@ -295,6 +334,12 @@ def diff_values(rng: random.Random) -> list:
     return reals + [rng.randint(0, 255), rng.randint(0, 255), rng.random() < 0.5]
 
 
+# The ROS 2 side of the native module (its messages, bit for bit, use_sim_time)
+# on today's YARP, as test_backend_ros2's: it depends on no YARP release (as
+# tests/test_cpp_ros2_qos.py); how each release's Bottles are read into a ROS 2
+# message is TestCppBehaviour::test_config_end_to_end of every config that
+# publishes to ROS 2 (vizzy_rviz_joint_states, imu_ros2 ...), on every release.
+@pytest.mark.yarp_min((4, 0))
 def test_ros2_output_publishes_what_the_ros2_node_publishes(builds, yarp_server, ros2_domain, tmp_path):
     """The same YARP stream (values and envelopes) through the native module
     and the rclpy node of --backend ros2: the same messages, bit for bit
@@ -350,6 +395,7 @@ def test_ros2_output_arrays_of_messages_as_the_ros2_node(builds, yarp_server, ro
     assert markers[-1]["markers"][0]["pose"]["orientation"]["w"] == (1.0).hex()
 
 
+@pytest.mark.yarp_min((4, 0))  # the ROS 2 side, as above
 def test_ros2_output_use_sim_time_stamps_with_the_clock_topic(builds, yarp_server, ros2_domain):
     """`--ros-args -p use_sim_time:=true`, as for every ROS 2 node: the stamps
     are the simulated time of /clock; the module's own options still work
