@@ -120,6 +120,15 @@ def assert_close(actual, expected, path="msg"):
         assert actual == expected and type(actual) is type(expected), f"{path}: {actual!r} != {expected!r}"
 
 
+def on_today_yarp(test):
+    """A test of the behaviour harness, with its parameters, run on today's
+    YARP (4.0) only: for a behaviour that other tests show on every release."""
+    @functools.wraps(test)
+    def run(self, *args, **kwargs):
+        return test(self, *args, **kwargs)
+    return pytest.mark.yarp_min((4, 0))(run)
+
+
 @pytest.fixture
 def mw(yarp_server, ros2_domain):
     """One environment with the YARP name server and the ROS 2 domain."""
@@ -144,6 +153,59 @@ class TestRos2Behaviour(BridgeBehaviour):
     @pytest.fixture
     def modules(self, tmp_path, ros2_domain) -> Ros2Modules:
         return Ros2Modules(tmp_path, ros2_domain)
+
+    # Between YARP ports the node is the runtime's YarpBridge (its NodeBridge
+    # subclass: ybg/runtime/ros2_io.py), the code the py module runs: how each
+    # YARP release's Bottles are read and written, dropped and counted, its
+    # connections lost and made again, its readers fast and held up, and the
+    # runtime's own decisions (its clock, hold, trigger, options) are
+    # TestPyBehaviour's (tests/test_backend_py.py) on every release. Here, those
+    # run on today's YARP only. On every release stays where the node's own code
+    # (rclpy started before the bridge, its executor thread stopped after it)
+    # meets each release's bindings (the interpreter lock that YARP 3.12's keep
+    # in their calls: docs/yarp-versions.md): waiting for inputs, signals, the
+    # exit within 2 s with a stalled reader, and every config end to end.
+
+    test_values_order_nesting_counter_and_stamps = on_today_yarp(
+        BridgeBehaviour.test_values_order_nesting_counter_and_stamps)
+    test_indexed_labels_nest_one_list_per_index = on_today_yarp(
+        BridgeBehaviour.test_indexed_labels_nest_one_list_per_index)
+    test_malformed_bottles_and_nan_are_dropped_and_counted = on_today_yarp(
+        BridgeBehaviour.test_malformed_bottles_and_nan_are_dropped_and_counted)
+    test_malformed_bottles_of_one_input_dropped_and_counted = on_today_yarp(
+        BridgeBehaviour.test_malformed_bottles_of_one_input_dropped_and_counted)
+    test_nan_passes_by_default = on_today_yarp(BridgeBehaviour.test_nan_passes_by_default)
+    test_fixed_rate_50hz_with_nan_passing = on_today_yarp(
+        BridgeBehaviour.test_fixed_rate_50hz_with_nan_passing)
+    test_fixed_rate_skips_overrun_cycles = on_today_yarp(BridgeBehaviour.test_fixed_rate_skips_overrun_cycles)
+    test_escaped_strings_arrive_exactly = on_today_yarp(BridgeBehaviour.test_escaped_strings_arrive_exactly)
+    test_verbose_prints_values_after_conversion = on_today_yarp(
+        BridgeBehaviour.test_verbose_prints_values_after_conversion)
+    test_envelope_stamp = on_today_yarp(BridgeBehaviour.test_envelope_stamp)
+    test_hold_policy_and_cli_options = on_today_yarp(BridgeBehaviour.test_hold_policy_and_cli_options)
+    test_hold_policy_and_trigger_any = on_today_yarp(BridgeBehaviour.test_hold_policy_and_trigger_any)
+    test_producer_killed_and_restarted = on_today_yarp(BridgeBehaviour.test_producer_killed_and_restarted)
+    test_producer_killed_and_restarted_twice = on_today_yarp(
+        BridgeBehaviour.test_producer_killed_and_restarted_twice)
+    test_queue_one_keeps_the_newest_bottle_only = on_today_yarp(
+        BridgeBehaviour.test_queue_one_keeps_the_newest_bottle_only)
+    test_event_driven_wakes_on_arrival = on_today_yarp(BridgeBehaviour.test_event_driven_wakes_on_arrival)
+    test_a_burst_within_the_backlog_is_relayed_whole_and_in_order = on_today_yarp(
+        BridgeBehaviour.test_a_burst_within_the_backlog_is_relayed_whole_and_in_order)
+    test_a_reader_held_up_skips_the_oldest_and_says_so = on_today_yarp(
+        BridgeBehaviour.test_a_reader_held_up_skips_the_oldest_and_says_so)
+
+    # waiting for inputs that never deliver on every release; at a fixed rate
+    # too (the runtime's own loop, which calls no YARP while nothing comes) on
+    # today's only
+    @pytest.mark.parametrize("args", [()], ids=["event-driven"])
+    def test_producer_never_starts(self, modules, yarp_server, env, args):
+        super().test_producer_never_starts(modules, yarp_server, env, args)
+
+    @pytest.mark.yarp_min((4, 0))
+    @pytest.mark.parametrize("args", [("--rate", "20")], ids=["fixed-rate"])
+    def test_producer_never_starts_at_a_fixed_rate(self, modules, yarp_server, env, args):
+        super().test_producer_never_starts(modules, yarp_server, env, args)
 
 
 # --------------------------------------------------------------------------
@@ -500,6 +562,9 @@ def test_ros2_to_yarp(mw, tmp_path, stem):
     assert t[inp.name] == (3, 0, 0) or t[inp.name][:2] == (3, 0), t
 
 
+# the rows of each message, on today's YARP: the Bottle of this config on every
+# release is TestRos2Behaviour::test_config_end_to_end[moveit_trajectory_to_yarp]
+@pytest.mark.yarp_min((4, 0))
 def test_moveit_trajectory_rows_to_yarp(mw, tmp_path):
     """examples/moveit_trajectory_to_yarp.ini: each JointTrajectory becomes
     one Bottle with one list per point, (time_from_start in seconds, the
@@ -554,6 +619,10 @@ first = arm[0]
 """
 
 
+# on today's YARP: a Bottle of lists written by the node to a YARP reader on
+# every release is TestRos2Behaviour::test_config_end_to_end of the ROS 2 to
+# YARP configs (ros2_to_yarp_gaze, moveit_trajectory_to_yarp, ros2_pose_goal_to_icub)
+@pytest.mark.yarp_min((4, 0))
 def test_ros2_array_field_to_yarp(mw, tmp_path):
     """One numeric array field of a ROS 2 message (any length) as a mux; its
     header.stamp as the envelope; a message holding NaN dropped and counted."""
@@ -575,7 +644,7 @@ def test_ros2_array_field_to_yarp(mw, tmp_path):
         (b,) = reader.wait_for(1)
         assert b.data == [[1234, 500000000], [2.0, 5.0, -6.0], 2.0]
         pub.publish({"position": [1.0, float("nan")]})
-        time.sleep(0.2)
+        node.wait_log("dropped a Bottle (element 1 is NaN)")  # taken before the next one comes
         pub.publish({"position": [0.5, 0.25, 0.125, 4.0, -1.0]})
         bottles = reader.wait_for(2)
         time.sleep(0.2)
@@ -607,6 +676,10 @@ def test_legacy_ros1_config_gives_e318():
     assert not Path("/nonexistent/never").exists()
 
 
+# on today's YARP: the conversion depends on no YARP release, and an arm in
+# degrees read into a JointState on every release is
+# TestRos2Behaviour::test_config_end_to_end[vizzy_rviz_joint_states]
+@pytest.mark.yarp_min((4, 0))
 def test_thesis_rviz_config_converted_for_ros2(mw, tmp_path):
     named = tmp_path / "thesis_rviz_ros2.ini"
     out = ybgc("fmt", "--to", "named", "--ros2", LEGACY_DIR / "thesis_figure5_rviz.ini", "-o", named)
@@ -648,6 +721,10 @@ def test_thesis_rviz_config_converted_for_ros2(mw, tmp_path):
 # faults
 
 
+# Faults of the YARP inputs with a ROS 2 output, on today's YARP: on every
+# release, an input gone stale and connected again and malformed Bottles
+# dropped and counted are TestPyBehaviour's (the same YarpBridge).
+@pytest.mark.yarp_min((4, 0))
 def test_producer_killed_and_restarted(mw, tmp_path):
     program, node, sub, (producer,) = start_yarp_to_ros2(mw, "ball_point_stamped", tmp_path)
     try:
@@ -671,6 +748,7 @@ def test_producer_killed_and_restarted(mw, tmp_path):
     assert totals(log)["/pf3dTracker/data:o"] == (2, 0, 1)
 
 
+@pytest.mark.yarp_min((4, 0))
 def test_malformed_bottles_are_dropped_and_counted(mw, tmp_path):
     program, node, sub, (producer,) = start_yarp_to_ros2(mw, "ball_point_stamped", tmp_path)
     try:
@@ -697,6 +775,11 @@ def test_malformed_bottles_are_dropped_and_counted(mw, tmp_path):
     assert totals(log)["published"] == 1
 
 
+# on today's YARP: on every release, a signal while the node streams is
+# TestRos2Behaviour::test_signal_mid_stream (SIGINT, SIGTERM), while it waits for
+# its inputs TestRos2Behaviour::test_producer_never_starts, while it starts
+# test_signal_while_starting; the ROS 2 publisher's side depends on no release
+@pytest.mark.yarp_min((4, 0))
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
 def test_signal_exits_cleanly(mw, tmp_path, sig):
     """Exit 0 within 2 s with no traceback, while waiting for its inputs and
@@ -759,6 +842,12 @@ def test_signal_while_starting(mw, tmp_path):
 # parameters
 
 
+# The node's ROS parameters, on today's YARP: ROS 2's side depends on no YARP
+# release; on every release, the options they set (--prefix, --timeout ...)
+# name and watch the YARP inputs in TestPyBehaviour (the same YarpBridge).
+
+
+@pytest.mark.yarp_min((4, 0))
 def test_parameters(mw, tmp_path):
     """prefix names the node's ports, rate overrides the config's (event-driven
     here), verbose prints the values, timeout the freshness of every input."""
@@ -792,6 +881,7 @@ def test_parameters(mw, tmp_path):
     assert 0.3 <= age < 1.0, age
 
 
+@pytest.mark.yarp_min((4, 0))
 def test_bad_parameter_exits_with_status_2(mw, tmp_path):
     path = write_node(ros2_example("ball_point_stamped"), tmp_path)
     for args, text in ((("-p", "rate:=-1.0"), "rate must be"), (("-p", "prefix:=nope"), "prefix must"),
@@ -805,6 +895,7 @@ def test_bad_parameter_exits_with_status_2(mw, tmp_path):
     assert out.returncode == 0 and "use_sim_time" in out.stdout and "geometry_msgs/msg/PointStamped" in out.stdout
 
 
+@pytest.mark.yarp_min((4, 0))
 def test_use_sim_time_stamps_with_the_clock_topic(mw, tmp_path):
     program = ros2_example("vizzy_rviz_joint_states")
     path = write_node(program, tmp_path)
