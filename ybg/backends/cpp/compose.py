@@ -22,9 +22,6 @@ loop of its own (``ybgc_services.*``), not yet on the composed process.
 from __future__ import annotations
 
 import functools
-import json
-import os
-import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
@@ -35,7 +32,9 @@ from ybg.backends.runtime import (CPP_COMPOSE_SOURCES, CPP_IMAGES_SOURCES, CPP_R
                                   cpp_files, runtime_view)
 from ybg.compiler import ir
 from ybg.lower import yarpmanager
+from ybg.lower.compose import BRIDGES, config_at, config_name, refusal
 from ybg.lower.errors import LoweringError
+from ybg.lower.package import YAML_FILTERS, NodeParameters
 from ybg.lower.python import py_literal
 from ybg.lower.rosnames import node_name, node_parameters, package_name, ros2_type_name
 from ybg.lower.templates import (code_filter, indent_line_filter, py_comment_filter, template_environment,
@@ -43,8 +42,6 @@ from ybg.lower.templates import (code_filter, indent_line_filter, py_comment_fil
 
 from .escape import comment, cpp_identifier, cpp_string
 
-#: the folder of the bridges' modules, beside the composed module
-BRIDGES = "bridges"
 
 
 @dataclass(frozen=True)
@@ -98,12 +95,6 @@ class ComposedView:
 
 
 @dataclass(frozen=True)
-class NodeParameters:
-    name: str
-    parameters: tuple[tuple[str, object], ...]
-
-
-@dataclass(frozen=True)
 class ComposedPackageView:
     """The ament_cmake package of a composed module (raw values: each
     template escapes them for its file)."""
@@ -119,27 +110,6 @@ class ComposedPackageView:
     node_parameters: tuple[NodeParameters, ...]
 
 
-_PLAIN_KEY = re.compile(r"[A-Za-z_/][A-Za-z0-9_./]*\Z")
-
-
-def yaml_key(text) -> str:
-    """A YAML mapping key: plain when it is a name, else double-quoted (JSON)."""
-    if not isinstance(text, str):
-        raise TypeError(f"expected a str, got {type(text).__name__}")
-    return text if _PLAIN_KEY.match(text) and text not in ("true", "false", "null") else json.dumps(text)
-
-
-def yaml_value(value) -> str:
-    """A YAML scalar of a ROS parameter: a bool, a number or a string."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (int, float)):
-        return repr(value)
-    if isinstance(value, str):
-        return json.dumps(value)
-    raise TypeError(f"not a parameter value: {value!r}")
-
-
 @functools.lru_cache(maxsize=None)
 def environment() -> jinja2.Environment:
     from ybg.backends.cpp import TEMPLATE_DIR
@@ -151,25 +121,8 @@ def environment() -> jinja2.Environment:
         "xml_comment": xml_comment_filter,
         "py_comment": py_comment_filter,
         "pyliteral": py_literal,
-        "yaml_key": yaml_key,
-        "yaml_value": yaml_value,
+        **YAML_FILTERS,
     })
-
-
-def _refusal(program, message: str, span=None) -> LoweringError:
-    e = LoweringError(message, span)
-    e.module = program.module
-    return e
-
-
-def _config(program) -> str:
-    return os.path.basename(program.source) if program.source else program.module
-
-
-def _at(program: ir.Program) -> str:
-    """Where the config writes the bridge's output: ``file:line:column``."""
-    span = program.output.span
-    return f"{_config(program)}:{span.line}:{span.column}" if span is not None else _config(program)
 
 
 def _describe(program: ir.Program) -> str:
@@ -193,7 +146,7 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
     for program in programs:
         if isinstance(program, ir.Commands):
             first = program.services[0] if program.services else None
-            raise _refusal(program, "a config of commands is not composed by the cpp backend (yet): its module "
+            raise refusal(program, "a config of commands is not composed by the cpp backend (yet): its module "
                                     "runs on a loop of its own; run it as a module of its own (ybgc generate)",
                            first.span if first is not None else None)
         try:
@@ -205,7 +158,7 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
         if view.uses_ros2:
             node = node_name(program)
             if node in nodes:
-                raise _refusal(program, f"its node name {node} is also that of the bridge {nodes[node]}: two "
+                raise refusal(program, f"its node name {node} is also that of the bridge {nodes[node]}: two "
                                         "nodes of one name in one process (set `node` in its [output])",
                                program.output.span)
             nodes[node] = program.module
@@ -219,10 +172,10 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
     rt = runtime_view("cpp", False)
     for program, view in views:
         namespace = cpp_identifier(f"bridge_{program.module}")
-        member = BridgeMember(namespace=namespace, composed=comment(name), config=comment(_config(program)))
+        member = BridgeMember(namespace=namespace, composed=comment(name), config=comment(config_name(program)))
         files[f"{BRIDGES}/{view.filename}"] = template.render(m=view, rt=rt, member=member)
         members.append(MemberView(namespace=namespace, module=cpp_string(program.module),
-                                  config=cpp_string(_config(program)), at=cpp_string(_at(program)),
+                                  config=cpp_string(config_name(program)), at=cpp_string(config_at(program)),
                                   summary=comment(f"{program.module}: {_describe(program)}")))
     packages = sorted({p for _, v in views for p in v.ros2_packages})
     filename = f"{name}.cpp"
@@ -257,7 +210,7 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
 
 
 def _package(programs, name: str, views, packages) -> ComposedPackageView:
-    configs = ", ".join(_config(p) for p in programs)
+    configs = ", ".join(config_name(p) for p in programs)
     with_node = [p for p, v in views if v.uses_ros2]
     return ComposedPackageView(
         config=f"{len(programs)} configs ({configs})",
@@ -276,7 +229,7 @@ def _package(programs, name: str, views, packages) -> ComposedPackageView:
 def application(programs, name: str, command: str, workdir: str | None) -> str:
     """The yarpmanager application of the composed module: the executable,
     and every bridge's connections (ybg.lower.yarpmanager.connections)."""
-    configs = ", ".join(_config(p) for p in programs)
+    configs = ", ".join(config_name(p) for p in programs)
     app = ET.Element("application")
 
     def text(parent, tag, value):
@@ -309,4 +262,4 @@ def application(programs, name: str, command: str, workdir: str | None) -> str:
             + ET.tostring(app, encoding="unicode") + "\n")
 
 
-__all__ = ["compose", "application", "environment", "yaml_key", "yaml_value", "BRIDGES"]
+__all__ = ["compose", "application", "environment"]

@@ -12,7 +12,6 @@ bridge's connections.
 from __future__ import annotations
 
 import functools
-import os
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
@@ -21,14 +20,13 @@ import jinja2
 from ybg.backends.base import RenderOptions
 from ybg.backends.runtime import VERSION, python_files, runtime_view
 from ybg.lower import yarpmanager
+from ybg.lower.compose import BRIDGES, config_at, config_name
 from ybg.lower.errors import LoweringError
 from ybg.lower.python import py_literal
 from ybg.lower.templates import py_comment_filter, template_environment
 
 from .lower import lower
 
-#: the folder of the bridges' modules, beside the composed module
-BRIDGES = "bridges"
 
 
 @dataclass(frozen=True)
@@ -58,15 +56,6 @@ def composed_environment() -> jinja2.Environment:
     return template_environment([TEMPLATE_DIR], {**FILTERS, "py_comment": py_comment_filter})
 
 
-def _config(program) -> str:
-    return os.path.basename(program.source) if program.source else program.module
-
-
-def _at(program) -> str:
-    span = program.output.span
-    return f"{_config(program)}:{span.line}:{span.column}" if span is not None else _config(program)
-
-
 def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> dict[str, str]:
     """The files of the composed module ``name`` of ``programs``."""
     from ybg.backends.py import environment
@@ -91,7 +80,7 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
         out = program.output
         what = f"{out.msg_type or 'untyped'} Bottles on {'the ROS 1 topic' if out.kind == 'ros1' else 'the YARP port'} " \
                f"{out.name}"
-        members.append(MemberView(py_literal(program.module), py_literal(_config(program)), py_literal(_at(program)),
+        members.append(MemberView(py_literal(program.module), py_literal(config_name(program)), py_literal(config_at(program)),
                                   py_literal(f"{BRIDGES}/{view.filename}"), f"{program.module}: {what}"))
     filename = f"{name}.py"
     view = ComposedView(filename, py_literal(name), name, len(programs), len(programs), BRIDGES, tuple(members))
@@ -104,7 +93,7 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
 def application(programs, name: str, filename: str, workdir: str | None) -> str:
     """The yarpmanager application of the composed module: the module, and
     every bridge's connections (ybg.lower.yarpmanager.connections)."""
-    configs = ", ".join(_config(p) for p in programs)
+    configs = ", ".join(config_name(p) for p in programs)
     app = ET.Element("application")
 
     def text(parent, tag, value):

@@ -16,9 +16,6 @@ by the runtime's ``services.ComposedCommands``.
 from __future__ import annotations
 
 import functools
-import json
-import os
-import re
 from dataclasses import dataclass
 
 import jinja2
@@ -26,16 +23,15 @@ import jinja2
 from ybg.backends.base import RenderOptions
 from ybg.backends.runtime import PY_PACKAGE, python_files, runtime_text_filter, runtime_view
 from ybg.compiler import ir
+from ybg.lower.compose import BRIDGES, config_at, config_name, refusal
 from ybg.lower.errors import LoweringError
+from ybg.lower.package import YAML_FILTERS, NodeParameters
 from ybg.lower.python import PYTHON_FILTERS, py_literal
 from ybg.lower.rosnames import node_name, node_parameters, package_name, ros2_type_name, used_packages
 from ybg.lower.templates import py_comment_filter, template_environment, xml_comment_filter, xml_filter
 
 from . import services
 from .lower import lower
-
-#: the folder of the bridges' nodes, beside the composed module
-BRIDGES = "bridges"
 
 
 @dataclass(frozen=True)
@@ -64,12 +60,6 @@ class ComposedView:
 
 
 @dataclass(frozen=True)
-class NodeParameters:
-    name: str
-    parameters: tuple[tuple[str, object], ...]
-
-
-@dataclass(frozen=True)
 class ComposedPackageView:
     """The ament_python package of a composed module (raw values: each
     template escapes them for its file)."""
@@ -86,27 +76,6 @@ class ComposedPackageView:
     node_parameters: tuple[NodeParameters, ...]
 
 
-_PLAIN_KEY = re.compile(r"[A-Za-z_/][A-Za-z0-9_./]*\Z")
-
-
-def yaml_key(text) -> str:
-    """A YAML mapping key: plain when it is a name, else double-quoted (JSON)."""
-    if not isinstance(text, str):
-        raise TypeError(f"expected a str, got {type(text).__name__}")
-    return text if _PLAIN_KEY.match(text) and text not in ("true", "false", "null") else json.dumps(text)
-
-
-def yaml_value(value) -> str:
-    """A YAML scalar of a ROS parameter: a bool, a number or a string."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (int, float)):
-        return repr(value)
-    if isinstance(value, str):
-        return json.dumps(value)
-    raise TypeError(f"not a parameter value: {value!r}")
-
-
 @functools.lru_cache(maxsize=None)
 def environment() -> jinja2.Environment:
     from ybg.backends.ros2 import TEMPLATE_DIR, _package_name
@@ -118,26 +87,8 @@ def environment() -> jinja2.Environment:
         "xml_comment": xml_comment_filter,
         "py_comment": py_comment_filter,
         "package_name": _package_name,
-        "yaml_key": yaml_key,
-        "yaml_value": yaml_value,
+        **YAML_FILTERS,
     })
-
-
-def _refusal(program, message: str, span=None) -> LoweringError:
-    e = LoweringError(message, span)
-    e.module = program.module
-    return e
-
-
-def _at(program) -> str:
-    """Where the config writes the bridge's output (a config of commands: its
-    first service): ``file:line:column``."""
-    config = os.path.basename(program.source) if program.source else program.module
-    if isinstance(program, ir.Commands):
-        span = program.services[0].span if program.services else None
-    else:
-        span = program.output.span
-    return f"{config}:{span.line}:{span.column}" if span is not None else config
 
 
 def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> dict[str, str]:
@@ -156,7 +107,7 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
         node = _node_name(program)
         if node in nodes:
             span = program.services[0].span if isinstance(program, ir.Commands) else program.output.span
-            raise _refusal(program, f"its node name {node} is also that of the bridge {nodes[node]}: two nodes "
+            raise refusal(program, f"its node name {node} is also that of the bridge {nodes[node]}: two nodes "
                                     "of one name in one process (set `node` in its [output])", span)
         nodes[node] = program.module
         views.append((program, view))
@@ -182,9 +133,9 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
             m=view, rt=rt, rt_import=bridge_import, rt_package=bridge_package)
         stem = view.filename[: -len(".py")]
         where = f"{BRIDGES}/{view.filename}" if package is None else f".{BRIDGES}.{stem}"
-        config = os.path.basename(program.source) if program.source else program.module
+        config = config_name(program)
         members.append(MemberView(
-            module=py_literal(program.module), config=py_literal(config), at=py_literal(_at(program)),
+            module=py_literal(program.module), config=py_literal(config), at=py_literal(config_at(program)),
             where=py_literal(where), node_name=_node_name(program),
             summary=_describe(program)))
     filename = f"{name}_node.py"
@@ -197,7 +148,7 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
         files.update(python_files())
         return files
 
-    configs = ", ".join(os.path.basename(p.source) if p.source else p.module for p in programs)
+    configs = ", ".join(config_name(p) for p in programs)
     depends: list[str] = ["rclpy", "diagnostic_msgs"]
     for program in programs:
         used = services.used_packages(program) if isinstance(program, ir.Commands) else used_packages(program)
@@ -248,4 +199,4 @@ def _describe(program) -> str:
     return f"the YARP port {out.name}"
 
 
-__all__ = ["compose", "environment", "yaml_key", "yaml_value", "BRIDGES"]
+__all__ = ["compose", "environment"]
