@@ -5,10 +5,10 @@
     held(path)          with: an exclusive lock on a file across processes (build once per run)
     configure(src, install), build_cpp(src, install) -> the executable, cmake_build(...)
                         one CMake project (a module's folder), against a YARP install
-    Builds(root, install)   many modules in one CMake project, built on first use
+    Builds(root, install, ros2_env=VENV)   many modules in one CMake project, built on first use
                         (``.add(key, program)``, ``.exe(key)``): the modules of a session
                         (``session_builds``, the ``builds`` fixture of conftest.py), or of
-                        one test file
+                        one test file; their ROS 2 from the wheels of ``ros2_env``
 """
 from __future__ import annotations
 
@@ -118,19 +118,21 @@ def cmake_build(src: Path, build: Path, install, target: str | None = None,
 # every module of the session in one CMake project
 
 
-def ros2_wheels_option() -> str:
+def ros2_wheels_option(ros2_env: Path = VENV) -> str:
     """The CMake option that builds a module publishing to ROS 2 against the
-    ROS 2 wheels of the test environment (docs/ros2-native.md)."""
-    return f"-DYBGC_ROS2_PYTHON_ENV={VENV}"
+    ROS 2 wheels of a Python environment (docs/ros2-native.md): the test
+    environment's (Kilted), or another distro's (.venv-jazzy)."""
+    return f"-DYBGC_ROS2_PYTHON_ENV={ros2_env}"
 
 
 class Builds:
     """Modules in one CMake project (the session's, or a test file's), generated
     and built on first use."""
 
-    def __init__(self, root: Path, install):
+    def __init__(self, root: Path, install, ros2_env: Path = VENV):
         self.root = root
         self.install = install
+        self.ros2_env = ros2_env
         self.programs: dict[str, Program] = {}
         self.optimized: set[str] = set()
         self.built = False
@@ -204,7 +206,8 @@ class Builds:
         env = dict(os.environ)
         # a build type of no flags at all (the modules default to Release only when none is given)
         cfg = subprocess.run(["cmake", "-S", str(src), "-B", str(build), f"-DCMAKE_PREFIX_PATH={self.install.cmake_prefix_path()}",
-                              "-DCMAKE_CXX_FLAGS=-Werror", "-DCMAKE_BUILD_TYPE=Tests", ros2_wheels_option()],
+                              "-DCMAKE_CXX_FLAGS=-Werror", "-DCMAKE_BUILD_TYPE=Tests",
+                              ros2_wheels_option(self.ros2_env)],
                              capture_output=True, text=True, env=env)
         self.log = cfg.stdout + cfg.stderr
         if cfg.returncode != 0:

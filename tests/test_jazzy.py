@@ -1,0 +1,217 @@
+"""ROS 2 Jazzy, the distro labs run, as the second ROS 2 of the matrix: the
+project's wheels are Kilted's (.venv), Jazzy's are in .venv-jazzy
+(scripts/setup.sh). docs/ros2-distros.md.
+
+One graph for the whole file, on YARP 4.0.0 (whose Python bindings the Jazzy
+node imports) and one ROS 2 domain, fed by the same two YARP producers
+(harness.programs.DIFF_TF: tf2_msgs/TFMessage, two transforms from two muxes
+with geometry converters):
+
+- the native module built against Kilted's wheels, on ``/diff/tf_kilted``,
+  read by a Kilted subscriber (the reference) and a Jazzy one;
+- the same module built against Jazzy's wheels, on ``/diff/tf_jazzy``, read
+  by a Jazzy subscriber and a Kilted one;
+- the rclpy node run by the Jazzy venv's Python, on ``/diff/tf_node``, read by
+  a Jazzy subscriber.
+
+Every subscriber receives every message, the same bit for bit as the Kilted
+reference: Kilted and Jazzy interoperate on Fast DDS both ways. Then the
+other direction of a bridge: a Jazzy publisher to the Kilted rclpy node's
+ROS 2 input (harness.programs.QOS_READER's kind: a ROS 2 topic into a YARP
+port).
+"""
+from __future__ import annotations
+
+import dataclasses
+import os
+import random
+import signal
+import subprocess
+from types import SimpleNamespace
+
+import pytest
+
+from harness.build import Builds
+from harness.differential import float_bits
+from harness.env import VENV_PYTHON
+from harness.jazzy import (JAZZY_PYTHON, JAZZY_VENV, NODE_YARP, JazzyPublisher, JazzySubscriber,
+                           jazzy_env, require_jazzy)
+from harness.launchers import write_node
+from harness.module import Module
+from harness.programs import diff_tf_program, text_program
+from harness.ros2 import Ros2Domain, Ros2Subscriber, ros2_environment
+from harness.yarp import YarpProducer, YarpReader, YarpServer
+
+TF = "tf2_msgs/msg/TFMessage"
+ROUNDS = 5
+
+
+def on_topic(program, suffix: str):
+    """``program`` renamed (module and topic) with ``suffix``."""
+    return dataclasses.replace(program, module=f"{program.module}_{suffix}",
+                               output=dataclasses.replace(program.output,
+                                                          name=f"{program.output.name}_{suffix}"))
+
+
+def built(tmp_path_factory, program, ros2_env):
+    """The native module of ``program`` built against YARP 4.0.0 and the ROS 2
+    wheels of ``ros2_env``."""
+    builds = Builds(tmp_path_factory.mktemp(f"native_{program.module}"), NODE_YARP, ros2_env=ros2_env)
+    builds.add(program.module, program)
+    return builds.exe(program.module)
+
+
+@pytest.fixture(scope="module")
+def graph(tmp_path_factory):
+    require_jazzy()
+    base = diff_tf_program()
+    kilted_prog, jazzy_prog, node_prog = (on_topic(base, s) for s in ("kilted", "jazzy", "node"))
+    kilted_exe = built(tmp_path_factory, kilted_prog, VENV_PYTHON.parent.parent)
+    jazzy_exe = built(tmp_path_factory, jazzy_prog, JAZZY_VENV)
+    node_path = write_node(node_prog, tmp_path_factory.mktemp("jazzy_node"))
+    with YarpServer(install=NODE_YARP) as server, Ros2Domain() as domain:
+        env = ros2_environment(server.env, domain)
+        jenv = jazzy_env(env)
+        native = {"kilted": Module([kilted_exe], env=env, name=kilted_prog.module),
+                  "jazzy": Module([jazzy_exe], env=jenv, name=jazzy_prog.module)}
+        node = Module([JAZZY_PYTHON, node_path], env=jenv, name=node_prog.module)
+        topic = {k: p.output.name for k, p in (("kilted", kilted_prog), ("jazzy", jazzy_prog), ("node", node_prog))}
+        # (publisher's distro, subscriber's distro): the subscriber
+        subs = {("kilted", "kilted"): Ros2Subscriber(env, topic["kilted"], TF, node="kilted_of_kilted"),
+                ("kilted", "jazzy"): JazzySubscriber(env, topic["kilted"], TF, node="jazzy_of_kilted"),
+                ("jazzy", "jazzy"): JazzySubscriber(env, topic["jazzy"], TF, node="jazzy_of_jazzy"),
+                ("jazzy", "kilted"): Ros2Subscriber(env, topic["jazzy"], TF, node="kilted_of_jazzy"),
+                ("node", "jazzy"): JazzySubscriber(env, topic["node"], TF, node="jazzy_of_node")}
+        producers = {i.name: YarpProducer(env, i.name) for m in base.muxes for i in m.inputs}
+        procs = [*native.values(), node, *subs.values(), *producers.values()]
+        try:
+            for p in procs:
+                p.start()
+            node.wait_log("event-driven")
+            for producer in producers.values():
+                producer.wait_outputs(3)
+            for s in subs.values():
+                s.wait_publishers(1)
+            yield SimpleNamespace(env=env, native=native, node=node, subs=subs, producers=producers)
+        finally:
+            for p in reversed(procs):
+                p.stop()
+
+
+HAND = [0.25, -1.5, 3.0, 10.0, 20.0, -30.0]        # x y z, roll pitch yaw in degrees
+TOOL = [0.5, 4.0, -6.0, 0.0, 0.0, 1.0, 0.75]        # x y z (clamped, halved), axis, angle
+
+
+def write_round(graph, k: int, stamp: float) -> None:
+    """One Bottle to each port, with an envelope: one message of each publisher."""
+    graph.producers["/diff/hand:o"].write([v + k for v in HAND], stamp=[k, stamp])
+    graph.producers["/diff/tool:o"].write(TOOL, stamp=[k, stamp + 0.5])
+
+
+def test_kilted_and_jazzy_publishers_and_subscribers_exchange_the_same_messages(graph):
+    # a message published before a subscriber has matched its publisher is
+    # lost (volatile): the first round is repeated until every subscriber has one
+    subs = graph.subs.values()
+    k = 0
+    while not all(s.messages for s in subs):
+        write_round(graph, 0, 1.7e9 + k)
+        k += 1
+        for s in subs:
+            try:
+                s.wait_for(1, timeout=0.5)
+            except TimeoutError:
+                pass
+    for s in subs:
+        s.clear()
+    rng = random.Random(29)
+    stamps = [1.7e9 + rng.uniform(0, 1e6) for _ in range(ROUNDS)]
+    for k, stamp in enumerate(stamps):
+        write_round(graph, k + 1, stamp)
+        for s in subs:
+            s.wait_for(k + 1)
+    got = {route: [float_bits(m.msg) for m in s.messages] for route, s in graph.subs.items()}
+    reference = got[("kilted", "kilted")]
+    assert len(reference) == ROUNDS
+    for route, msgs in got.items():
+        assert msgs == reference, f"{route[0]} publisher -> {route[1]} subscriber"
+    # and they are the messages the config makes of the Bottles
+    for k, (msg, stamp) in enumerate(zip((m.msg for m in graph.subs[("kilted", "jazzy")].messages), stamps)):
+        hand, tool = msg["transforms"]
+        assert (hand["child_frame_id"], tool["child_frame_id"]) == ("r_hand", "r_tool")
+        t = hand["transform"]["translation"]
+        assert [t["x"], t["y"], t["z"]] == [v + k + 1 for v in HAND[:3]]
+        assert tool["transform"]["translation"] == {"x": 0.25, "y": 0.0, "z": -1.0}
+        assert hand["header"]["stamp"]["sec"] == int(stamp)
+    # the natives stop on SIGINT with 0 within 2 s, whichever ROS 2 they were built for
+    for name, module in graph.native.items():
+        rc, elapsed = module.interrupt(signal.SIGINT)
+        assert rc == 0 and elapsed < 2.0, module.log_text()[-2000:]
+        assert "Traceback" not in module.log_text()
+
+
+def test_the_jazzy_build_links_jazzy_and_the_kilted_build_kilted(graph):
+    # the native module carries the wheels of its distro in its RPATH, and
+    # loads them whatever LD_LIBRARY_PATH says
+    for name, venv in (("kilted", VENV_PYTHON.parent.parent), ("jazzy", JAZZY_VENV)):
+        exe = graph.native[name].argv[0]
+        r = subprocess.run(["ldd", exe], capture_output=True, text=True, env=graph.env)
+        rcl = [line.split("=>")[1].split()[0] for line in r.stdout.splitlines() if "librcl.so" in line]
+        assert rcl == [str(venv / "lib" / "librcl.so")], r.stdout
+
+
+READER = """\
+[module]
+name = jazzy_reader
+
+[output]
+port = /jazzy_reader/out:o
+
+[mux point]
+topics = /jazzy/point (geometry_msgs/Point)
+via = ros2
+
+[message]
+point = point
+"""
+
+
+def test_a_jazzy_publisher_feeds_the_kilted_node(graph, tmp_path):
+    # the other direction of a bridge: a ROS 2 topic of Jazzy into a YARP
+    # port through the Kilted rclpy node
+    program = text_program(READER, "jazzy_reader.ini", "ros2")
+    node = Module([VENV_PYTHON, write_node(program, tmp_path)], env=graph.env, name=program.module)
+    reader = YarpReader(graph.env, "/jazzy_test/in", source="/jazzy_reader/out:o")
+    publisher = JazzyPublisher(graph.env, "/jazzy/point", msg_type="geometry_msgs/msg/Point",
+                               node="jazzy_point")
+    with node, reader, publisher:
+        node.wait_log("event-driven")
+        reader.wait_connected()
+        publisher.wait_matched(1)
+        # until the node's subscription has matched too, a message is lost
+        first = {"x": -1.0, "y": 0.0, "z": 0.0}
+        while not reader.bottles:
+            publisher.publish(first)
+            try:
+                reader.wait_for(1, timeout=0.5)
+            except TimeoutError:
+                pass
+        reader.clear()
+        points = [{"x": 0.1 * k, "y": -2.0 ** k, "z": 1e-300 * k} for k in range(1, ROUNDS + 1)]
+        for k, p in enumerate(points):  # each read before the next (the input keeps the newest)
+            publisher.publish(p)
+            got = reader.wait_for(k + 1)
+    assert [r.data for r in got] == [[p["x"], p["y"], p["z"]] for p in points]
+
+
+def test_a_jazzy_python_with_the_kilted_library_path_cannot_import_rclpy(tmp_path):
+    # what jazzy_env is for: a Python of ROS 2 wheels re-executes itself once
+    # with its wheels' libraries on LD_LIBRARY_PATH, and marks that done; a
+    # Jazzy Python started by a Kilted one inherits both, and fails
+    require_jazzy()
+    code = "import rclpy; rclpy.init(); rclpy.create_node('probe'); print('ok')"
+    inherited = subprocess.run([str(JAZZY_PYTHON), "-c", code], capture_output=True, text=True,
+                               env=dict(os.environ), timeout=60)
+    assert inherited.returncode != 0 and "libfastrtps.so.2.14" in inherited.stderr, inherited.stderr[-2000:]
+    own = subprocess.run([str(JAZZY_PYTHON), "-c", code], capture_output=True, text=True,
+                         env={**jazzy_env(dict(os.environ)), "ROS_HOME": str(tmp_path)}, timeout=60)
+    assert own.returncode == 0 and own.stdout.strip() == "ok", own.stderr[-2000:]
