@@ -5,6 +5,7 @@
     ybgc fmt CONFIG... [--check] [--to named]   canonical form / conversion
     ybgc ir CONFIG                              the checked program as JSON
     ybgc graph CONFIG [--format F] [-o FILE]    the dataflow as SVG, DOT or Mermaid
+    ybgc probe CONFIG... [--wait S]             against the running YARP network and ROS 2 graph
 
 With no CONFIG named, a command takes the folder's config: ``ybgc.ini``,
 else the one ybgc config among the folder's ``.ini`` files (those that are
@@ -29,7 +30,7 @@ from ybg import __version__
 from ybg.backends import REGISTRY, backend_names
 from ybg.graph import FORMATS, SUFFIXES
 
-COMMANDS = ("check", "fmt", "ir", "generate", "compose", "graph")
+COMMANDS = ("check", "fmt", "ir", "generate", "compose", "graph", "probe")
 #: the config a command takes when none is named
 FOLDER_CONFIG = "ybgc.ini"
 EXIT_OK, EXIT_PROBLEMS, EXIT_USAGE = 0, 1, 2
@@ -134,6 +135,21 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--force", action="store_true",
                    help="replace the file even though ybgc did not generate it (never the config itself)")
     _common(d)
+
+    r = sub.add_parser("probe", help="before a module starts: its config against the running YARP network and "
+                                     "ROS 2 graph (docs/probe.md)")
+    r.add_argument("files", nargs="*", metavar="CONFIG", help=_FOLDER_HELP)
+    r.add_argument("--wait", type=float, default=2.0, metavar="S",
+                   help="seconds for ROS 2 discovery and for a Bottle from each input port (default 2)")
+    r.add_argument("--prefix", "--name", dest="prefix", metavar="PREFIX",
+                   help="the module's port prefix, as it is started (default /<module>)")
+    r.add_argument("-p", "--param", action="append", default=[], metavar="NAME:=VALUE",
+                   help="a parameter the module is started with; qos_overrides./TOPIC.publisher.POLICY:=VALUE "
+                        "(.subscription. for a topic it reads) changes the QoS probed; repeatable")
+    r.add_argument("--strict", action="store_true", help="warnings fail too")
+    r.add_argument("--format", choices=("text", "json", "github"), default="text")
+    r.add_argument("-v", "--verbose", action="store_true", help="also print notes")
+    _common(r)
     return p
 
 
@@ -508,6 +524,40 @@ def cmd_graph(args) -> int:
     return EXIT_OK
 
 
+def cmd_probe(args) -> int:
+    """Check each config, then probe what checks (docs/probe.md); the exit
+    status of ``check``: 2 also when YARP or ROS 2 cannot be asked."""
+    from ybg.probe import OverrideError, Settings, Unavailable, probe
+    from ybg.probe.qos import parse_parameter
+    from ybg.probe.report import report_probe
+
+    if not 0 < args.wait <= 600:
+        _usage_error(f"--wait {args.wait:g}: not a number of seconds in (0, 600]", "e.g. --wait 2")
+    try:
+        overrides = tuple(o for o in map(parse_parameter, args.param) if o is not None)
+    except OverrideError as e:
+        _usage_error(str(e), e.hint)
+    options = _options(args)
+    results = [_compile(f, args, options) for f in (args.files or [folder_config("probe")])]
+    checked = [(r.program, r.path) for r in results if r.program is not None and not r.errors]
+    if args.prefix and len(results) > 1:
+        _usage_error("--prefix names the ports of one module: one config with it", "probe each config alone")
+    try:
+        found = probe(checked, options, Settings(args.wait, args.prefix, overrides)) if checked else {}
+    except (OverrideError, Unavailable) as e:
+        _usage_error(str(e), e.hint)
+    for r in results:
+        r.diagnostics = sorted(r.diagnostics + found.get(r.path, []), key=lambda d: d.sort_key())
+    sources = {r.path: r.text for r in results if r.text is not None}
+    stream = sys.stdout if args.format != "text" else sys.stderr
+    report_probe(args.format, [d for r in results for d in r.diagnostics], sources, stream, notes=args.verbose)
+    if any(_io_error(r) for r in results):
+        return EXIT_USAGE
+    if any(r.errors for r in results) or (args.strict and any(r.warnings for r in results)):
+        return EXIT_PROBLEMS
+    return EXIT_OK
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     # `ybgc config.ini --backend cpp` is `ybgc generate config.ini --backend cpp`
@@ -522,7 +572,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return EXIT_USAGE
     handler = {"check": cmd_check, "fmt": cmd_fmt, "ir": cmd_ir, "generate": cmd_generate,
-               "compose": cmd_compose, "graph": cmd_graph}[args.command]
+               "compose": cmd_compose, "graph": cmd_graph, "probe": cmd_probe}[args.command]
     try:
         return handler(args)
     except KeyboardInterrupt:

@@ -176,6 +176,29 @@ CODES: dict[str, str] = {
     "W520": "a quaternion filled with data not known to be one",
 }
 
+#: the codes of ``ybgc probe`` (ybg/probe/): what the running YARP network and
+#: ROS 2 graph say of a config, code -> title. Documented in their own table of
+#: docs/diagnostics.md; shown by tests/test_probe.py (live peers), not by a
+#: config of tests/invalid/, since no config alone gives them.
+PROBE_CODES: dict[str, str] = {
+    "E370": "a YARP port the module reads or calls does not answer",
+    "E371": "an input port sends another layout than the config declares",
+    "E372": "a YARP port the module opens is taken",
+    "E373": "an endpoint of the topic or service has another type",
+    "E374": "an endpoint of the topic has another type hash",
+    "E375": "QoS incompatible with an endpoint of the topic",
+    "E376": "the ROS 2 service the module serves has a server already",
+    "W570": "no Bottle from an input port within the wait",
+    "W571": "QoS compatibility with an endpoint not certain",
+    "W572": "the ROS 2 service the module calls has no server yet",
+    "N670": "what the probe saw",
+}
+
+
+def title(code: str) -> str:
+    """The title of any code, of ``check`` or of ``probe``."""
+    return CODES.get(code) or PROBE_CODES[code]
+
 
 @dataclass
 class Sink:
@@ -186,7 +209,7 @@ class Sink:
 
     def add(self, severity: Severity, code: str, message: str, span: Span | None,
             hint: str | None = None, fix: Fix | None = None) -> None:
-        assert code in CODES, code
+        assert code in CODES or code in PROBE_CODES, code
         self.items.append(Diagnostic(severity, code, message, span or NOWHERE, hint, self.file, fix))
 
     def error(self, code: str, message: str, span: Span | None, hint: str | None = None,

@@ -1,0 +1,237 @@
+"""``ybgc probe``: configs against a live YARP name server and ROS 2 graph,
+with real peers (one yarpserver, one ROS 2 domain and the peers shared by
+the whole file): a YARP producer sending another layout than declared, a
+missing port, a taken output port, an rclpy subscriber with an incompatible
+QoS (and the override that mends it), a subscriber of ybg_demo_msgs/Polygon
+built from another definition (tests/harness/variant.py: one type name, two
+type hashes), a clean robot (exit 0), and no name server (exit 2). The
+probe runs as a user runs it: the ybgc command, in a process of its own.
+Pure parts (layouts, overrides, the plan) are tested without middleware."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from harness.env import ROOT, yarp_install
+from harness.generated import YBGC
+from harness.ros2 import QosSubscriber, Ros2Domain, Ros2Subscriber, ros2_environment
+from harness.variant import TYPE as POLYGON, variant_env
+from harness.yarp import YarpProducer, YarpServer
+from ybg.compiler import ir
+from ybg.compiler.diagnostics import CODES, PROBE_CODES
+from ybg.compiler.pipeline import compile_text
+from ybg.probe import layout, qos
+from ybg.probe.plan import plan_of
+
+ARM = "/probe/arm/state:o"      # sends int32 x6; declared (float64 x8)
+HEAD = "/probe/head/state:o"    # sends float64 x6, as declared
+MISSING = "/probe/legs/state:o"  # nobody opens it
+
+WRONG_YARP = f"""\
+[module]
+name = probe_wrong
+
+[output]
+port = {HEAD}
+rate = 10
+
+[mux arm]
+ports = {ARM} (float64 x8)
+
+[mux legs]
+ports = {MISSING} (float64 x4)
+
+[message]
+arm = [arm]
+legs = [legs]
+"""
+
+JOINTS = """\
+[module]
+name = {name}
+
+[output]
+topic = {topic}
+type = sensor_msgs/JointState
+via = ros2
+rate = 10
+{extra}
+[mux head]
+ports = {head} (float64 x6)
+
+[message]
+header.stamp = timestamp
+position = head
+"""
+
+POLYGON_CONFIG = """\
+[module]
+name = probe_polygon
+
+[output]
+topic = /probe/polygon
+type = ybg_demo_msgs/Polygon
+via = ros2
+rate = 10
+
+[message]
+label = "square"
+"""
+
+
+CONFIGS = {
+    "wrong": WRONG_YARP,
+    "qos": JOINTS.format(name="probe_qos", topic="/probe/qos/joint_states", head=HEAD,
+                         extra="reliability = best_effort\n"),
+    "clean": JOINTS.format(name="probe_clean", topic="/probe/clean/joint_states", head=HEAD, extra=""),
+    "polygon": POLYGON_CONFIG,
+}
+#: seconds for discovery: twice what a loaded machine of 2 cores was seen to need
+WAIT = 4
+
+
+@pytest.fixture(scope="module")
+def robot(tmp_path_factory):
+    """A name server and a ROS 2 domain in one environment, with the peers
+    every test of the file probes against."""
+    tmp = tmp_path_factory.mktemp("probe")
+    for name, text in CONFIGS.items():
+        (tmp / f"{name}.ini").write_text(text, encoding="utf-8")
+    with YarpServer(install=yarp_install("3.5")) as server, Ros2Domain() as domain:
+        env = ros2_environment(server.env, domain)
+        peers = [YarpProducer(env, ARM, bottles=[[1, 2, 3, 4, 5, 6]], rate=50),
+                 YarpProducer(env, HEAD, bottles=[[0.5] * 6], rate=50),
+                 QosSubscriber(env, "/probe/clean/joint_states", "sensor_msgs/msg/JointState"),
+                 QosSubscriber(env, "/probe/qos/joint_states", "sensor_msgs/msg/JointState",
+                               ir.QoS(reliability="reliable")),
+                 Ros2Subscriber(variant_env(env), "/probe/polygon", POLYGON, node="variant_sub")]
+        try:
+            for p in peers:
+                p.start()
+            yield env, tmp
+        finally:
+            for p in peers:
+                p.stop()
+
+
+def probe(env, tmp: Path, names: list[str], *args) -> subprocess.CompletedProcess:
+    """``ybgc probe <name>.ini... ARGS`` in the folder of the configs."""
+    return subprocess.run([str(YBGC), "probe", *(f"{n}.ini" for n in names), *map(str, args)], cwd=tmp, env=env,
+                          capture_output=True, text=True, timeout=60)
+
+
+def found(r: subprocess.CompletedProcess) -> dict:
+    """code -> (line, column, message) of a JSON report's errors and warnings."""
+    return {d["code"]: (d["line"], d["column"], d["message"]) for d in json.loads(r.stdout) if d["severity"] != "note"}
+
+
+def test_another_layout_a_missing_port_and_a_taken_output(robot):
+    env, tmp = robot
+    r = probe(env, tmp, ["wrong"], "--format", "json")
+    assert r.returncode == 1, r.stderr
+    got = found(r)
+    assert set(got) == {"E370", "E371", "E372"}, got
+    line, col, message = got["E371"]
+    assert (line, col) == (9, 9)  # the declaration of /probe/arm/state:o in [mux arm]
+    assert "sends 6 values: int32 x6" in message and "(float64 x8)" in message, message
+    assert got["E370"][:2] == (12, 9) and MISSING in got["E370"][2]
+    assert HEAD in got["E372"][2]
+    assert all(d["title"] == PROBE_CODES[d["code"]] for d in json.loads(r.stdout))
+
+
+def test_an_incompatible_qos_and_a_type_hash_of_another_definition(robot):
+    """Two configs, one discovery: the module's best-effort publisher
+    against a reliable subscriber; a Polygon subscriber of the variant."""
+    env, tmp = robot
+    r = probe(env, tmp, ["qos", "polygon"], "--msg-path", ROOT / "msgpkgs", "--wait", WAIT, "--format", "json")
+    assert r.returncode == 1, r.stderr
+    by_file = {(d["file"], d["code"]): d for d in json.loads(r.stdout) if d["severity"] != "note"}
+    assert set(by_file) == {("qos.ini", "E375"), ("polygon.ini", "E374")}, r.stdout
+    qos_d, hash_d = by_file["qos.ini", "E375"], by_file["polygon.ini", "E374"]
+    assert (qos_d["line"], qos_d["column"]) == (7, 1)  # the output (its `via`)
+    assert "Best effort publisher and reliable subscription" in qos_d["message"], qos_d
+    assert "qos_overrides./probe/qos/joint_states.publisher." in qos_d["hint"], qos_d
+    assert (hash_d["line"], hash_d["column"]) == (6, 8)  # the output's type
+    hashes = re.findall(r"RIHS01_[0-9a-f]{64}", hash_d["message"])
+    assert len(hashes) == 2 and hashes[0] != hashes[1], hash_d
+    assert "/variant_sub's subscription has ybg_demo_msgs/msg/Polygon" in hash_d["message"], hash_d
+
+
+def test_a_clean_robot_and_the_override_that_mends_the_qos(robot):
+    env, tmp = robot
+    r = probe(env, tmp, ["clean", "qos"], "--wait", WAIT, "-v",
+              "-p", "qos_overrides./probe/qos/joint_states.publisher.reliability:=reliable")
+    assert r.returncode == 0, r.stderr
+    notes = [line for line in r.stderr.splitlines() if " note N670 " in line]
+    assert all(not re.search(r": (error|warning) ", line) for line in r.stderr.splitlines()), r.stderr
+    seen = "\n".join(notes)
+    assert "clean.ini:11:9: note N670 input 0 of mux `head`: /probe/head/state:o sends 6 values: float64 x6" in seen
+    for topic, mine in (("/probe/clean/joint_states", "reliable"), ("/probe/qos/joint_states", "reliable")):
+        assert re.search(f"the topic {topic} \\(the module's publisher, {mine}, volatile, keep_last 10\\): "
+                         "/ybg_test_qos_sub's subscription of sensor_msgs/msg/JointState", seen), seen
+
+
+def test_no_name_server_is_a_usage_error(robot, tmp_path):
+    env, tmp = robot
+    conf = tmp_path / "yarp"
+    conf.mkdir()
+    (conf / "yarp.conf").write_text("127.0.0.1 9 yarp\n")
+    r = probe({**env, "YARP_CONFIG_HOME": str(conf)}, tmp, ["wrong"])
+    assert r.returncode == 2 and "no YARP name server answers" in r.stderr and "hint:" in r.stderr, r.stderr
+
+
+# --------------------------------------------------------------------------
+# without middleware
+
+
+def test_probe_codes_are_documented_apart_from_checks():
+    doc = (ROOT / "docs" / "diagnostics.md").read_text(encoding="utf-8")
+    section = doc.split("## Codes of `ybgc probe`", 1)[1]
+    rows = dict(re.findall(r"^\| `([EWN][0-9]{3})` \| ([^|]+?) \|", section, re.M))
+    assert rows == PROBE_CODES and not set(PROBE_CODES) & set(CODES)
+
+
+@pytest.mark.parametrize("declared, elements, why", [
+    ((ir.ElementGroup("float64", 2),), [("int32", 1), ("float64", 2.0)], None),
+    ((ir.ElementGroup("float64", 8),), [("int32", 1)] * 6, "6 elements, not 8"),
+    ((ir.ElementGroup("int32", 1),), [("float64", 1.0)], "element 0 is float64, not int32"),
+    ((ir.ElementGroup("bool", 2),), [("int32", 1), ("int32", 2)], "element 1 is int32, not bool"),
+    ((ir.ElementGroup("string", 1),), [("string", "a")], None),
+    (None, [("int64", 3), ("float32", 1.0)], None),
+    (None, [("float64", 1.0), ("list", None)], "element 1 is list, not a number"),
+])
+def test_layouts_as_the_modules_take_them(declared, elements, why):
+    assert layout.mismatch(declared, elements) == why
+
+
+def test_what_a_bottle_holds_in_the_configs_notation():
+    assert layout.seen([("int32", 1)] * 6) == "6 values: int32 x6"
+    assert layout.seen([("float64", 1.0), ("float64", 1.0), ("string", "a")]) == "3 values: float64 x2, string x1"
+    assert layout.declared((ir.ElementGroup("float64", 8),)) == "(float64 x8)"
+
+
+def test_overrides_as_the_module_takes_them():
+    o = qos.parse_parameter("qos_overrides./joint_states.publisher.reliability:=best_effort")
+    assert o == qos.Override("/joint_states", "publisher", "reliability", "best_effort")
+    assert qos.parse_parameter("rate:=20") is None
+    p = qos.overridden(qos.Profile(), "/joint_states", "publisher", [o, qos.Override("/x", "publisher", "depth", 1)])
+    assert p == qos.Profile(reliability="best_effort")
+    for bad in ("qos_overrides./a.publisher.deadline:=1", "qos_overrides./a.publisher.depth:=0",
+                "qos_overrides./a.publisher.reliability:=sometimes", "qos_overrides.a.reliability:=reliable",
+                "qos_overrides./a.publisher.depth"):
+        with pytest.raises(qos.OverrideError):
+            qos.parse_parameter(bad)
+
+
+def test_the_plan_of_a_bridge():
+    program = compile_text(JOINTS.format(name="m", topic="/js", head=HEAD, extra=""), "m.ini").program
+    plan = plan_of(program)
+    assert [r.name for r in plan.reads] == [HEAD]
+    assert [o.name for o in plan.opens] == ["/m/rpc:i", "/m/head/in0:i"]
+    assert [(t.topic, t.role) for t in plan.topics] == [("/js", "publisher"), ("/diagnostics", "publisher")]
+    assert [o.name for o in plan_of(program, "/other").opens][0] == "/other/rpc:i"
