@@ -219,6 +219,7 @@ class Bridge:
 
     def __init__(self, spec, options, output, build, compute):
         self.spec = spec
+        self.endpoints = []  # EndpointEvents of the ROS 2 publishers and subscriptions (ros2_io.py)
         self.output = output
         self.build = build
         self.compute = compute
@@ -323,6 +324,24 @@ class Bridge:
                 inp.unfit_reason = reason
                 self.log("input %s: refused a frame (%s); further frames refused are only counted"
                          % (inp.source, reason))
+
+    def on_incompatible(self, endpoint, what, total, text):
+        """An incompatible-QoS (``what`` "qos") or incompatible-type ("type")
+        event of a ROS 2 ``endpoint``: ``total`` the middleware's count of
+        such peers so far; the first is said (``text()``), the others counted."""
+        with self.cond:
+            before = getattr(endpoint, what)
+            setattr(endpoint, what, max(total, before + 1))
+            if before == 0:
+                self.log(text())
+
+    def ros2_events(self):
+        """[(kind, topic, incompatible QoS, incompatible type)] of its ROS 2
+        publishers, then its subscriptions, read under the lock: what `stats`
+        answers of them."""
+        with self.cond:
+            return [(e.kind, e.topic, e.qos, e.type)
+                    for e in sorted(self.endpoints, key=lambda e: e.kind != "publisher")]
 
     def on_skipped(self, inp):
         """A Bottle skipped unread: the input's reader fell BACKLOG behind."""
@@ -533,7 +552,34 @@ class Bridge:
             lines.append(line + refused_text(inp))
         lines.append("  published %d messages, skipped %d cycles, build failures %d"
                      % (self.published, self.skipped_cycles, self.build_errors))
+        lines.extend("  " + EVENTS_TOTALS_LINE % e for e in self.ros2_events() if e[2] or e[3])
         print("\n".join(prefix + line for line in lines), flush=True)
+
+
+class EndpointEvents:
+    """The incompatible peers of one ROS 2 publisher or subscription
+    (``kind``) of ``topic`` (as the config names it), counted by kind: a
+    peer whose QoS does not match its own (``qos``), a peer whose type has
+    its name but another definition (``type``). Guarded by the bridge's lock."""
+
+    def __init__(self, kind, topic):
+        self.kind = kind
+        self.topic = topic
+        self.qos = 0
+        self.type = 0
+
+
+#: what a ROS 2 endpoint says of its first peer of an incompatible QoS (the
+#: C++ runtime says the same: ybgc_ros2.cpp); {peer} is the other kind
+INCOMPATIBLE_QOS_TEXT = ("ROS 2 {kind} {topic}: a {peer} of an incompatible QoS ({policy}; the {peer}'s: "
+                         "{theirs}; this {kind}'s: {ours}): no messages between them; further incompatible "
+                         "QoS events of it are only counted")
+#: ... of its first peer of the same type name and another definition
+INCOMPATIBLE_TYPE_TEXT = ("ROS 2 {kind} {topic}: a {peer} of another definition of {type} (its type hash "
+                          "{theirs}; this {kind}'s: {ours}): no messages between them; further incompatible "
+                          "type events of it are only counted")
+#: the exit totals' line of an endpoint that had incompatible peers
+EVENTS_TOTALS_LINE = "ros2 %s %s: incompatible QoS %d, incompatible type %d"
 
 
 def refused_text(inp):

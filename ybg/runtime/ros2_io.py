@@ -32,6 +32,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from .compose import SWITCH_INTERVAL, Composer, describe, load_failure  # ybgc:runtime-import
 from .core import _FLOAT_TYPES, _INT_TYPES, InputState, parse_accept, seconds_to_ns  # ybgc:runtime-import
+from .core import INCOMPATIBLE_QOS_TEXT, INCOMPATIBLE_TYPE_TEXT, EndpointEvents  # ybgc:runtime-import
 from .images import ImageInput, append_rows, fit_calibration, frame_of, message_frame  # ybgc:runtime-import
 from .yarp_io import YarpBridge  # ybgc:runtime-import
 
@@ -115,6 +116,109 @@ class Stamps:
         return rclpy.time.Time(nanoseconds=ns).to_msg()
 
 
+# --- incompatible peers ----------------------------------------------------------
+
+def _policy_value(value):
+    """A reliability or durability policy as rmw names it (``reliable``, ``transient_local``)."""
+    name = getattr(value, "name", None)
+    return name.lower() if name else "unknown"
+
+
+def _qos_words(qos):
+    return "%s, %s" % (_policy_value(qos.reliability), _policy_value(qos.durability))
+
+
+def _conflicts(publisher, subscription):
+    """Whether a publisher of QoS ``publisher`` gives nothing to a subscription
+    of QoS ``subscription`` by their reliability or durability."""
+    return ((publisher.reliability == ReliabilityPolicy.BEST_EFFORT
+             and subscription.reliability == ReliabilityPolicy.RELIABLE)
+            or (publisher.durability == DurabilityPolicy.VOLATILE
+                and subscription.durability == DurabilityPolicy.TRANSIENT_LOCAL))
+
+
+class EndpointWatch:
+    """Listens for the incompatible-QoS and incompatible-type events of one
+    ROS 2 publisher or subscription (``kind``) of ``topic``: counted in its
+    EndpointEvents (the bridge's `stats`, exit totals and /diagnostics), the
+    first of each kind said with the peer's QoS (the first peer in the graph
+    whose reliability or durability does not match) or type hash."""
+
+    def __init__(self, bridge, node, kind, topic, type_name):
+        self.bridge = bridge
+        self.node = node
+        self.kind = kind
+        self.peer = "subscription" if kind == "publisher" else "publisher"
+        self.type_name = type_name
+        self.counts = EndpointEvents(kind, topic)
+        bridge.endpoints.append(self.counts)
+        self.entity = None  # its rclpy publisher or subscription, once made
+
+    def callbacks(self, make, **events):
+        """``make(callbacks)`` (PublisherEventCallbacks or
+        SubscriptionEventCallbacks) with its events and ``events``; again
+        without ``events`` on an rmw that has no such events (rclpy leaves
+        out an incompatible-QoS or -type event the rmw lacks by itself)."""
+        own = dict(incompatible_qos=self.on_qos, incompatible_type=self.on_type)
+        try:
+            return make(**own, **events)
+        except UnsupportedEventTypeError:
+            return make(**own)
+
+    def _peers(self):
+        """The graph's endpoints of the other kind on its topic, and its own."""
+        topic = self.entity.topic_name
+        if self.kind == "publisher":
+            return self.node.get_subscriptions_info_by_topic(topic), self.node.get_publishers_info_by_topic(topic)
+        return self.node.get_publishers_info_by_topic(topic), self.node.get_subscriptions_info_by_topic(topic)
+
+    def _ours(self, own):
+        for e in own:
+            if e.node_name == self.node.get_name() and e.node_namespace == self.node.get_namespace():
+                return e
+        return None
+
+    def on_qos(self, info):
+        self.bridge.on_incompatible(self.counts, "qos", info.total_count, lambda: self._qos_text(info))
+
+    def on_type(self, info):
+        self.bridge.on_incompatible(self.counts, "type", info.total_count, self._type_text)
+
+    def _qos_text(self, info):
+        ours = self.entity.qos_profile if self.entity is not None else None
+        theirs = "unknown (not in the graph yet)"
+        if ours is not None:
+            peers = self._peers()[0]
+            pick = [e for e in peers if (_conflicts(ours, e.qos_profile) if self.kind == "publisher"
+                                         else _conflicts(e.qos_profile, ours))] or peers
+            if pick:
+                theirs = _qos_words(pick[0].qos_profile)
+        try:
+            policy = QoSPolicyKind(int(info.last_policy_kind)).name.lower()
+        except ValueError:
+            policy = "policy %s" % info.last_policy_kind
+        return INCOMPATIBLE_QOS_TEXT.format(kind=self.kind, topic=self.counts.topic, peer=self.peer, policy=policy,
+                                            theirs=theirs, ours="unknown" if ours is None else _qos_words(ours))
+
+    def _type_text(self):
+        theirs = ours = "unknown"
+        if self.entity is not None:
+            peers, own = self._peers()
+            mine = self._ours(own)
+            if mine is not None:
+                ours = str(mine.topic_type_hash)
+            other = [e for e in peers if str(e.topic_type_hash) != ours]
+            if other:
+                theirs = str(other[0].topic_type_hash)
+        return INCOMPATIBLE_TYPE_TEXT.format(kind=self.kind, topic=self.counts.topic, peer=self.peer,
+                                             type=self.type_name, theirs=theirs, ours=ours)
+
+
+def event_values(counts):
+    """The key-values of /diagnostics of a ROS 2 endpoint's incompatible peers."""
+    return (("incompatible QoS", str(counts.qos)), ("incompatible type", str(counts.type)))
+
+
 # --- ROS 2 topics as mux inputs ------------------------------------------------
 
 def _leaf_numbers(value):
@@ -184,18 +288,16 @@ class Ros2Input(InputState):
         # an array of messages whose elements give one row each
         self.elements = operator.attrgetter(each) if each else None
         self.subscription = None
+        self.watch = EndpointWatch(bridge, node, "subscription", spec.source, _type_name(msg_class))
 
     def open(self):
+        def make(**events):
+            return self.node.create_subscription(
+                self.msg_class, self.source, self._on_message, INPUT_QOS,
+                event_callbacks=SubscriptionEventCallbacks(**events), qos_overriding_options=QOS_OVERRIDES)
+
         try:
-            try:
-                events = SubscriptionEventCallbacks(matched=self._on_matched)
-                self.subscription = self.node.create_subscription(
-                    self.msg_class, self.source, self._on_message, INPUT_QOS,
-                    event_callbacks=events, qos_overriding_options=QOS_OVERRIDES)
-            except UnsupportedEventTypeError:  # an rmw without matched events
-                self.subscription = self.node.create_subscription(
-                    self.msg_class, self.source, self._on_message, INPUT_QOS,
-                    qos_overriding_options=QOS_OVERRIDES)
+            self.subscription = self.watch.entity = self.watch.callbacks(make, matched=self._on_matched)
         except Exception as e:  # an rclpy error: report it, never a traceback
             self.bridge.log("cannot subscribe to %s: %s" % (self.source, e))
             return False
@@ -282,13 +384,22 @@ def fill_image(msg, values, encoding):
     msg.step = row
 
 
-def _publisher(node, msg_class, topic, qos, on_matched):
-    try:
-        events = PublisherEventCallbacks(matched=on_matched)
-        return node.create_publisher(msg_class, topic, qos, event_callbacks=events,
+def _type_name(msg_class):
+    """pkg/msg/Name of a message class."""
+    return "%s/msg/%s" % (msg_class.__module__.split(".")[0], msg_class.__name__)
+
+
+def _publisher(node, msg_class, topic, qos, on_matched, bridge):
+    """The publisher, its matched and incompatible peers watched (said and
+    counted by ``bridge``)."""
+    watch = EndpointWatch(bridge, node, "publisher", topic, _type_name(msg_class))
+
+    def make(**events):
+        return node.create_publisher(msg_class, topic, qos, event_callbacks=PublisherEventCallbacks(**events),
                                      qos_overriding_options=QOS_OVERRIDES)
-    except UnsupportedEventTypeError:  # an rmw without matched events
-        return node.create_publisher(msg_class, topic, qos, qos_overriding_options=QOS_OVERRIDES)
+
+    publisher = watch.entity = watch.callbacks(make, matched=on_matched)
+    return publisher, watch
 
 
 class CameraInfoOutput:
@@ -312,9 +423,9 @@ class CameraInfoOutput:
         self.size = (m.width, m.height)
         self.k, self.p = list(m.k), list(m.p)
 
-    def open(self, node, qos, on_matched):
+    def open(self, node, qos, on_matched, bridge):
         self.prepare()
-        self.publisher = _publisher(node, type(self.message), self.topic, qos, on_matched)
+        self.publisher, self.watch = _publisher(node, type(self.message), self.topic, qos, on_matched, bridge)
 
     def publish(self, image):
         m = self.message
@@ -344,14 +455,17 @@ class Ros2Output:
         self.qos = qos
         self.camera_info = camera_info
         self.publisher = None
+        self.watch = None
+        self.bridge = None  # the bridge that says and counts its incompatible peers (NodeBridge)
         self.log = lambda text: print(text, flush=True)
 
     def open(self):
         try:
-            self.publisher = _publisher(self.node, self.msg_class, self.port_name, self.qos, self._on_matched)
+            self.publisher, self.watch = _publisher(self.node, self.msg_class, self.port_name, self.qos,
+                                                    self._on_matched, self.bridge)
             if self.camera_info is not None:
                 info = self.camera_info
-                info.open(self.node, self.qos, lambda event: self._on_matched(event, info.topic))
+                info.open(self.node, self.qos, lambda event: self._on_matched(event, info.topic), self.bridge)
         except Exception as e:
             self.log("cannot advertise %s: %s" % (self.port_name, e))
             return False
@@ -430,6 +544,8 @@ class NodeBridge(YarpBridge):
         YarpBridge.__init__(self, spec, options, output, self._build, compute)
         if hasattr(output, "log"):
             output.log = self.log
+        if isinstance(output, Ros2Output):
+            output.bridge = self
 
     def make_input(self, mux, spec, local, timeout):
         if spec.kind == "ros2":
@@ -508,6 +624,16 @@ def output_status(bridge, achieved):
         ("skipped cycles", str(bridge.skipped_cycles)), ("build failures", str(bridge.build_errors)))
 
 
+def _with_events(status, endpoint):
+    """A status of an input or the output with the counts of its
+    incompatible peers when it is a ROS 2 subscription or publisher."""
+    watch = getattr(endpoint, "watch", None)
+    if watch is None:
+        return status
+    level, text, values = status
+    return level, text, tuple(values) + event_values(watch.counts)
+
+
 class Diagnostics:
     """Publishes the bridge's totals on /diagnostics as a DiagnosticArray
     every ``period`` seconds of the steady clock, as diagnostic_updater does:
@@ -535,12 +661,12 @@ class Diagnostics:
         now = time.monotonic()
         with bridge.cond:
             self.samples.append((now, bridge.published))
-            statuses = [self._status("input %s" % inp.source, *input_status(inp, now))
+            statuses = [self._status("input %s" % inp.source, *_with_events(input_status(inp, now), inp))
                         for inp in bridge.inputs]
             (t0, n0), (t1, n1) = self.samples[0], self.samples[-1]
             achieved = (n1 - n0) / (t1 - t0) if t1 > t0 else 0.0
             statuses.append(self._status("output %s" % bridge.output.port_name,
-                                         *output_status(bridge, achieved)))
+                                         *_with_events(output_status(bridge, achieved), bridge.output)))
         msg = DiagnosticArray(status=statuses)
         msg.header.stamp = self.node.get_clock().now().to_msg()
         return msg

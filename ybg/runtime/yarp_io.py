@@ -946,7 +946,8 @@ class _QuickTransport(xmlrpc.client.Transport):
 RPC_HELP = (
     "help: this list",
     "stats: the totals so far: per input (input SOURCE received N dropped N stale N unused N refused N), "
-    "(published N skipped N failures N), (rate ACHIEVED configured HZ|event-driven)",
+    "(published N skipped N failures N), (rate ACHIEVED configured HZ|event-driven), and per ROS 2 publisher "
+    "and subscription (ros2 publisher|subscription TOPIC incompatible_qos N incompatible_type N)",
     "quit: stop the module (it closes its ports and exits 0, as on SIGINT)",
 )
 
@@ -996,6 +997,14 @@ def stats_items(reply, bridge, meter):
     item.addString("%.2f" % meter.read(time.monotonic(), published))
     item.addString("configured")
     item.addString("event-driven" if bridge.rate is None else repr(float(bridge.rate)))
+    # the incompatible peers of its ROS 2 publishers and subscriptions (the ros2 node)
+    for kind, topic, qos, type_ in bridge.ros2_events():
+        item = reply.addList()
+        for word in ("ros2", kind, topic):
+            item.addString(word)
+        for key, n in (("incompatible_qos", qos), ("incompatible_type", type_)):
+            item.addString(key)
+            item.addInt64(n)
 
 
 class RpcPort(yarp.PortReader):

@@ -343,6 +343,7 @@ struct ImagePublisher::Rcl
     sensor_msgs__msg__CameraInfo* info = nullptr;
     std::string topic;  // as remapped
     bool reportedError = false;
+    std::unique_ptr<ros2::IncompatiblePeers> peers;  // of its publisher
 };
 
 ImagePublisher::ImagePublisher(const ros2::Ros2Spec& spec, const ros2::MessageType& type, ros2::FillMessage fill,
@@ -352,6 +353,8 @@ ImagePublisher::ImagePublisher(const ros2::Ros2Spec& spec, const ros2::MessageTy
 {
     if (cameraInfo_ != nullptr) {
         rcl_->topic = cameraInfo_->topic;
+        rcl_->peers = std::make_unique<ros2::IncompatiblePeers>("publisher", cameraInfo_->topic,
+                                                                "sensor_msgs/msg/CameraInfo");
     }
 }
 
@@ -382,6 +385,7 @@ bool ImagePublisher::open()
         return false;
     }
     r.publisherOk = true;
+    r.peers->watch(node(), &r.publisher);
     r.info = sensor_msgs__msg__CameraInfo__create();
     if (r.info == nullptr) {
         say("cannot allocate a sensor_msgs/msg/CameraInfo");
@@ -429,11 +433,22 @@ void ImagePublisher::closeInfo()
         sensor_msgs__msg__CameraInfo__destroy(r.info);
         r.info = nullptr;
     }
+    if (r.peers != nullptr) {
+        r.peers->stop();
+    }
     if (r.publisherOk) {
         if (rcl_publisher_fini(&r.publisher, node().node()) != RCL_RET_OK) {
             rcl_reset_error();
         }
         r.publisherOk = false;
+    }
+}
+
+void ImagePublisher::ros2Events(std::vector<Totals::Ros2Endpoint>& out) const
+{
+    ros2::Publisher::ros2Events(out);
+    if (rcl_->peers != nullptr) {
+        out.push_back(rcl_->peers->counts());
     }
 }
 

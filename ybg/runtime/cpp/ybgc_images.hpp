@@ -108,6 +108,7 @@ public:
     std::string describe() const override;
     bool publish(const Inputs& in, const Context& ctx, std::string& failure) override;
     void close() override;
+    void ros2Events(std::vector<Totals::Ros2Endpoint>& out) const override;
 
 private:
     struct Rcl;

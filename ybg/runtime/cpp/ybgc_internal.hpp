@@ -273,6 +273,10 @@ private:
 /// configured HZ|event-driven); `rate`: the configured rate, 0 event-driven.
 void statsItems(yarp::os::Bottle& out, const Totals& totals, double achieved, double rate);
 
+/// The exit totals' line of a ROS 2 publisher or subscription that had
+/// incompatible peers (without its indent), as the Python runtime's.
+std::string ros2TotalsLine(const Totals::Ros2Endpoint& e);
+
 /// The module's RPC port `<prefix>/rpc:i`, as YARP modules have one (`yarp
 /// rpc /<module>/rpc:i`): `help`, `stats`, `quit` (also `exit`, `bye`: the
 /// RFModule convention). Each command is answered in YARP's own thread for

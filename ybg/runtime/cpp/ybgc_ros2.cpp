@@ -6,14 +6,20 @@
 #include "ybgc_internal.hpp"  // ybgc:runtime-import
 
 #include <rcl/error_handling.h>
+#include <rcl/event.h>
+#include <rcl/graph.h>
 #include <rcl/rcl.h>
 #include <rcl/time.h>
 #include <rcl_yaml_param_parser/parser.h>
+#include <rmw/qos_string_conversions.h>
+#include <rmw/topic_endpoint_info_array.h>
+#include <rosidl_runtime_c/type_hash.h>
 #include <diagnostic_msgs/msg/diagnostic_array.h>
 #include <diagnostic_msgs/msg/diagnostic_status.h>
 #include <diagnostic_msgs/msg/key_value.h>
 #include <rosgraph_msgs/msg/clock.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -156,6 +162,12 @@ struct Node::Rcl
     std::mutex diagnosticsMutex;
     std::condition_variable diagnosticsWake;
     bool diagnosticsStop = false;
+    // the events of its publishers and subscriptions (IncompatiblePeers)
+    std::vector<IncompatiblePeers*> peers;
+    std::thread peersThread;
+    std::mutex peersMutex;
+    std::condition_variable peersWake;
+    bool peersStop = false;
 };
 
 Node::Node(const char* name, std::vector<std::string> rosArgs) :
@@ -381,6 +393,39 @@ void Node::diagnose(TotalsSource totals)
     diagnostic_msgs__msg__DiagnosticArray__fini(&msg);
 }
 
+void Node::watch(IncompatiblePeers* peers)
+{
+    Rcl& r = *rcl_;
+    std::lock_guard<std::mutex> lock(r.peersMutex);
+    r.peers.push_back(peers);
+    if (!r.peersThread.joinable()) {
+        r.peersStop = false;
+        r.peersThread = std::thread([this, who = tModule] {
+            tModule = who;
+            takeEvents();
+        });
+    }
+}
+
+void Node::unwatch(IncompatiblePeers* peers)
+{
+    Rcl& r = *rcl_;
+    std::lock_guard<std::mutex> lock(r.peersMutex);  // not while it takes them
+    r.peers.erase(std::remove(r.peers.begin(), r.peers.end(), peers), r.peers.end());
+}
+
+/// Every 100 ms: the events of each publisher and subscription watched.
+void Node::takeEvents()
+{
+    Rcl& r = *rcl_;
+    std::unique_lock<std::mutex> lock(r.peersMutex);
+    while (!r.peersWake.wait_for(lock, std::chrono::milliseconds(100), [&r] { return r.peersStop; })) {
+        for (IncompatiblePeers* peers : r.peers) {
+            peers->take();
+        }
+    }
+}
+
 /// The parameter use_sim_time of the command line (`-p use_sim_time:=true`,
 /// for every node or this one).
 bool Node::useSimTime()
@@ -490,6 +535,15 @@ void Node::close()
 {
     Rcl& r = *rcl_;
     {
+        std::lock_guard<std::mutex> lock(r.peersMutex);
+        r.peersStop = true;
+        r.peers.clear();
+    }
+    r.peersWake.notify_all();
+    if (r.peersThread.joinable()) {
+        r.peersThread.join();
+    }
+    {
         std::lock_guard<std::mutex> lock(r.diagnosticsMutex);
         r.diagnosticsStop = true;
     }
@@ -529,6 +583,269 @@ void Node::close()
     rcl_reset_error();
 }
 
+// --- incompatible peers ----------------------------------------------------------------
+
+namespace {
+
+/// What the Python node's words say of a policy's value (rmw's names).
+std::string policyText(const char* name)
+{
+    return name != nullptr ? name : "unknown";
+}
+
+/// A QoS's reliability and durability, as the Python node says them.
+std::string qosWords(const rmw_qos_profile_t& qos)
+{
+    return policyText(rmw_qos_reliability_policy_to_str(qos.reliability)) + ", "
+        + policyText(rmw_qos_durability_policy_to_str(qos.durability));
+}
+
+/// Whether a publisher of QoS `pub` gives nothing to a subscription of QoS
+/// `sub` by their reliability or durability.
+bool conflicts(const rmw_qos_profile_t& pub, const rmw_qos_profile_t& sub)
+{
+    return (pub.reliability == RMW_QOS_POLICY_RELIABILITY_BEST_EFFORT
+            && sub.reliability == RMW_QOS_POLICY_RELIABILITY_RELIABLE)
+        || (pub.durability == RMW_QOS_POLICY_DURABILITY_VOLATILE
+            && sub.durability == RMW_QOS_POLICY_DURABILITY_TRANSIENT_LOCAL);
+}
+
+/// The endpoints of the graph on `topic`: its publishers or its subscriptions.
+class Endpoints
+{
+public:
+    Endpoints(const rcl_node_t* node, const char* topic, bool publishers)
+    {
+        const rcl_ret_t ret = publishers
+            ? rcl_get_publishers_info_by_topic(node, &allocator_, topic, false, &array_)
+            : rcl_get_subscriptions_info_by_topic(node, &allocator_, topic, false, &array_);
+        if (ret != RCL_RET_OK) {
+            rcl_reset_error();
+        }
+    }
+    ~Endpoints() { finished(rmw_topic_endpoint_info_array_fini(&array_, &allocator_)); }
+    Endpoints(const Endpoints&) = delete;
+    Endpoints& operator=(const Endpoints&) = delete;
+    const rmw_topic_endpoint_info_t* begin() const { return array_.info_array; }
+    const rmw_topic_endpoint_info_t* end() const { return array_.info_array + (array_.info_array ? array_.size : 0); }
+
+private:
+    rcutils_allocator_t allocator_ = rcutils_get_default_allocator();
+    rmw_topic_endpoint_info_array_t array_ = rmw_get_zero_initialized_topic_endpoint_info_array();
+};
+
+/// A type hash as REP-2011 writes it (RIHS01_...).
+std::string hashText(const rosidl_type_hash_t& hash)
+{
+    char* text = nullptr;
+    const rcutils_allocator_t allocator = rcutils_get_default_allocator();
+    if (rosidl_stringify_type_hash(&hash, allocator, &text) != RCUTILS_RET_OK || text == nullptr) {
+        rcutils_reset_error();
+        return "unknown";
+    }
+    std::string out = text;
+    allocator.deallocate(text, allocator.state);
+    return out;
+}
+
+/// The Python node's texts (core.py: INCOMPATIBLE_QOS_TEXT, INCOMPATIBLE_TYPE_TEXT).
+std::string incompatibleQosText(const std::string& kind, const std::string& topic, const std::string& peer,
+                                const std::string& policy, const std::string& theirs, const std::string& ours)
+{
+    return "ROS 2 " + kind + " " + topic + ": a " + peer + " of an incompatible QoS (" + policy + "; the " + peer
+        + "'s: " + theirs + "; this " + kind + "'s: " + ours + "): no messages between them; further incompatible "
+        "QoS events of it are only counted";
+}
+
+std::string incompatibleTypeText(const std::string& kind, const std::string& topic, const std::string& peer,
+                                 const std::string& type, const std::string& theirs, const std::string& ours)
+{
+    return "ROS 2 " + kind + " " + topic + ": a " + peer + " of another definition of " + type + " (its type hash "
+        + theirs + "; this " + kind + "'s: " + ours + "): no messages between them; further incompatible type "
+        "events of it are only counted";
+}
+
+/// A count of events from the middleware's `total` (its lifetime count),
+/// when `change` says some came; true for the first.
+bool counted(std::atomic<std::uint64_t>& n, std::int32_t total, std::int32_t change)
+{
+    const std::uint64_t before = n.load();
+    if (change <= 0 && total <= 0) {
+        return false;
+    }
+    if (change <= 0 && static_cast<std::uint64_t>(total) <= before) {
+        return false;
+    }
+    n = std::max<std::uint64_t>(static_cast<std::uint64_t>(std::max(total, 0)), before + 1);
+    return before == 0;
+}
+
+}  // namespace
+
+struct IncompatiblePeers::Rcl
+{
+    Node* node = nullptr;
+    const rcl_publisher_t* publisher = nullptr;
+    const rcl_subscription_t* subscription = nullptr;
+    rcl_event_t qosEvent = rcl_get_zero_initialized_event();
+    rcl_event_t typeEvent = rcl_get_zero_initialized_event();
+    bool qosOk = false;
+    bool typeOk = false;
+    std::atomic<std::uint64_t> qos{0};
+    std::atomic<std::uint64_t> type{0};
+};
+
+IncompatiblePeers::IncompatiblePeers(const char* kind, std::string topic, std::string typeName) :
+        kind_(kind), topic_(std::move(topic)), typeName_(std::move(typeName)), rcl_(std::make_unique<Rcl>())
+{
+}
+
+IncompatiblePeers::~IncompatiblePeers()
+{
+    stop();
+}
+
+void IncompatiblePeers::watch(Node& node, const rcl_publisher_t* publisher)
+{
+    Rcl& r = *rcl_;
+    r.publisher = publisher;
+    // an event kind the rmw does not support (RCL_RET_UNSUPPORTED) is left out
+    r.qosOk = rcl_publisher_event_init(&r.qosEvent, publisher, RCL_PUBLISHER_OFFERED_INCOMPATIBLE_QOS)
+        == RCL_RET_OK;
+    r.typeOk = rcl_publisher_event_init(&r.typeEvent, publisher, RCL_PUBLISHER_INCOMPATIBLE_TYPE) == RCL_RET_OK;
+    init(node);
+}
+
+void IncompatiblePeers::watch(Node& node, const rcl_subscription_t* subscription)
+{
+    Rcl& r = *rcl_;
+    r.subscription = subscription;
+    r.qosOk = rcl_subscription_event_init(&r.qosEvent, subscription, RCL_SUBSCRIPTION_REQUESTED_INCOMPATIBLE_QOS)
+        == RCL_RET_OK;
+    r.typeOk = rcl_subscription_event_init(&r.typeEvent, subscription, RCL_SUBSCRIPTION_INCOMPATIBLE_TYPE)
+        == RCL_RET_OK;
+    init(node);
+}
+
+void IncompatiblePeers::init(Node& node)
+{
+    Rcl& r = *rcl_;
+    rcl_reset_error();
+    r.node = &node;
+    if (r.qosOk || r.typeOk) {
+        node.watch(this);
+    }
+}
+
+void IncompatiblePeers::stop()
+{
+    Rcl& r = *rcl_;
+    if (r.node != nullptr) {
+        r.node->unwatch(this);
+        r.node = nullptr;
+    }
+    if (r.qosOk) {
+        finished(rcl_event_fini(&r.qosEvent));
+        r.qosOk = false;
+    }
+    if (r.typeOk) {
+        finished(rcl_event_fini(&r.typeEvent));
+        r.typeOk = false;
+    }
+}
+
+void IncompatiblePeers::take()
+{
+    Rcl& r = *rcl_;
+    if (r.qosOk) {
+        rmw_qos_incompatible_event_status_t status{};
+        if (rcl_take_event(&r.qosEvent, &status) == RCL_RET_OK) {
+            if (counted(r.qos, status.total_count, status.total_count_change)) {
+                say(qosText(status.last_policy_kind));
+            }
+        } else {
+            rcl_reset_error();
+        }
+    }
+    if (r.typeOk) {
+        rmw_incompatible_type_status_t status{};
+        if (rcl_take_event(&r.typeEvent, &status) == RCL_RET_OK) {
+            if (counted(r.type, status.total_count, status.total_count_change)) {
+                say(typeText());
+            }
+        } else {
+            rcl_reset_error();
+        }
+    }
+}
+
+std::string IncompatiblePeers::qosText(int policy)
+{
+    Rcl& r = *rcl_;
+    const bool publishes = r.publisher != nullptr;
+    const rmw_qos_profile_t* ours = publishes ? rcl_publisher_get_actual_qos(r.publisher)
+                                              : rcl_subscription_get_actual_qos(r.subscription);
+    const char* topic = publishes ? rcl_publisher_get_topic_name(r.publisher)
+                                  : rcl_subscription_get_topic_name(r.subscription);
+    std::string theirs = "unknown (not in the graph yet)";
+    if (ours != nullptr && topic != nullptr) {
+        Endpoints peers(r.node->node(), topic, !publishes);
+        const rmw_topic_endpoint_info_t* pick = nullptr;
+        for (const rmw_topic_endpoint_info_t& e : peers) {
+            if (publishes ? conflicts(*ours, e.qos_profile) : conflicts(e.qos_profile, *ours)) {
+                pick = &e;
+                break;
+            }
+        }
+        if (pick == nullptr && peers.begin() != peers.end()) {
+            pick = peers.begin();
+        }
+        if (pick != nullptr) {
+            theirs = qosWords(pick->qos_profile);
+        }
+    }
+    const char* name = rmw_qos_policy_kind_to_str(static_cast<rmw_qos_policy_kind_t>(policy));
+    return incompatibleQosText(kind_, topic_, publishes ? "subscription" : "publisher",
+                               name != nullptr ? name : "policy " + std::to_string(policy), theirs,
+                               ours != nullptr ? qosWords(*ours) : "unknown");
+}
+
+std::string IncompatiblePeers::typeText()
+{
+    Rcl& r = *rcl_;
+    const bool publishes = r.publisher != nullptr;
+    const char* topic = publishes ? rcl_publisher_get_topic_name(r.publisher)
+                                  : rcl_subscription_get_topic_name(r.subscription);
+    std::string theirs = "unknown";
+    std::string ours = "unknown";
+    if (topic != nullptr) {
+        const rcl_node_t* node = r.node->node();
+        Endpoints own(node, topic, publishes);
+        for (const rmw_topic_endpoint_info_t& e : own) {
+            if (e.node_name != nullptr && e.node_namespace != nullptr
+                && std::strcmp(e.node_name, rcl_node_get_name(node)) == 0
+                && std::strcmp(e.node_namespace, rcl_node_get_namespace(node)) == 0) {
+                ours = hashText(e.topic_type_hash);
+                break;
+            }
+        }
+        Endpoints peers(node, topic, !publishes);
+        for (const rmw_topic_endpoint_info_t& e : peers) {
+            const std::string hash = hashText(e.topic_type_hash);
+            if (hash != ours) {
+                theirs = hash;
+                break;
+            }
+        }
+    }
+    return incompatibleTypeText(kind_, topic_, publishes ? "subscription" : "publisher", typeName_, theirs, ours);
+}
+
+Totals::Ros2Endpoint IncompatiblePeers::counts() const
+{
+    return {kind_, topic_, rcl_->qos.load(), rcl_->type.load()};
+}
+
 // --- the publisher --------------------------------------------------------------------
 
 rmw_qos_profile_t configQos(const Ros2Spec& spec)
@@ -551,7 +868,7 @@ struct Publisher::Rcl
 Publisher::Publisher(const Ros2Spec& spec, const MessageType& type, FillMessage fill,
                      std::vector<std::string> rosArgs) :
         spec_(spec), type_(type), fill_(std::move(fill)), node_(spec.node, std::move(rosArgs)),
-        rcl_(std::make_unique<Rcl>())
+        rcl_(std::make_unique<Rcl>()), peers_("publisher", spec.topic, type.name)
 {
     describe_ = std::string(type_.name) + " on the ROS 2 topic " + spec_.topic + " (node " + spec_.node + ", "
         + describeQos(configQos(spec_)) + ")";
@@ -581,6 +898,7 @@ bool Publisher::open()
         return false;
     }
     r.publisherOk = true;
+    peers_.watch(node_, &r.publisher);
     describe_ = std::string(type_.name) + " on the ROS 2 topic " + topic + " (node " + node_.name() + ", "
         + describeQos(options.qos) + ")";
     msg_ = type_.create();
@@ -623,6 +941,11 @@ void Publisher::watch(TotalsSource totals)
     node_.publishDiagnostics(std::move(totals));
 }
 
+void Publisher::ros2Events(std::vector<Totals::Ros2Endpoint>& out) const
+{
+    out.push_back(peers_.counts());
+}
+
 void Publisher::close()
 {
     Rcl& r = *rcl_;
@@ -630,6 +953,7 @@ void Publisher::close()
         type_.destroy(msg_);
         msg_ = nullptr;
     }
+    peers_.stop();
     if (r.publisherOk) {
         finished(rcl_publisher_fini(&r.publisher, node_.node()));
         r.publisherOk = false;
@@ -653,6 +977,7 @@ struct Subscriptions::Rcl
 {
     rcl_allocator_t allocator = rcl_get_default_allocator();
     std::vector<rcl_subscription_t> subscriptions;  // one a topic, in Topics order
+    std::vector<std::unique_ptr<IncompatiblePeers>> peers;  // one a topic, in Topics order
     std::vector<void*> messages;                    // one taken message a topic
     std::size_t subscribed = 0;
     std::thread thread;
@@ -664,6 +989,9 @@ Subscriptions::Subscriptions(const Topics& topics, std::vector<std::string> rosA
         ownNode_(publisher == nullptr ? std::make_unique<Node>(topics.node, std::move(rosArgs)) : nullptr),
         node_(publisher == nullptr ? ownNode_.get() : &publisher->node()), rcl_(std::make_unique<Rcl>())
 {
+    for (const Topic& t : topics_.topics) {
+        rcl_->peers.push_back(std::make_unique<IncompatiblePeers>("subscription", t.name, t.type.name));
+    }
 }
 
 Subscriptions::~Subscriptions()
@@ -699,6 +1027,7 @@ bool Subscriptions::open(Deliver deliver)
             return false;
         }
         ++r.subscribed;
+        r.peers[k]->watch(*node_, &r.subscriptions[k]);
         r.messages.push_back(t.type.create());
         if (r.messages.back() == nullptr) {
             say(std::string("cannot allocate a message ") + t.type.name);
@@ -718,6 +1047,13 @@ void Subscriptions::watch(TotalsSource totals)
 {
     if (ownNode_ != nullptr) {
         ownNode_->publishDiagnostics(std::move(totals));  // else the publisher's node does
+    }
+}
+
+void Subscriptions::ros2Events(std::vector<Totals::Ros2Endpoint>& out) const
+{
+    for (const auto& peers : rcl_->peers) {
+        out.push_back(peers->counts());
     }
 }
 
@@ -782,6 +1118,7 @@ void Subscriptions::close()
         r.thread.join();
     }
     for (std::size_t k = 0; k < r.subscribed; ++k) {
+        r.peers[k]->stop();
         finished(rcl_subscription_fini(&r.subscriptions[k], node_->node()));
     }
     r.subscribed = 0;

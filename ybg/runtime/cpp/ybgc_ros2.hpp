@@ -21,6 +21,8 @@
 #include <builtin_interfaces/msg/duration.h>
 #include <builtin_interfaces/msg/time.h>
 #include <rcl/node.h>
+#include <rcl/publisher.h>
+#include <rcl/subscription.h>
 #include <rcl_yaml_param_parser/types.h>
 #include <rmw/types.h>
 #include <rosidl_runtime_c/message_type_support_struct.h>
@@ -281,6 +283,45 @@ private:
     std::deque<std::pair<double, std::uint64_t>> samples_;
 };
 
+class Node;
+
+/// The incompatible-QoS and incompatible-type events of one rcl publisher
+/// or subscription (`kind`) of `topic` (as the config names it): counted (the
+/// bridge's `stats`, exit totals and /diagnostics), the first of each kind
+/// said with the peer's QoS (the first peer in the graph whose reliability
+/// or durability does not match its own) or type hash, in the Python node's
+/// words. An event kind the rmw does not support is left out. Taken by its
+/// Node's thread (Node::poll), every 100 ms.
+class IncompatiblePeers
+{
+public:
+    IncompatiblePeers(const char* kind, std::string topic, std::string typeName);
+    ~IncompatiblePeers();
+    IncompatiblePeers(const IncompatiblePeers&) = delete;
+    IncompatiblePeers& operator=(const IncompatiblePeers&) = delete;
+
+    /// Its events on `publisher` (`subscription`) of `node`, taken by `node`
+    /// until stop().
+    void watch(Node& node, const rcl_publisher_t* publisher);
+    void watch(Node& node, const rcl_subscription_t* subscription);
+    /// No longer taken, its events finished: before its publisher or
+    /// subscription is. The counts stay.
+    void stop();
+    /// Takes the events that came (the Node's thread).
+    void take();
+    Totals::Ros2Endpoint counts() const;
+
+private:
+    struct Rcl;
+    void init(Node& node);
+    std::string qosText(int policy);
+    std::string typeText();
+    std::string kind_;
+    std::string topic_;
+    std::string typeName_;
+    std::unique_ptr<Rcl> rcl_;
+};
+
 /// One rcl context and node opened with the command line's ROS arguments
 /// (`--ros-args ...`: remappings, parameters), the node's parameters, and
 /// its ROS clock: with the parameter use_sim_time true, the simulated time
@@ -320,9 +361,15 @@ public:
     /// whether to publish it (`diagnostics`), and every `period` seconds
     /// (`diagnostic_updater.period`), for a node that publishes its own.
     bool diagnostics(double& period) const;
+    /// Takes the events of `peers` every 100 ms, by a thread of its own,
+    /// until unwatch(peers) or close().
+    void watch(IncompatiblePeers* peers);
+    /// No longer takes them (returns once it does not).
+    void unwatch(IncompatiblePeers* peers);
 
 private:
     struct Rcl;
+    void takeEvents();
     bool useSimTime();
     bool startClock();
     void followClock();
@@ -389,6 +436,7 @@ public:
     bool publish(const Inputs& in, const Context& ctx, std::string& failure) override;
     void close() override;
     void watch(TotalsSource totals) override;
+    void ros2Events(std::vector<Totals::Ros2Endpoint>& out) const override;
     Node& node() { return node_; }
     /// The message published last (its C struct; nullptr before open()).
     const void* message() const { return msg_; }
@@ -403,6 +451,7 @@ private:
     std::string describe_;
     void* msg_ = nullptr;
     bool reportedPublishError_ = false;
+    IncompatiblePeers peers_;
 };
 
 /// Moves the ROS arguments of a command line (from `--ros-args` to `--` or
@@ -571,6 +620,7 @@ public:
     void close() override;
     bool nowNs(std::int64_t& ns) override;
     void watch(TotalsSource totals) override;
+    void ros2Events(std::vector<Totals::Ros2Endpoint>& out) const override;
 
 private:
     struct Rcl;

@@ -322,6 +322,20 @@ namespace {
 /// diagnostic_updater's FrequencyStatus tolerance: below (1 - it) x the configured rate is a warning
 constexpr double kRateTolerance = 0.1;
 
+/// The key-values of the incompatible peers of its ROS 2 `kind` of `topic`,
+/// appended to `values` when it has one (as the Python node's event_values).
+void addEvents(std::vector<std::pair<std::string, std::string>>& values, const Totals& totals, const char* kind,
+               const std::string& topic)
+{
+    for (const Totals::Ros2Endpoint& e : totals.ros2) {
+        if (e.kind == kind && e.topic == topic) {
+            values.emplace_back("incompatible QoS", std::to_string(e.qos));
+            values.emplace_back("incompatible type", std::to_string(e.type));
+            return;
+        }
+    }
+}
+
 }  // namespace
 
 std::vector<Status> statuses(const Totals& totals, const std::string& node, double achieved)
@@ -346,6 +360,7 @@ std::vector<Status> statuses(const Totals& totals, const std::string& node, doub
                     {"refused", std::to_string(in.refused)},
                     {"age (s)", in.age < 0 ? "" : printed("%.3f", in.age)},
                     {"timeout (s)", printed("%g", in.timeout)}};
+        addEvents(s.values, totals, "subscription", in.source);
         out.push_back(std::move(s));
     }
     Status s;
@@ -363,6 +378,7 @@ std::vector<Status> statuses(const Totals& totals, const std::string& node, doub
                 {"rate configured (Hz)", totals.rate <= 0 ? "event-driven" : printed("%g", totals.rate)},
                 {"skipped cycles", std::to_string(totals.skipped)},
                 {"build failures", std::to_string(totals.failures)}};
+    addEvents(s.values, totals, "publisher", totals.output);
     out.push_back(std::move(s));
     return out;
 }

@@ -197,6 +197,18 @@ public:
         out.published = published_;
         out.skipped = skippedCycles_;
         out.failures = buildFailures_;
+        out.ros2 = ros2Events();
+        return out;
+    }
+
+    /// The incompatible peers of its ROS 2 publishers, then subscriptions.
+    std::vector<Totals::Ros2Endpoint> ros2Events() const
+    {
+        std::vector<Totals::Ros2Endpoint> out;
+        output_.ros2Events(out);
+        if (feed_ != nullptr) {
+            feed_->ros2Events(out);
+        }
         return out;
     }
 
@@ -540,6 +552,11 @@ private:
         }
         out += prefix + "  published " + std::to_string(published_) + " messages, skipped "
             + std::to_string(skippedCycles_) + " cycles, build failures " + std::to_string(buildFailures_) + "\n";
+        for (const Totals::Ros2Endpoint& e : ros2Events()) {
+            if (e.qos != 0 || e.type != 0) {
+                out += prefix + "  " + ros2TotalsLine(e) + "\n";
+            }
+        }
         return out;
     }
 

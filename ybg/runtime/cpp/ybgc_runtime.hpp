@@ -568,6 +568,15 @@ struct Totals
         double timeout = 0.0;   // its freshness timeout, seconds
     };
     std::vector<PerInput> inputs;
+    /// The incompatible peers of one ROS 2 publisher or subscription (ybgc_ros2.hpp).
+    struct Ros2Endpoint
+    {
+        std::string kind;         // "publisher" or "subscription"
+        std::string topic;        // as the config names it
+        std::uint64_t qos = 0;    // peers of an incompatible QoS
+        std::uint64_t type = 0;   // peers of its type's name and another definition
+    };
+    std::vector<Ros2Endpoint> ros2;  // its publishers, then its subscriptions
     std::string module;         // the module's name
     std::string output;         // the output's topic or port
     double rate = 0.0;          // the configured rate, Hz (0: event-driven)
@@ -609,6 +618,8 @@ public:
     /// Called once it is open and the bridge runs, with the bridge's totals:
     /// a sink with a ROS 2 node publishes them on /diagnostics until closed.
     virtual void watch(TotalsSource /*totals*/) {}
+    /// Appends the incompatible peers of its ROS 2 publishers (none: nothing).
+    virtual void ros2Events(std::vector<Totals::Ros2Endpoint>& /*out*/) const {}
 };
 
 /// Why a message cannot be built when a mux is shorter than it (`sizes`: each
@@ -651,6 +662,8 @@ public:
     /// As MessageSink::watch: a feed with a ROS 2 node of its own publishes
     /// the totals on /diagnostics until closed.
     virtual void watch(TotalsSource /*totals*/) {}
+    /// Appends the incompatible peers of its ROS 2 subscriptions (none: nothing).
+    virtual void ros2Events(std::vector<Totals::Ros2Endpoint>& /*out*/) const {}
 };
 
 class FramePort;

@@ -72,7 +72,8 @@ void printMux(const char* name, const Rows& rows)
 const char* const kRpcHelp[] = {
     "help: this list",
     "stats: the totals so far: per input (input SOURCE received N dropped N stale N unused N refused N), "
-    "(published N skipped N failures N), (rate ACHIEVED configured HZ|event-driven)",
+    "(published N skipped N failures N), (rate ACHIEVED configured HZ|event-driven), and per ROS 2 publisher "
+    "and subscription (ros2 publisher|subscription TOPIC incompatible_qos N incompatible_type N)",
     "quit: stop the module (it closes its ports and exits 0, as on SIGINT)",
 };
 
@@ -119,6 +120,23 @@ void statsItems(yarp::os::Bottle& out, const Totals& totals, double achieved, do
     line.addString(rateText(achieved));
     line.addString("configured");
     line.addString(rate > 0 ? reprFloat(rate) : std::string("event-driven"));
+    // the incompatible peers of its ROS 2 publishers and subscriptions
+    for (const Totals::Ros2Endpoint& e : totals.ros2) {
+        yarp::os::Bottle& item = out.addList();
+        item.addString("ros2");
+        item.addString(e.kind);
+        item.addString(e.topic);
+        item.addString("incompatible_qos");
+        item.addInt64(static_cast<std::int64_t>(e.qos));
+        item.addString("incompatible_type");
+        item.addInt64(static_cast<std::int64_t>(e.type));
+    }
+}
+
+std::string ros2TotalsLine(const Totals::Ros2Endpoint& e)
+{
+    return "ros2 " + e.kind + " " + e.topic + ": incompatible QoS " + std::to_string(e.qos) + ", incompatible type "
+        + std::to_string(e.type);
 }
 
 RpcPort::RpcPort(std::string name, std::function<Totals()> totals, std::function<void()> quit, double rate) :
