@@ -25,8 +25,13 @@ from harness.yarp import YarpProducer, YarpServer
 from ybg.compiler import ir
 from ybg.compiler.diagnostics import CODES, PROBE_CODES
 from ybg.compiler.pipeline import compile_text
+from ybg.compiler.diagnostics import Sink
+from ybg.compiler.options import Options
+from ybg.compiler.pipeline import compile_path
 from ybg.probe import layout, qos
+from ybg.probe.findings import service_findings
 from ybg.probe.plan import plan_of
+from ybg.probe.ros2_graph import Ros2Seen
 
 ARM = "/probe/arm/state:o"      # sends int32 x6; declared (float64 x8)
 HEAD = "/probe/head/state:o"    # sends float64 x6, as declared
@@ -235,3 +240,21 @@ def test_the_plan_of_a_bridge():
     assert [o.name for o in plan.opens] == ["/m/rpc:i", "/m/head/in0:i"]
     assert [(t.topic, t.role) for t in plan.topics] == [("/js", "publisher"), ("/diagnostics", "publisher")]
     assert [o.name for o in plan_of(program, "/other").opens][0] == "/other/rpc:i"
+
+
+def test_the_plan_of_commands_and_what_the_graph_says_of_their_services():
+    home = compile_path(ROOT / "examples" / "home_arm_trigger.ini", Options()).program
+    plan = plan_of(home)
+    assert [(r.name, r.call) for r in plan.reads] == [("/icub/left_arm/homing/rpc:i", True)]
+    assert [(s.name, s.srv_type, s.role) for s in plan.services] == [("/icub/left_arm/home", "std_srvs/Trigger",
+                                                                      "server")]
+    gate = plan_of(compile_path(ROOT / "examples" / "yarp_rpc_to_ros2.ini", Options()).program)
+    assert [o.name for o in gate.opens] == ["/robot_gate/rpc:i"]  # its own RPC port serves the commands
+    assert [(s.name, s.role) for s in gate.services] == [("/robot/home", "client"), ("/tracker/enable", "client")]
+    seen = Ros2Seen(service_types={"/icub/left_arm/home": ["std_srvs/srv/SetBool"]}, servers={"/icub/left_arm/home": 1})
+    sink = Sink("home.ini")
+    service_findings(plan, seen, sink)
+    assert sorted(d.code for d in sink.items) == ["E373", "E376"]
+    sink = Sink("gate.ini")
+    service_findings(gate, Ros2Seen(), sink)
+    assert [d.code for d in sink.sorted()] == ["W572", "W572"]

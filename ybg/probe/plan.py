@@ -121,7 +121,10 @@ def _commands(program: ir.Commands, prefix: str) -> Plan:
     opens = [PortOpen(f"{prefix}/rpc:i", "the module's RPC port", program.services[0].span if program.services else None)]
     for port in program.served_ports:
         first = program.on_port(port)[0]
-        opens.append(PortOpen(port, "the RPC port the module serves", first.span))
+        if port == opens[0].name:  # its own RPC port answers the commands too
+            opens[0] = PortOpen(port, "the RPC port the module serves", first.span)
+        else:
+            opens.append(PortOpen(port, "the RPC port the module serves", first.span))
     for s in program.services:
         if s.serves == "ros2":
             services.append(ServiceUse(s.service, s.srv_type, "server", s.span, s.type_span or s.span))

@@ -77,9 +77,16 @@ class Graph:
                               "ROS 2 install, in the environment that runs ybgc") from e
         self._rclpy = rclpy
         self.context = rclpy.Context()
-        rclpy.init(args=[], context=self.context)
-        self.node = rclpy.create_node(f"ybgc_probe_{os.getpid()}", context=self.context,
-                                      start_parameter_services=False, enable_rosout=False)
+        try:
+            rclpy.init(args=[], context=self.context)
+            self.node = rclpy.create_node(f"ybgc_probe_{os.getpid()}", context=self.context,
+                                          start_parameter_services=False, enable_rosout=False)
+        except Exception as e:  # an rmw that cannot start: a bad ROS_DOMAIN_ID, RMW_IMPLEMENTATION ...
+            if self.context.ok():
+                rclpy.shutdown(context=self.context)
+            raise Unavailable(f"ROS 2 cannot join the graph: {e}",
+                              "check ROS_DOMAIN_ID, RMW_IMPLEMENTATION and ROS_AUTOMATIC_DISCOVERY_RANGE, "
+                              "as the module would be started with") from e
         self.started = time.monotonic()
         return self
 
