@@ -25,18 +25,18 @@ from types import SimpleNamespace
 import pytest
 
 from harness.build import Builds
-from harness.env import VENV
+from harness.env import ROOT, VENV
 from harness.generated import YBGC
 from harness.module import Module, Node, stop_clean
 from harness.ros2 import QosSubscriber, Ros2Domain, Ros2Publisher, ros2_environment, statuses
 from harness.variant import variant_env
 from harness.yarp import YarpServer, rpc
 from ybg.backends import check_result
+from ybg.lower import ros2_events as texts
+from ybg.runtime import core
 from ybg.compiler.ir import QoS
 from ybg.compiler.options import Options
 from ybg.compiler.pipeline import compile_text
-
-pytestmark = pytest.mark.yarp_min((4, 0))  # the ROS 2 side depends on no YARP release
 
 NAME = "events_bridge"
 OUT = "/events/out"
@@ -119,6 +119,27 @@ def qos_line(kind: str, topic: str, peer: str, policy: str, theirs: str, ours: s
             "counted\n")
 
 
+def cpp_text(name: str) -> str:
+    """The text of the C++ runtime's string constant ``name`` (adjacent literals joined)."""
+    source = (ROOT / "ybg" / "runtime" / "cpp" / "ybgc_ros2.cpp").read_text()
+    m = re.search(rf"{name} =\s*((?:\"[^\"]*\"\s*)+);", source)
+    assert m, name
+    return "".join(re.findall(r'"([^"]*)"', m.group(1)))
+
+
+def test_both_runtimes_say_the_lowering_librarys_texts():
+    """What each runtime says is ybg/lower/ros2_events.py's, word for word
+    (the type's text is never said with Fast DDS: only this shows it)."""
+    assert core.INCOMPATIBLE_QOS_TEXT == texts.INCOMPATIBLE_QOS_TEXT == cpp_text("kIncompatibleQosText")
+    assert core.INCOMPATIBLE_TYPE_TEXT == texts.INCOMPATIBLE_TYPE_TEXT == cpp_text("kIncompatibleTypeText")
+    assert core.EVENTS_TOTALS_LINE == texts.EVENTS_TOTALS_LINE
+
+
+#: the ROS 2 side depends on no YARP release: one of the matrix
+ros2_side = pytest.mark.yarp_min((4, 0))
+
+
+@ros2_side
 @pytest.mark.parametrize("backend", ["cpp", "ros2"])
 def test_incompatible_qos_said_once_and_counted(mw, modules, backend):
     """Two subscribers the module's publisher cannot serve (reliable against
@@ -168,6 +189,7 @@ def test_incompatible_qos_said_once_and_counted(mw, modules, backend):
     assert f"  ros2 subscription {IN}: incompatible QoS 1, incompatible type 0\n" in log, log
 
 
+@ros2_side
 @pytest.mark.parametrize("backend", ["cpp", "ros2"])
 def test_another_definition_of_the_type(mw, modules, backend):
     """Peers of the variant Polygon (its name, another definition and type

@@ -570,7 +570,8 @@ class EndpointEvents:
 
 
 #: what a ROS 2 endpoint says of its first peer of an incompatible QoS (the
-#: C++ runtime says the same: ybgc_ros2.cpp); {peer} is the other kind
+#: C++ runtime says the same: ybgc_ros2.cpp; the texts are ybg/lower/ros2_events.py's);
+#: {peer} is the other kind
 INCOMPATIBLE_QOS_TEXT = ("ROS 2 {kind} {topic}: a {peer} of an incompatible QoS ({policy}; the {peer}'s: "
                          "{theirs}; this {kind}'s: {ours}): no messages between them; further incompatible "
                          "QoS events of it are only counted")

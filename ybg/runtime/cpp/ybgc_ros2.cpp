@@ -648,21 +648,27 @@ std::string hashText(const rosidl_type_hash_t& hash)
     return out;
 }
 
-/// The Python node's texts (core.py: INCOMPATIBLE_QOS_TEXT, INCOMPATIBLE_TYPE_TEXT).
-std::string incompatibleQosText(const std::string& kind, const std::string& topic, const std::string& peer,
-                                const std::string& policy, const std::string& theirs, const std::string& ours)
-{
-    return "ROS 2 " + kind + " " + topic + ": a " + peer + " of an incompatible QoS (" + policy + "; the " + peer
-        + "'s: " + theirs + "; this " + kind + "'s: " + ours + "): no messages between them; further incompatible "
-        "QoS events of it are only counted";
-}
+/// What the Python node says (core.py; ybg/lower/ros2_events.py holds both
+/// to its texts): the first peer of an incompatible QoS, of another
+/// definition of the type; their {names} filled by filled().
+const char* const kIncompatibleQosText =
+    "ROS 2 {kind} {topic}: a {peer} of an incompatible QoS ({policy}; the {peer}'s: {theirs}; this {kind}'s: "
+    "{ours}): no messages between them; further incompatible QoS events of it are only counted";
+const char* const kIncompatibleTypeText =
+    "ROS 2 {kind} {topic}: a {peer} of another definition of {type} (its type hash {theirs}; this {kind}'s: "
+    "{ours}): no messages between them; further incompatible type events of it are only counted";
 
-std::string incompatibleTypeText(const std::string& kind, const std::string& topic, const std::string& peer,
-                                 const std::string& type, const std::string& theirs, const std::string& ours)
+/// `text` with each {name} of `values` replaced by its value (as Python's str.format).
+std::string filled(const char* text, std::initializer_list<std::pair<const char*, std::string>> values)
 {
-    return "ROS 2 " + kind + " " + topic + ": a " + peer + " of another definition of " + type + " (its type hash "
-        + theirs + "; this " + kind + "'s: " + ours + "): no messages between them; further incompatible type "
-        "events of it are only counted";
+    std::string out = text;
+    for (const auto& [name, value] : values) {
+        const std::string key = std::string("{") + name + "}";
+        for (std::size_t at = out.find(key); at != std::string::npos; at = out.find(key, at + value.size())) {
+            out.replace(at, key.size(), value);
+        }
+    }
+    return out;
 }
 
 /// A count of events from the middleware's `total` (its lifetime count),
@@ -805,9 +811,10 @@ std::string IncompatiblePeers::qosText(int policy)
         }
     }
     const char* name = rmw_qos_policy_kind_to_str(static_cast<rmw_qos_policy_kind_t>(policy));
-    return incompatibleQosText(kind_, topic_, publishes ? "subscription" : "publisher",
-                               name != nullptr ? name : "policy " + std::to_string(policy), theirs,
-                               ours != nullptr ? qosWords(*ours) : "unknown");
+    return filled(kIncompatibleQosText, {{"kind", kind_}, {"topic", topic_},
+                                         {"peer", publishes ? "subscription" : "publisher"},
+                                         {"policy", name != nullptr ? name : "policy " + std::to_string(policy)},
+                                         {"theirs", theirs}, {"ours", ours != nullptr ? qosWords(*ours) : "unknown"}});
 }
 
 std::string IncompatiblePeers::typeText()
@@ -838,7 +845,9 @@ std::string IncompatiblePeers::typeText()
             }
         }
     }
-    return incompatibleTypeText(kind_, topic_, publishes ? "subscription" : "publisher", typeName_, theirs, ours);
+    return filled(kIncompatibleTypeText, {{"kind", kind_}, {"topic", topic_},
+                                          {"peer", publishes ? "subscription" : "publisher"}, {"type", typeName_},
+                                          {"theirs", theirs}, {"ours", ours}});
 }
 
 Totals::Ros2Endpoint IncompatiblePeers::counts() const
