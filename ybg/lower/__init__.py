@@ -14,6 +14,8 @@ and that no backend owns.
 - :mod:`.python`: Python source for the runtime library's specs and the
   Bottle builder, shared by the backends that write Python;
 - :mod:`.package`: the ROS 2 package and launch file around a module;
+- :mod:`.ros2_events`: what both runtimes say and count of the incompatible
+  peers of a module's ROS 2 publishers and subscriptions;
 - :mod:`.templates`: the Jinja environment (templates only print) and its
   filters;
 - :mod:`.yarpmanager`: the yarpmanager application of a module.
