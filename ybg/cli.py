@@ -138,7 +138,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser("probe", help="before a module starts: its config against the running YARP network and "
                                      "ROS 2 graph (docs/probe.md)")
-    r.add_argument("files", nargs="*", metavar="CONFIG", help=_FOLDER_HELP)
+    r.add_argument("files", nargs="*", metavar="CONFIG", help="default: every config of the folder")
     r.add_argument("--wait", type=float, default=2.0, metavar="S",
                    help="seconds for ROS 2 discovery and for a Bottle from each input port (default 2)")
     r.add_argument("--prefix", "--name", dest="prefix", metavar="PREFIX",
@@ -538,7 +538,8 @@ def cmd_probe(args) -> int:
     except OverrideError as e:
         _usage_error(str(e), e.hint)
     options = _options(args)
-    results = [_compile(f, args, options) for f in (args.files or [folder_config("probe")])]
+    files = args.files or folder_configs() or [folder_config("probe")]
+    results = [_compile(f, args, options) for f in files]
     checked = [(r.program, r.path) for r in results if r.program is not None and not r.errors]
     if args.prefix and len(results) > 1:
         _usage_error("--prefix names the ports of one module: one config with it", "probe each config alone")
