@@ -96,6 +96,8 @@ CONFIGS = {
     "clean": JOINTS.format(name="probe_clean", topic="/probe/clean/joint_states", head=HEAD, extra=""),
     "polygon": POLYGON_CONFIG,
 }
+#: the override that the hint of the incompatible QoS gives
+MENDS = "qos_overrides./probe/qos/joint_states.publisher.reliability:=reliable"
 #: seconds for discovery: twice what a loaded machine of 2 cores was seen to need
 WAIT = 4
 
@@ -160,7 +162,8 @@ def test_an_incompatible_qos_and_a_type_hash_of_another_definition(robot):
     qos_d, hash_d = by_file["qos.ini", "E375"], by_file["polygon.ini", "E374"]
     assert (qos_d["line"], qos_d["column"]) == (7, 1)  # the output (its `via`)
     assert "Best effort publisher and reliable subscription" in qos_d["message"], qos_d
-    assert "qos_overrides./probe/qos/joint_states.publisher." in qos_d["hint"], qos_d
+    assert qos_d["hint"].startswith(f"start the module with -p {MENDS}, and probe with the same; or set "
+                                    "`reliability = reliable` in the config's [output]"), qos_d
     assert (hash_d["line"], hash_d["column"]) == (6, 8)  # the output's type
     hashes = re.findall(r"RIHS01_[0-9a-f]{64}", hash_d["message"])
     assert len(hashes) == 2 and hashes[0] != hashes[1], hash_d
@@ -170,7 +173,7 @@ def test_an_incompatible_qos_and_a_type_hash_of_another_definition(robot):
 def test_a_clean_robot_and_the_override_that_mends_the_qos(robot):
     env, tmp = robot
     r = probe(env, tmp, ["clean", "qos"], "--wait", WAIT, "-v",
-              "-p", "qos_overrides./probe/qos/joint_states.publisher.reliability:=reliable")
+              "-p", MENDS)
     assert r.returncode == 0, r.stderr
     notes = [line for line in r.stderr.splitlines() if " note N670 " in line]
     assert all(not re.search(r": (error|warning) ", line) for line in r.stderr.splitlines()), r.stderr
@@ -258,3 +261,40 @@ def test_the_plan_of_commands_and_what_the_graph_says_of_their_services():
     sink = Sink("gate.ini")
     service_findings(gate, Ros2Seen(), sink)
     assert [d.code for d in sink.sorted()] == ["W572", "W572"]
+
+
+def test_what_the_graph_says_of_topics():
+    """Each endpoint of a topic: another type, another hash, QoS that rmw
+    refuses (the hint's override, or the peer's deadline, which the module
+    cannot offer), QoS rmw cannot tell about."""
+    from ybg.probe.findings import ros2_findings
+    from ybg.probe.ros2_graph import Endpoint
+
+    text = JOINTS.format(name="m", topic="/js", head=HEAD, extra="durability = transient_local\n")
+    plan = plan_of(compile_text(text, "m.ini").program)
+    js = "sensor_msgs/msg/JointState"
+    seen = Ros2Seen(endpoints={"/js": [
+        Endpoint("/a", "subscription", "std_msgs/msg/String", None, ""),
+        Endpoint("/b", "subscription", js, "RIHS01_" + "1" * 64, ""),
+        Endpoint("/c", "subscription", js, None, "", "error", "ERROR: Subscription has a deadline", "reliable",
+                 "volatile"),
+        Endpoint("/d", "subscription", js, None, "", "warning", "WARNING: unknown", "reliable", "volatile"),
+        Endpoint("/e", "publisher", js, None, "", None, "", "best_effort", "volatile")]})
+    profiles = {(t.topic, t.role): qos.Profile.of(t.qos) for t in plan.topics}
+    sink = Sink("m.ini")
+    ros2_findings(plan, seen, {"sensor_msgs/JointState": "RIHS01_" + "2" * 64}, profiles, sink)
+    got = {d.message.split("'s ")[0].rsplit(" ", 1)[-1]: (d.code, d.hint) for d in sink.items if d.code != "N670"}
+    assert {k: v[0] for k, v in got.items()} == {"/a": "E373", "/b": "E374", "/c": "E375", "/d": "W571"}
+    assert got["/c"][1].startswith("/c asks for what the module does not offer")
+    reader = plan_of(compile_path(ROOT / "examples" / "ros2_to_yarp_gaze.ini", Options()).program)
+    assert [(t.topic, t.role, t.qos) for t in reader.topics] == [
+        ("/fixation_point", "subscription", ir.QoS("best_effort", "volatile", 1)),
+        ("/diagnostics", "publisher", ir.QoS(depth=1))]
+    e = Endpoint("/pub", "publisher", "geometry_msgs/msg/PointStamped", None, "", "error", "ERROR: ...",
+                 "reliable", "volatile")
+    sink = Sink("gaze.ini")
+    profiles = {(t.topic, t.role): qos.Profile("reliable", "transient_local", 1) for t in reader.topics}
+    ros2_findings(reader, Ros2Seen(endpoints={"/fixation_point": [e]}), {}, profiles, sink)
+    (d,) = [d for d in sink.items if d.code == "E375"]
+    assert d.hint.startswith("start the module with -p qos_overrides./fixation_point.subscription.durability:=volatile"
+                             ", and probe with the same; or change /pub's QoS"), d.hint

@@ -83,18 +83,43 @@ def ros2_findings(plan: Plan, ros2, hashes: dict, profiles: dict, sink: Sink) ->
                 _qos(use, ep, profiles[(use.topic, use.role)], sink)
 
 
+#: (the module's role, policy, its value, the peer's) that rmw refuses -> what the module's must be
+_REFUSED = {
+    ("publisher", "reliability", "best_effort", "reliable"): "reliable",
+    ("publisher", "durability", "volatile", "transient_local"): "transient_local",
+    ("subscription", "reliability", "reliable", "best_effort"): "best_effort",
+    ("subscription", "durability", "transient_local", "volatile"): "volatile",
+}
+
+
+def _overrides(use: TopicUse, ep, mine: Profile) -> list[str]:
+    """The overrides that make the module's side of ``use`` match ``ep``
+    in reliability and durability (the policies it sets)."""
+    out = []
+    for policy in ("reliability", "durability"):
+        value = _REFUSED.get((use.role, policy, getattr(mine, policy), getattr(ep, policy)))
+        if value is not None:
+            out.append(f"-p qos_overrides.{use.topic}.{use.role}.{policy}:={value}")
+    return out
+
+
 def _qos(use: TopicUse, ep, mine: Profile, sink: Sink) -> None:
     message = (f"the topic {use.topic}: {ep.node}'s {ep.kind} ({ep.qos}) and the module's {use.role} "
                f"({_text(mine)}): {ep.reason or 'rmw cannot tell'}")
-    override = f"-p qos_overrides.{use.topic}.{use.role}.POLICY:=VALUE"
     if ep.compatible == "warning":
         sink.warning("W571", message, use.span, "a policy of one side is the system default or unknown: "
                      "set it explicitly on that side to know")
         return
-    hint = (f"change the peer's QoS, or the module's: {override} at start (history, depth, reliability, "
-            "durability)" if use.overridable else "change the peer's QoS")
-    if use.role == "publisher" and use.overridable:
-        hint += ", or `reliability`/`durability` in the config's [output]"
+    fixes = _overrides(use, ep, mine) if use.overridable else []
+    if not fixes:  # deadline, liveliness: the module leaves them to rmw's defaults
+        hint = (f"{ep.node} asks for what the module does not offer (it sets no deadline, liveliness or "
+                "lifespan): change that peer's QoS")
+    else:
+        hint = f"start the module with {' '.join(fixes)}, and probe with the same"
+        if use.role == "publisher":
+            settings = [f.split(".")[-1].replace(":=", " = ") for f in fixes]
+            hint += f"; or set {' and '.join(f'`{x}`' for x in settings)} in the config's [output]"
+        hint += f"; or change {ep.node}'s QoS"
     sink.error("E375", message, use.span, hint)
 
 

@@ -30,6 +30,8 @@ class Endpoint:
     qos: str
     compatible: str | None = None
     reason: str = ""
+    reliability: str = ""
+    durability: str = ""
 
 
 @dataclass
@@ -109,8 +111,10 @@ class Graph:
                     if kind != use.role:
                         pub, sub = (mine, info.qos_profile) if use.role == "publisher" else (info.qos_profile, mine)
                         level, reason = _compatible(pub, sub)
+                    q = info.qos_profile
                     found.append(Endpoint(f"{info.node_namespace.rstrip('/')}/{info.node_name}", kind,
-                                          info.topic_type, _hash(info), _describe(info.qos_profile), level, reason))
+                                          info.topic_type, _hash(info), _describe(q), level, reason,
+                                          q.reliability.name.lower(), q.durability.name.lower()))
             seen.endpoints[use.topic] = found
         if plan.services:
             types = dict(self.node.get_service_names_and_types())
