@@ -73,8 +73,8 @@ OVERRIDES = ("--ros-args", "-p", f"qos_overrides.{OUT}.publisher.reliability:=be
              "-p", f"qos_overrides.{IN}.subscription.durability:=transient_local")
 
 # `yarp rpc` prints a topic quoted
-STATS_ROS2 = re.compile(r'^\s*ros2 (publisher|subscription) "?([^"\s]+)"? incompatible_qos (\d+) incompatible_type (\d+)$',
-                        re.M)
+STATS_ROS2 = re.compile(r'^\s*ros2 (publisher|subscription) "?([^"\s]+)"? '
+                        r"incompatible_qos (\d+) incompatible_type (\d+)$", re.M)
 
 
 def environ() -> dict:
@@ -114,9 +114,10 @@ def events_stats(server) -> dict:
 
 
 def qos_line(kind: str, topic: str, peer: str, policy: str, theirs: str, ours: str) -> str:
-    return (f"{NAME}: ROS 2 {kind} {topic}: a {peer} of an incompatible QoS ({policy}; the {peer}'s: {theirs}; "
-            f"this {kind}'s: {ours}): no messages between them; further incompatible QoS events of it are only "
-            "counted\n")
+    """The line the module says of its first peer of an incompatible QoS."""
+    text = texts.INCOMPATIBLE_QOS_TEXT.format(kind=kind, topic=topic, peer=peer, policy=policy, theirs=theirs,
+                                              ours=ours)
+    return f"{NAME}: {text}\n"
 
 
 def cpp_text(name: str) -> str:
@@ -185,8 +186,8 @@ def test_incompatible_qos_said_once_and_counted(mw, modules, backend):
         for p in [module, *peers]:
             p.stop()
     assert log.count("incompatible QoS events of it") == 2, log  # one said per endpoint
-    assert f"  ros2 publisher {OUT}: incompatible QoS 2, incompatible type 0\n" in log, log
-    assert f"  ros2 subscription {IN}: incompatible QoS 1, incompatible type 0\n" in log, log
+    for line in (("publisher", OUT, 2, 0), ("subscription", IN, 1, 0)):
+        assert "  " + texts.EVENTS_TOTALS_LINE % line + "\n" in log, log
 
 
 @ros2_side
