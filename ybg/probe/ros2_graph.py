@@ -144,4 +144,7 @@ def _compatible(pub, sub) -> tuple[str, str]:
     from rclpy.qos import QoSCompatibility, qos_check_compatible
 
     level, reason = qos_check_compatible(pub, sub)
-    return {QoSCompatibility.OK: "ok", QoSCompatibility.WARNING: "warning"}.get(level, "error"), reason.strip()
+    # rmw's reasons: "ERROR: Best effort publisher and reliable subscription;ERROR: ...;"
+    reasons = [r.strip().removeprefix("ERROR:").removeprefix("WARNING:").strip() for r in reason.split(";")]
+    verdict = {QoSCompatibility.OK: "ok", QoSCompatibility.WARNING: "warning"}.get(level, "error")
+    return verdict, "; ".join(r for r in reasons if r)
