@@ -2,7 +2,7 @@
 with real peers (one yarpserver, one ROS 2 domain and the peers shared by
 the whole file): a YARP producer sending another layout than declared, a
 missing port, a taken output port, an rclpy subscriber with an incompatible
-QoS (and the override that mends it), a subscriber of ybg_demo_msgs/Polygon
+QoS (and the override that mends it), a port that sends nothing within the wait, a subscriber of ybg_demo_msgs/Polygon
 built from another definition (tests/harness/variant.py: one type name, two
 type hashes), a clean robot (exit 0), and no name server (exit 2). The
 probe runs as a user runs it: the ybgc command, in a process of its own.
@@ -36,6 +36,7 @@ from ybg.probe.ros2_graph import Ros2Seen
 ARM = "/probe/arm/state:o"      # sends int32 x6; declared (float64 x8)
 HEAD = "/probe/head/state:o"    # sends float64 x6, as declared
 MISSING = "/probe/legs/state:o"  # nobody opens it
+SILENT = "/probe/hand/state:o"   # open, sends nothing
 
 WRONG_YARP = f"""\
 [module]
@@ -51,9 +52,13 @@ ports = {ARM} (float64 x8)
 [mux legs]
 ports = {MISSING} (float64 x4)
 
+[mux hand]
+ports = {SILENT} (float64 x9)
+
 [message]
 arm = [arm]
 legs = [legs]
+hand = [hand]
 """
 
 JOINTS = """\
@@ -113,6 +118,7 @@ def robot(tmp_path_factory):
         env = ros2_environment(server.env, domain)
         peers = [YarpProducer(env, ARM, bottles=[[1, 2, 3, 4, 5, 6]], rate=50),
                  YarpProducer(env, HEAD, bottles=[[0.5] * 6], rate=50),
+                 YarpProducer(env, SILENT),
                  QosSubscriber(env, "/probe/clean/joint_states", "sensor_msgs/msg/JointState"),
                  QosSubscriber(env, "/probe/qos/joint_states", "sensor_msgs/msg/JointState",
                                ir.QoS(reliability="reliable")),
@@ -142,13 +148,20 @@ def test_another_layout_a_missing_port_and_a_taken_output(robot):
     r = probe(env, tmp, ["wrong"], "--format", "json")
     assert r.returncode == 1, r.stderr
     got = found(r)
-    assert set(got) == {"E370", "E371", "E372"}, got
+    assert set(got) == {"E370", "E371", "E372", "W570"}, got
     line, col, message = got["E371"]
     assert (line, col) == (9, 9)  # the declaration of /probe/arm/state:o in [mux arm]
     assert "sends 6 values: int32 x6" in message and "(float64 x8)" in message, message
     assert got["E370"][:2] == (12, 9) and MISSING in got["E370"][2]
     assert HEAD in got["E372"][2]
+    assert got["W570"][:2] == (15, 9) and "sent no Bottle within 2 s" in got["W570"][2]
     assert all(d["title"] == PROBE_CODES[d["code"]] for d in json.loads(r.stdout))
+    r = probe(env, tmp, ["wrong"], "--format", "github", "--wait", "0.5")
+    assert r.returncode == 1, r.stderr
+    lines = r.stdout.splitlines()
+    assert [line.split("::")[1] for line in lines] == [
+        "error file=wrong.ini,line=5,col=1,title=E372", "error file=wrong.ini,line=9,col=9,title=E371",
+        "error file=wrong.ini,line=12,col=9,title=E370", "warning file=wrong.ini,line=15,col=9,title=W570"], lines
 
 
 def test_an_incompatible_qos_and_a_type_hash_of_another_definition(robot):
