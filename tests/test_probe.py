@@ -1,12 +1,13 @@
 """``ybgc probe``: configs against a live YARP name server and ROS 2 graph,
 with real peers (one yarpserver, one ROS 2 domain and the peers shared by
 the whole file): a YARP producer sending another layout than declared, a
-missing port, a taken output port, an rclpy subscriber with an incompatible
-QoS (and the override that mends it), a port that sends nothing within the wait, a subscriber of ybg_demo_msgs/Polygon
-built from another definition (tests/harness/variant.py: one type name, two
-type hashes), a clean robot (exit 0), and no name server (exit 2). The
-probe runs as a user runs it: the ybgc command, in a process of its own.
-Pure parts (layouts, overrides, the plan) are tested without middleware."""
+missing port, a port that sends nothing within the wait, a taken output
+port, an rclpy subscriber with an incompatible QoS (and the override that
+mends it), a subscriber of ybg_demo_msgs/Polygon built from another
+definition (tests/harness/variant.py: one type name, two type hashes), a
+clean robot (exit 0), and no name server (exit 2). The probe runs as a user
+runs it: the ybgc command, in a process of its own. Pure parts (layouts,
+overrides, the plan, what the graph says) are tested without middleware."""
 
 from __future__ import annotations
 
