@@ -17,9 +17,8 @@ from ybg.compiler.diagnostics import Diagnostic, Sink
 from ybg.compiler.options import Options
 
 from .findings import ros2_findings, service_findings, yarp_findings
-from .plan import plan_of
+from .plan import Unavailable, plan_of
 from .qos import Override, OverrideError, Profile, overridden
-from .yarp_graph import Unavailable
 
 DEFAULT_WAIT = 2.0
 

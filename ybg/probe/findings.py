@@ -23,6 +23,12 @@ def yarp_findings(plan: Plan, yarp, wait: float, sink: Sink) -> None:
         if r.call or r.image:
             continue
         elements = yarp.bottles.get(r.name)
+        if r.name in yarp.refused:
+            sink.warning("W570", f"{r.what}: {r.name} answers, and took no connection to the probe's port: "
+                         "its layout is not checked", r.span,
+                         "is it an output port? A module reads a port that writes (yarp name list; "
+                         f"yarp read ... {r.name} shows what it sends)")
+            continue
         if elements is None:
             sink.warning("W570", f"{r.what}: {r.name} sent no Bottle within {wait:g} s: its layout is not checked",
                          r.span, "a port that sends only when something happens sends nothing now; probe again "

@@ -22,6 +22,15 @@ DIAGNOSTICS_TYPE = "diagnostic_msgs/DiagnosticArray"
 DIAGNOSTICS_QOS = ir.QoS(depth=1)
 
 
+class Unavailable(RuntimeError):
+    """The middleware cannot be asked at all (no name server, no bindings):
+    the message, and a hint. Nothing is probed then."""
+
+    def __init__(self, message: str, hint: str):
+        super().__init__(message)
+        self.hint = hint
+
+
 @dataclass(frozen=True)
 class PortRead:
     """A YARP port the module reads (``layout`` its declared elements, None:

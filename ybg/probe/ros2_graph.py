@@ -11,9 +11,8 @@ import os
 import time
 from dataclasses import dataclass, field
 
-from .plan import Plan
+from .plan import Plan, Unavailable
 from .qos import Profile
-from .yarp_graph import Unavailable
 
 
 @dataclass(frozen=True)

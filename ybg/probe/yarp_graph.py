@@ -10,25 +10,19 @@ import os
 import time
 from dataclasses import dataclass, field
 
-from .plan import Plan
-
-
-class Unavailable(RuntimeError):
-    """The middleware cannot be asked at all: the message, and a hint."""
-
-    def __init__(self, message: str, hint: str):
-        super().__init__(message)
-        self.hint = hint
+from .plan import Plan, Unavailable
 
 
 @dataclass
 class YarpSeen:
     """``answers``: port -> does it answer (registered and alive);
     ``bottles``: port -> the elements of the first Bottle read from it
-    (absent: none within the wait, or not read)."""
+    (absent: none within the wait, or not read); ``refused``: the ports
+    that answer and took no connection to the probe's port."""
 
     answers: dict[str, bool] = field(default_factory=dict)
     bottles: dict[str, list] = field(default_factory=dict)
+    refused: set[str] = field(default_factory=set)
 
 
 def _yarp():
@@ -80,8 +74,8 @@ def observe(plan: Plan, wait: float) -> YarpSeen:
         seen = YarpSeen()
         for name in dict.fromkeys([o.name for o in plan.opens] + [r.name for r in plan.reads]):
             seen.answers[name] = bool(yarp.Network.exists(name, True))
-        wanted = [r for r in plan.reads if seen.answers[r.name] and not r.call and not r.image]
-        _read_each(yarp, [r.name for r in dict((r.name, r) for r in wanted).values()], wait, seen)
+        wanted = dict.fromkeys(r.name for r in plan.reads if seen.answers[r.name] and not r.call and not r.image)
+        _read_each(yarp, list(wanted), wait, seen)
         return seen
     finally:
         yarp.Network.fini()
@@ -96,6 +90,7 @@ def _read_each(yarp, sources: list[str], wait: float, seen: YarpSeen) -> None:
             if port.open(local) and yarp.Network.connect(src, local, "", True):
                 ports[src] = port
             else:
+                seen.refused.add(src)
                 port.close()
         end = time.monotonic() + wait
         while ports.keys() - seen.bottles.keys() and time.monotonic() < end:
