@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import re
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -312,3 +313,15 @@ def test_what_the_graph_says_of_topics():
     (d,) = [d for d in sink.items if d.code == "E375"]
     assert d.hint.startswith("start the module with -p qos_overrides./fixation_point.subscription.durability:=volatile"
                              ", and probe with the same; or change /pub's QoS"), d.hint
+
+
+def test_check_and_the_probe_load_no_middleware_until_probing(tmp_path):
+    """rclpy and YARP are slow to load: `ybgc check` never loads them, nor
+    does loading the probe; only probing does."""
+    cfg = tmp_path / "clean.ini"
+    cfg.write_text(CONFIGS["clean"], encoding="utf-8")
+    code = ("import sys; from ybg.cli import main; status = main(['check', sys.argv[1]]); import ybg.probe; "
+            "loaded = [m for m in ('rclpy', 'yarp') if m in sys.modules]; "
+            "assert status == 0 and not loaded, (status, loaded)")
+    r = subprocess.run([sys.executable, "-c", code, str(cfg)], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stderr
