@@ -147,7 +147,7 @@ def found(r: subprocess.CompletedProcess) -> dict:
 
 def test_another_layout_a_missing_port_and_a_taken_output(robot):
     env, tmp = robot
-    r = probe(env, tmp, ["wrong"], "--format", "json")
+    r = probe(env, tmp, ["wrong"], "--format", "json", "--wait", "2")
     assert r.returncode == 1, r.stderr
     got = found(r)
     assert set(got) == {"E370", "E371", "E372", "W570"}, got

@@ -139,8 +139,8 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("probe", help="before a module starts: its config against the running YARP network and "
                                      "ROS 2 graph (docs/probe.md)")
     r.add_argument("files", nargs="*", metavar="CONFIG", help="default: every config of the folder")
-    r.add_argument("--wait", type=float, default=2.0, metavar="S",
-                   help="seconds for ROS 2 discovery and for a Bottle from each input port (default 2)")
+    r.add_argument("--wait", type=float, default=3.0, metavar="S",
+                   help="seconds for ROS 2 discovery and for a Bottle from each input port (default 3)")
     r.add_argument("--prefix", "--name", dest="prefix", metavar="PREFIX",
                    help="the module's port prefix, as it is started (default /<module>)")
     r.add_argument("-p", "--param", action="append", default=[], metavar="NAME:=VALUE",
@@ -529,7 +529,7 @@ def cmd_probe(args) -> int:
     status of ``check``: 2 also when YARP or ROS 2 cannot be asked."""
     from ybg.probe import OverrideError, Settings, Unavailable, probe
     from ybg.probe.qos import parse_parameter
-    from ybg.probe.report import report_probe
+    from ybg.report import report
 
     if not 0 < args.wait <= 600:
         _usage_error(f"--wait {args.wait:g}: not a number of seconds in (0, 600]", "e.g. --wait 2")
@@ -551,7 +551,7 @@ def cmd_probe(args) -> int:
         r.diagnostics = sorted(r.diagnostics + found.get(r.path, []), key=lambda d: d.sort_key())
     sources = {r.path: r.text for r in results if r.text is not None}
     stream = sys.stdout if args.format != "text" else sys.stderr
-    report_probe(args.format, [d for r in results for d in r.diagnostics], sources, stream, notes=args.verbose)
+    report(args.format, [d for r in results for d in r.diagnostics], sources, stream, notes=args.verbose)
     if any(_io_error(r) for r in results):
         return EXIT_USAGE
     if any(r.errors for r in results) or (args.strict and any(r.warnings for r in results)):

@@ -11,7 +11,7 @@ import json
 import sys
 from typing import Iterable, TextIO
 
-from ybg.compiler.diagnostics import CODES, Diagnostic, Severity
+from ybg.compiler.diagnostics import Diagnostic, Severity, title
 
 FORMATS = ("text", "json", "github")
 
@@ -69,7 +69,7 @@ def report_json(diags: list[Diagnostic], stream: TextIO) -> None:
         {
             "file": d.file, "line": d.span.line, "column": d.span.column,
             "end_line": d.span.end_line, "end_column": d.span.end_column,
-            "severity": d.severity.value, "code": d.code, "title": CODES[d.code],
+            "severity": d.severity.value, "code": d.code, "title": title(d.code),
             "message": d.message, "hint": d.hint, "fix": _fix_json(d.fix),
         }
         for d in diags
