@@ -68,6 +68,10 @@ def on_today_yarp(test):
     return pytest.mark.yarp_min((4, 0))(run)
 
 
+# the first test of a YARP release builds every module of the session (two
+# jobs, about two minutes on a quiet machine, more on a busy one): more time
+# than a single test gets
+@pytest.mark.timeout(900)
 class TestCppBehaviour(BridgeBehaviour, Ros1Behaviour, ModuleCommandLine):
     backend = "cpp"
     help_options = ("--name P", "--prefix P", "--rate HZ", "--timeout S", "--verbose", "--from FILE", "--context CTX",
