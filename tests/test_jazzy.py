@@ -17,13 +17,15 @@ with geometry converters):
 Every subscriber receives every message, the same bit for bit as the Kilted
 reference: Kilted and Jazzy interoperate on Fast DDS both ways. Then the
 other direction of a bridge: a Jazzy publisher to the Kilted rclpy node's
-ROS 2 input, into a YARP port. And what mixes the two distros in one
-process: a Jazzy Python, or a Jazzy-built module, started with the library
+ROS 2 input, into a YARP port. ``ybgc probe`` checks the endpoints of
+either distro as its own (their type hashes, their QoS) before a module
+runs. And what mixes the two distros in one process: a Jazzy Python, or a Jazzy-built module, started with the library
 path a Kilted Python sets (tests/harness/jazzy.py).
 """
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 import random
 import signal
@@ -40,7 +42,7 @@ from harness.jazzy import (JAZZY_PYTHON, JAZZY_VENV, NODE_YARP, JazzyPublisher, 
                            jazzy_env, require_jazzy)
 from harness.launchers import write_node
 from harness.module import Module
-from harness.programs import diff_tf_program, text_program
+from harness.programs import DIFF_TF, diff_tf_program, text_program
 from harness.ros2 import Ros2Domain, Ros2Subscriber, ros2_environment
 from harness.yarp import YarpProducer, YarpReader, YarpServer
 
@@ -173,14 +175,6 @@ def test_a_jazzy_build_started_with_the_kilted_library_path_mixes_the_two(graph)
         assert venv_libraries(probe.pid) == {VENV.name, JAZZY_VENV.name}
 
 
-def test_each_native_module_stops_on_sigint(graph):
-    # with 0 within 2 s, whichever ROS 2 it was built for
-    for module in graph.native.values():
-        rc, elapsed = module.interrupt(signal.SIGINT)
-        assert rc == 0 and elapsed < 2.0, module.log_text()[-2000:]
-        assert "Traceback" not in module.log_text()
-
-
 READER = """\
 [module]
 name = jazzy_reader
@@ -237,3 +231,41 @@ def test_a_jazzy_python_with_the_kilted_library_path_cannot_import_rclpy(tmp_pat
     own = subprocess.run([str(JAZZY_PYTHON), "-c", code], capture_output=True, text=True,
                          env={**jazzy_env(dict(os.environ)), "ROS_HOME": str(tmp_path)}, timeout=60)
     assert own.returncode == 0 and own.stdout.strip() == "ok", own.stderr[-2000:]
+
+
+@pytest.mark.parametrize("distro,topic", [("kilted", "/diff/tf_jazzy"), ("jazzy", "/diff/tf_kilted")])
+def test_the_probe_checks_the_other_distros_endpoints_as_its_own(graph, tmp_path, distro, topic):
+    # ybgc probe (Kilted's rclpy), before a module of ``distro`` joins the
+    # topic that publishers and subscribers of both distros are on: each
+    # endpoint seen, its type hash that of the definition checked (no E374),
+    # its QoS compatible; the endpoints' hashes are read (a definition of one
+    # field more: E374 for each of them)
+    config = tmp_path / "probe_tf.ini"
+    config.write_text(DIFF_TF.replace("name = diff_tf", "name = probe_tf")
+                      .replace("topic = /diff/tf\n", f"topic = {topic}\n"), encoding="utf-8")
+    other = tmp_path / "msgs" / "tf2_msgs"
+    other.mkdir(parents=True)
+    (other / "TFMessage.msg").write_text("geometry_msgs/TransformStamped[] transforms\nuint8 more\n")
+
+    def probe(wait, *options):
+        r = subprocess.run([str(VENV / "bin" / "ybgc"), "probe", str(config), "--distro", distro, "-v",
+                            "--format", "json", "--wait", str(wait), *options], env=graph.env,
+                           capture_output=True, text=True, timeout=60)
+        return r.returncode, {d["code"]: d["message"] for d in json.loads(r.stdout or "[]")
+                              if d["code"] != "N670" or topic in d["message"]}, r.stderr
+
+    rc, found, err = probe(4)  # discovery of every endpoint, node names too, on a busy machine
+    assert rc == 0 and set(found) == {"N670", "W570"}, (found, err)  # W570: the producers are quiet
+    for endpoint in ({"/diff/tf_jazzy": "/diff_tf_jazzy", "/diff/tf_kilted": "/diff_tf_kilted"}[topic],
+                     "/kilted_of_", "/jazzy_of_"):
+        assert endpoint in found["N670"], found["N670"]
+    rc, found, err = probe(2, "--msg-path", str(tmp_path / "msgs"))
+    assert rc == 1 and "E374" in found, (found, err)
+
+
+def test_each_native_module_stops_on_sigint(graph):
+    # with 0 within 2 s, whichever ROS 2 it was built for
+    for module in graph.native.values():
+        rc, elapsed = module.interrupt(signal.SIGINT)
+        assert rc == 0 and elapsed < 2.0, module.log_text()[-2000:]
+        assert "Traceback" not in module.log_text()
