@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
 import random
 import signal
 import subprocess
@@ -37,9 +36,9 @@ import pytest
 
 from harness.build import Builds
 from harness.differential import float_bits
-from harness.env import VENV, VENV_PYTHON
+from harness.env import VENV, VENV_PYTHON, clean_environ
 from harness.jazzy import (JAZZY_PYTHON, JAZZY_VENV, NODE_YARP, JazzyPublisher, JazzySubscriber,
-                           jazzy_env, require_jazzy)
+                           jazzy_env, kilted_inherited, require_jazzy)
 from harness.launchers import write_node
 from harness.module import Module
 from harness.programs import DIFF_TF, diff_tf_program, text_program
@@ -112,26 +111,34 @@ def write_round(graph, k: int, stamp: float) -> None:
     graph.producers["/diff/tool:o"].write(TOOL, stamp=[k, stamp + 0.5])
 
 
-def test_kilted_and_jazzy_publishers_and_subscribers_exchange_the_same_messages(graph):
-    # a message published before a subscriber has matched its publisher is
-    # lost (volatile): the first round is repeated until every subscriber has one
-    subs = graph.subs.values()
-    k = 0
-    while not all(s.messages for s in subs):
-        write_round(graph, 0, 1.7e9 + k)
-        k += 1
-        for s in subs:
+def until_through(send, peers) -> None:
+    """A message published before a subscription has matched its publisher
+    is lost (volatile QoS): ``send()`` every half second until each of
+    ``peers`` (subscribers, YARP readers) has one (at most 30 s), then
+    forget those."""
+    pending = list(peers)
+    for _ in range(60):
+        send()
+        for p in list(pending):
             try:
-                s.wait_for(1, timeout=0.5)
+                p.wait_for(1, timeout=0.5)
+                pending.remove(p)
             except TimeoutError:
                 pass
-    for s in subs:
-        s.clear()
+        if not pending:
+            break
+    assert not pending, f"nothing reached {[p.name for p in pending]} in 30 s"
+    for p in peers:
+        p.clear()
+
+
+def test_kilted_and_jazzy_publishers_and_subscribers_exchange_the_same_messages(graph):
+    until_through(lambda: write_round(graph, 0, 1.7e9), graph.subs.values())
     rng = random.Random(29)
     stamps = [1.7e9 + rng.uniform(0, 1e6) for _ in range(ROUNDS)]
     for k, stamp in enumerate(stamps):
         write_round(graph, k + 1, stamp)
-        for s in subs:
+        for s in graph.subs.values():
             s.wait_for(k + 1)
     got = {route: [float_bits(m.msg) for m in s.messages] for route, s in graph.subs.items()}
     reference = got[("kilted", "kilted")]
@@ -168,8 +175,8 @@ def test_a_jazzy_build_started_with_the_kilted_library_path_mixes_the_two(graph)
     # tests/harness/jazzy.py) wins over the RPATH for the type supports that
     # rosidl loads by name: the Jazzy module then runs with Kilted's libraries
     # of geometry_msgs in it. Run a module in its own distro's environment.
-    probe = Module([graph.native["jazzy"].argv[0], "--prefix", "/jazzy_probe"], env=graph.env,
-                   name="jazzy_probe")
+    probe = Module([graph.native["jazzy"].argv[0], "--prefix", "/jazzy_probe"],
+                   env=kilted_inherited(graph.env), name="jazzy_probe")
     with probe:
         probe.wait_log("publishing tf2_msgs/msg/TFMessage")
         assert venv_libraries(probe.pid) == {VENV.name, JAZZY_VENV.name}
@@ -203,15 +210,7 @@ def test_a_jazzy_publisher_feeds_the_kilted_node(graph, tmp_path):
         node.wait_log("event-driven")
         reader.wait_connected()
         publisher.wait_matched(1)
-        # until the node's subscription has matched too, a message is lost
-        first = {"x": -1.0, "y": 0.0, "z": 0.0}
-        while not reader.bottles:
-            publisher.publish(first)
-            try:
-                reader.wait_for(1, timeout=0.5)
-            except TimeoutError:
-                pass
-        reader.clear()
+        until_through(lambda: publisher.publish({"x": -1.0, "y": 0.0, "z": 0.0}), [reader])
         points = [{"x": 0.1 * k, "y": -2.0 ** k, "z": 1e-300 * k} for k in range(1, ROUNDS + 1)]
         for k, p in enumerate(points):  # each read before the next (the input keeps the newest)
             publisher.publish(p)
@@ -226,10 +225,11 @@ def test_a_jazzy_python_with_the_kilted_library_path_cannot_import_rclpy(tmp_pat
     require_jazzy()
     code = "import rclpy; rclpy.init(); rclpy.create_node('probe'); print('ok')"
     inherited = subprocess.run([str(JAZZY_PYTHON), "-c", code], capture_output=True, text=True,
-                               env=dict(os.environ), timeout=60)
+                               env=kilted_inherited(clean_environ()), timeout=60)
     assert inherited.returncode != 0 and "libfastrtps.so.2.14" in inherited.stderr, inherited.stderr[-2000:]
     own = subprocess.run([str(JAZZY_PYTHON), "-c", code], capture_output=True, text=True,
-                         env={**jazzy_env(dict(os.environ)), "ROS_HOME": str(tmp_path)}, timeout=60)
+                         env={**jazzy_env(kilted_inherited(clean_environ())), "ROS_HOME": str(tmp_path)},
+                         timeout=60)
     assert own.returncode == 0 and own.stdout.strip() == "ok", own.stderr[-2000:]
 
 

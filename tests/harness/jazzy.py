@@ -7,6 +7,7 @@ beside the Kilted wheels of ``.venv``.
     require_jazzy(node_yarp=True)   pytest.fail with how to install it, unless the venv has
                         Jazzy's rclpy (and YARP 4.0.0 is built for the node)
     jazzy_env(env) -> dict   ``env`` for a process of the Jazzy venv
+    kilted_inherited(env) -> dict   ``env`` as a process a Kilted Python starts has it
     JazzySubscriber, JazzyPublisher   the rclpy peers run by the Jazzy venv's Python
     NODE_YARP           the YARP whose Python bindings the Jazzy node loads (4.0.0)
 
@@ -80,6 +81,15 @@ def jazzy_env(env: dict) -> dict:
                                   for p in env.get("PATH", "").split(os.pathsep))
     out["VIRTUAL_ENV"] = str(JAZZY_VENV)
     return out
+
+
+def kilted_inherited(env: dict) -> dict:
+    """``env`` as a process started by a Kilted Python has it: the Kilted
+    venv's libraries on LD_LIBRARY_PATH and its bootstrap mark (what
+    ``jazzy_env`` takes out)."""
+    site = next(VENV.glob("lib/python3*/site-packages"))
+    libs = [str(VENV / "lib"), *sorted(str(p) for p in site.glob("ros_*.libs"))]
+    return {**env, "LD_LIBRARY_PATH": os.pathsep.join(libs), _BOOTSTRAP: "1"}
 
 
 class JazzySubscriber(Ros2Subscriber):
