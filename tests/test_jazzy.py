@@ -17,10 +17,11 @@ with geometry converters):
 Every subscriber receives every message, the same bit for bit as the Kilted
 reference: Kilted and Jazzy interoperate on Fast DDS both ways. Then the
 other direction of a bridge: a Jazzy publisher to the Kilted rclpy node's
-ROS 2 input, into a YARP port. ``ybgc probe`` checks the endpoints of
-either distro as its own (their type hashes, their QoS) before a module
-runs. And what mixes the two distros in one process: a Jazzy Python, or a Jazzy-built module, started with the library
-path a Kilted Python sets (tests/harness/jazzy.py).
+ROS 2 input (harness.programs.QOS_READER), into a YARP port. ``ybgc probe``
+checks the endpoints of either distro as its own (their type hashes, their
+QoS) before a module runs. And what mixes the two distros in one process: a
+Jazzy Python, or a Jazzy-built module, started with the library path a
+Kilted Python sets (tests/harness/jazzy.py).
 """
 from __future__ import annotations
 
@@ -41,7 +42,7 @@ from harness.jazzy import (JAZZY_PYTHON, JAZZY_VENV, NODE_YARP, JazzyPublisher, 
                            jazzy_env, kilted_inherited, require_jazzy)
 from harness.launchers import write_node
 from harness.module import Module
-from harness.programs import DIFF_TF, diff_tf_program, text_program
+from harness.programs import DIFF_TF, QOS_READER, diff_tf_program, text_program
 from harness.ros2 import Ros2Domain, Ros2Subscriber, ros2_environment
 from harness.yarp import YarpProducer, YarpReader, YarpServer
 
@@ -182,29 +183,14 @@ def test_a_jazzy_build_started_with_the_kilted_library_path_mixes_the_two(graph)
         assert venv_libraries(probe.pid) == {VENV.name, JAZZY_VENV.name}
 
 
-READER = """\
-[module]
-name = jazzy_reader
-
-[output]
-port = /jazzy_reader/out:o
-
-[mux point]
-topics = /jazzy/point (geometry_msgs/Point)
-via = ros2
-
-[message]
-point = point
-"""
-
-
 def test_a_jazzy_publisher_feeds_the_kilted_node(graph, tmp_path):
     # the other direction of a bridge: a ROS 2 topic of Jazzy into a YARP
     # port through the Kilted rclpy node
-    program = text_program(READER, "jazzy_reader.ini", "ros2")
+    # (harness.programs.QOS_READER: /qos/goal, a geometry_msgs/Point, into /qos_reader/out:o)
+    program = text_program(QOS_READER, "qos_reader.ini", "ros2")
     node = Module([VENV_PYTHON, write_node(program, tmp_path)], env=graph.env, name=program.module)
-    reader = YarpReader(graph.env, "/jazzy_test/in", source="/jazzy_reader/out:o")
-    publisher = JazzyPublisher(graph.env, "/jazzy/point", msg_type="geometry_msgs/msg/Point",
+    reader = YarpReader(graph.env, "/jazzy_test/in", source=program.output.name)
+    publisher = JazzyPublisher(graph.env, program.muxes[0].inputs[0].name, msg_type="geometry_msgs/msg/Point",
                                node="jazzy_point")
     with node, reader, publisher:
         node.wait_log("event-driven")
