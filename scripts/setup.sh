@@ -3,7 +3,8 @@
 # environment with ybgc, real YARP 3.5 (C++ libraries, yarpserver, Python
 # bindings), ROS 2 rclpy wheels with Fast DDS, the ROS 2 build tools (ament,
 # rosidl, colcon) and the message packages of msgpkgs/ built with them, and
-# Debian's ROS 1 core for the legacy to_ros path. Idempotent: a second run takes seconds.
+# Debian's ROS 1 core for the legacy to_ros path; and ROS 2 Jazzy's wheels in a
+# second environment, .venv-jazzy. Idempotent: a second run takes seconds.
 #
 #   scripts/setup.sh            everything
 #   scripts/setup.sh --yarp 3.12.3,4.0.0
@@ -14,8 +15,8 @@
 #   scripts/setup.sh --ros2 none
 #                               ... without the second ROS 2 of the tests' matrix:
 #                               by default a venv .venv-jazzy (YBG_JAZZY_VENV) has ROS 2
-#                               Jazzy's wheels beside .venv's Kilted ones (about a
-#                               minute the first time; docs/ros2-distros.md)
+#                               Jazzy's wheels beside .venv's Kilted ones (about 1.5
+#                               min the first time; docs/ros2-distros.md)
 #   YBG_SETUP_MINIMAL=1 scripts/setup.sh   only the compiler (no middleware)
 set -euo pipefail
 
@@ -27,7 +28,7 @@ while [ $# -gt 0 ]; do
     --yarp=*) extra_yarp=${1#--yarp=}; shift ;;
     --ros2) extra_ros2=${2:?--ros2 needs jazzy or none}; shift 2 ;;
     --ros2=*) extra_ros2=${1#--ros2=}; shift ;;
-    -h|--help) sed -n '2,19p' "${BASH_SOURCE[0]}"; exit 0 ;;
+    -h|--help) sed -n '2,20p' "${BASH_SOURCE[0]}"; exit 0 ;;
     *) echo "setup.sh: unknown option $1 (see --help)" >&2; exit 2 ;;
   esac
 done

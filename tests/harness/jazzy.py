@@ -31,7 +31,7 @@ from harness.ros2 import Ros2Publisher, Ros2Subscriber
 JAZZY_VENV = Path(os.environ.get("YBG_JAZZY_VENV", ROOT / ".venv-jazzy"))
 JAZZY_PYTHON = JAZZY_VENV / "bin" / "python"
 JAZZY_HINT = ("Install it with `scripts/setup.sh` (run from the repository root: it sets up "
-              f"{JAZZY_VENV.name} with ROS 2 Jazzy's wheels beside .venv, about a minute the first time), "
+              f"{JAZZY_VENV.name} with ROS 2 Jazzy's wheels beside .venv, about 1.5 minutes the first time), "
               "then run the tests with `.venv/bin/python -m pytest`.")
 #: Jazzy's rclpy (Kilted's is 9.x)
 JAZZY_RCLPY = "7."
