@@ -34,6 +34,7 @@ from harness.yarp import YarpProducer, YarpReader
 from ybg.backends import LoweringError, check_result
 from ybg.backends.cpp import CppBackend
 from ybg.compiler.pipeline import compile_path
+from ybg.compiler.ir import QoS
 
 POSE = "ros2_pose_goal_to_icub"
 GAZE = "ros2_to_yarp_gaze"
@@ -266,6 +267,9 @@ def test_moveit_trajectory_one_list_per_point(built, yarp_server, ros2_domain, t
             p.start()
         native.wait_log("event-driven")
         node.wait_log("event-driven")
+        # the plan read reliably, as its mux asks (`reliability = reliable`)
+        assert inp.qos == QoS("reliable", "volatile", 10)
+        native.wait_log(f"{inp.name} (trajectory_msgs/msg/JointTrajectory; reliable, volatile, depth 10)")
         pub.wait_matched(2, timeout=60)
         plan = {"joint_names": ["a", "b"], "points": [
             {"positions": [0.0, half], "time_from_start": {"sec": 0, "nanosec": 500000000}},

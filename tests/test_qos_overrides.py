@@ -4,7 +4,8 @@ from the subscriber's side: a TRANSIENT_LOCAL subscriber that joins late gets
 the last message only when the override makes the publisher transient_local;
 a RELIABLE subscriber does not match a publisher overridden to best effort
 while a BEST_EFFORT one does; ``.subscription.`` overrides the QoS of a topic
-the node reads; a bad value is an error, not a traceback."""
+the node reads, as its mux's own QoS does; a bad value is an error, not a
+traceback."""
 from __future__ import annotations
 
 import pytest
@@ -115,18 +116,20 @@ def test_a_bad_override_is_an_error(mw, tmp_path):
         node.stop()
 
 
-@pytest.mark.parametrize("override", [True, False], ids=["transient_local", "config"])
-def test_subscription_override(mw, tmp_path, override):
-    """The node's subscription asks for transient_local with the override: a
-    volatile publisher is then incompatible (its rclpy says so), as it is not
-    with the node's own best-effort volatile subscription."""
-    folder = generate(tmp_path, READER, "qos_reader", "ros2")
+@pytest.mark.parametrize("asked", ["override", "mux", None])
+def test_subscription_override(mw, tmp_path, asked):
+    """The node's subscription asks for transient_local, by the override or
+    by its mux (`durability = transient_local` in the config): a volatile
+    publisher is then incompatible (its rclpy says so), as it is not with the
+    node's own best-effort volatile subscription."""
+    config = READER if asked != "mux" else READER.replace("via = ros2\n", "via = ros2\ndurability = transient_local\n")
+    folder = generate(tmp_path, config, "qos_reader", "ros2")
     args = ["--ros-args", "-p", "qos_overrides./qos/goal.subscription.durability:=transient_local"]
     pub = Ros2Publisher(mw.env, "/qos/goal", "geometry_msgs/msg/Point").start()
-    node = Node(mw.env, folder / "qos_reader_node.py", *(args if override else [])).start()
+    node = Node(mw.env, folder / "qos_reader_node.py", *(args if asked == "override" else [])).start()
     try:
         node.wait_log("publishing")
-        if override:
+        if asked:
             wait_incompatible(pub, "DURABILITY", "subscription discovered", "requesting")
             assert pub.matched == 0
         else:

@@ -13,10 +13,13 @@ default) runs :func:`check_across` on the programs that check:
   the same ROS node name);
 - E363: one ROS 2 service served twice, or with two service types.
 
+- W364: a ROS 2 topic one bridge reads with a QoS that another bridge's
+  publisher does not offer (reliable against best effort, transient_local
+  against volatile): they do not connect. A mux subscribes best effort and
+  volatile, which matches every publisher, unless its config asks more.
+
 Each problem is said in both configs, each at its own line and column,
-naming the other's ``file:line:column``. QoS needs no check across
-configs: every bridge subscribes best effort and volatile (docs/runtime.md),
-which matches every publisher's QoS.
+naming the other's ``file:line:column``.
 """
 
 from __future__ import annotations
@@ -37,6 +40,7 @@ class _End:
     span: Span
     what: str  # how the message names it: "publishes", "reads", "opens", "serves", "calls"
     type: str | None = None
+    qos: ir.QoS | None = None  # a ROS 2 topic's: offered (publishes) or requested (reads)
 
 
 def _where(end: _End) -> str:
@@ -74,7 +78,7 @@ def _ends(path: str, program: ir.Program | ir.Commands, document: ast.Document |
     out = program.output
     span = out.span or NOWHERE
     if out.kind in ("ros1", "ros2"):
-        yield f"topic_{out.kind}", out.name, _End(path, out.type_span or span, "publishes", out.msg_type)
+        yield f"topic_{out.kind}", out.name, _End(path, out.type_span or span, "publishes", out.msg_type, out.qos)
         if out.camera_info is not None:
             yield "topic_ros2", out.camera_info.topic, _End(path, out.camera_info.span or span, "publishes",
                                                            "sensor_msgs/CameraInfo")
@@ -83,7 +87,20 @@ def _ends(path: str, program: ir.Program | ir.Commands, document: ast.Document |
     for m in program.muxes:
         for i in m.inputs:
             if i.kind in ("ros1", "ros2") and i.ros_type is not None:
-                yield f"topic_{i.kind}", i.name, _End(path, i.span or NOWHERE, "reads", i.ros_type)
+                yield f"topic_{i.kind}", i.name, _End(path, i.span or NOWHERE, "reads", i.ros_type,
+                                                      i.subscription_qos if i.kind == "ros2" else None)
+
+
+def qos_mismatch(offered: ir.QoS, requested: ir.QoS) -> tuple[str, str, str] | None:
+    """The policy by which a publisher of QoS ``offered`` and a subscription
+    of QoS ``requested`` do not match (the rmw rules for the policies a
+    config gives), with the publisher's and the subscription's values; None
+    when they match."""
+    if requested.reliability == "reliable" and offered.reliability == "best_effort":
+        return "reliability", "best_effort", "reliable"
+    if requested.durability == "transient_local" and offered.durability == "volatile":
+        return "durability", "volatile", "transient_local"
+    return None
 
 
 def check_across(results: Iterable) -> list[Diagnostic]:
@@ -101,8 +118,8 @@ def check_across(results: Iterable) -> list[Diagnostic]:
             seen[("service", name)] = seen[("service", name)] + ends
     out: list[Diagnostic] = []
 
-    def say(code: str, end: _End, other: _End, message: str, hint: str) -> None:
-        out.append(Diagnostic(Severity.ERROR, code, f"{message} ({_where(other)})", end.span, hint, end.file))
+    def say(code: str, end: _End, other: _End, message: str, hint: str, severity=Severity.ERROR) -> None:
+        out.append(Diagnostic(severity, code, f"{message} ({_where(other)})", end.span, hint, end.file))
 
     for (kind, name), ends in seen.items():
         if len(ends) < 2:
@@ -130,6 +147,19 @@ def check_across(results: Iterable) -> list[Diagnostic]:
                         say("E360", a, other, f"the topic {name}: this bridge {a.what} {a.type}, another "
                                               f"{other.what} {other.type}",
                             "one topic has one message type: subscribers of the other type receive nothing")
+            if kind == "topic_ros2":
+                for reader in (e for e in ends if e.what == "reads" and e.qos is not None):
+                    for writer in (e for e in ends if e.what == "publishes" and e.qos is not None):
+                        why = qos_mismatch(writer.qos, reader.qos)
+                        if why is None or reader.file == writer.file:
+                            continue
+                        policy, offered, requested = why
+                        hint = (f"they never connect: read it {offered} (the mux's `{policy} = {offered}`), or "
+                                f"publish it {requested} (the output's `{policy} = {requested}`)")
+                        say("W364", reader, writer, f"the topic {name}: this bridge reads it {requested}, another "
+                                                    f"publishes it {offered}", hint, Severity.WARNING)
+                        say("W364", writer, reader, f"the topic {name}: this bridge publishes it {offered}, "
+                                                    f"another reads it {requested}", hint, Severity.WARNING)
         elif kind == "service":
             servers = [e for e in ends if e.what == "serves"]
             if len(servers) > 1:
@@ -148,4 +178,4 @@ def check_across(results: Iterable) -> list[Diagnostic]:
     return sorted(out, key=Diagnostic.sort_key)
 
 
-__all__ = ["check_across"]
+__all__ = ["check_across", "qos_mismatch"]

@@ -154,6 +154,7 @@ CODES: dict[str, str] = {
     "E361": "one YARP port opened by two configs",
     "E362": "two configs with one module name",
     "E363": "one ROS 2 service served twice or with two types across configs",
+    "W364": "a topic read with a QoS another config's publisher does not offer",
     # names
     "E401": "invalid YARP port name",
     "E402": "invalid ROS topic name",

@@ -108,6 +108,9 @@ class Input:
     ``accepts`` (YARP ports): the other ports whose Bottles this input takes
     too (a replay under another name); a Bottle from any other port than
     ``name`` and these is refused at run time (docs/runtime.md, "Reading").
+    ``qos`` (ROS 2 topics): the QoS its mux subscribes with, when the config
+    gives one (``reliability``, ``durability``, ``depth`` in the mux); None:
+    :data:`INPUT_QOS`.
     ``image``: a camera image input, not a Bottle: for a YARP port, the
     encoding its frames are declared in (:data:`IMAGE_ENCODINGS`: a frame of
     another pixel type is refused at run time); for a ROS 2
@@ -125,7 +128,13 @@ class Input:
     each: str | None = None
     accepts: tuple[str, ...] = ()
     image: str | None = None
+    qos: "QoS | None" = None
     span: Span | None = field(default=None, compare=False, repr=False)
+
+    @property
+    def subscription_qos(self) -> "QoS":
+        """The QoS a ROS 2 input subscribes with: its mux's, else :data:`INPUT_QOS`."""
+        return self.qos if self.qos is not None else INPUT_QOS
 
     @property
     def width(self) -> int | None:
@@ -484,6 +493,12 @@ class QoS:
     reliability: str = "reliable"  # reliable | best_effort
     durability: str = "volatile"  # volatile | transient_local
     depth: int = 10
+
+
+#: The QoS of a ROS 2 input whose mux gives none: best effort and volatile,
+#: the last message kept (a bridge publishes the latest values): it matches
+#: every publisher's QoS.
+INPUT_QOS = QoS("best_effort", "volatile", 1)
 
 
 @dataclass(frozen=True)
@@ -877,7 +892,8 @@ def from_dict(d: dict[str, Any]) -> "Program | Commands":
         fields_ = None if x["fields"] is None else tuple(x["fields"])
         positions = None if x.get("positions") is None else tuple(tuple(p) for p in x["positions"])
         return Input(x["name"], x["kind"], layout, x["ros_type"], fields_, x["timeout"], positions,
-                     x.get("reads"), x.get("each"), tuple(x.get("accepts") or ()), x.get("image"), _span(x))
+                     x.get("reads"), x.get("each"), tuple(x.get("accepts") or ()), x.get("image"),
+                     None if x.get("qos") is None else QoS(**x["qos"]), _span(x))
 
     def node(x):
         return ExprNode(x["op"], _tuple(x["args"], node), x["value"])
@@ -921,7 +937,7 @@ def from_json(text: str) -> "Program | Commands":
 __all__ = [
     "ElementGroup", "Input", "Converter", "GeometryConverter", "ExprNode", "ExprConverter", "AnyConverter",
     "GeometryKind", "GEOMETRY", "GEOMETRY_WIDTHS", "QUATERNION_RESULTS", "EULER_AXES", "EXPR_FUNCTIONS", "Mux", "TypeRef", "Literal", "MuxRef",
-    "Counter", "Timestamp", "Seconds", "Default", "Field", "Struct", "MessageArray", "QoS", "ImageFrame",
+    "Counter", "Timestamp", "Seconds", "Default", "Field", "Struct", "MessageArray", "QoS", "INPUT_QOS", "ImageFrame",
     "CameraInfo", "IMAGE_ENCODINGS", "PIXEL_NAMES", "ANY_ENCODING", "IMAGE_TYPE", "FRAME_FIELDS",
     "DEFAULT_QUEUE", "Output", "Timing", "Policy", "Program", "to_dict", "to_json", "from_dict",
     "from_json", "IR_VERSION", "NUMERIC_TYPES", "INTEGER_TYPES", "FLOAT_TYPES",

@@ -12,10 +12,6 @@ from dataclasses import dataclass
 from ybg.compiler import ir
 from ybg.compiler.diagnostics import Span
 
-#: the QoS of a module's ROS 2 inputs (ybg/runtime/ros2_io.py INPUT_QOS, and
-#: the C++ runtime's readers): the newest message only, best effort, which
-#: matches reliable and best-effort publishers alike
-INPUT_QOS = ir.QoS(reliability="best_effort", durability="volatile", depth=1)
 #: the bridge's totals, which every module with ROS 2 publishes (docs/runtime.md)
 DIAGNOSTICS_TOPIC = "/diagnostics"
 DIAGNOSTICS_TYPE = "diagnostic_msgs/DiagnosticArray"
@@ -108,7 +104,7 @@ def plan_of(program: ir.Program | ir.Commands, prefix: str | None = None) -> Pla
                 reads.append(PortRead(inp.name, what, inp.span or mux.span, inp.layout, image=inp.image is not None))
                 opens.append(PortOpen(f"{prefix}/{mux.name}/in{k}:i", f"the port of {what}", inp.span or mux.span))
             elif inp.kind == "ros2" and inp.ros_type:
-                topics.append(TopicUse(inp.name, inp.ros_type, "subscription", INPUT_QOS, inp.span or mux.span,
+                topics.append(TopicUse(inp.name, inp.ros_type, "subscription", inp.subscription_qos, inp.span or mux.span,
                                        inp.span or mux.span))
     out = program.output
     if out.kind == "yarp":

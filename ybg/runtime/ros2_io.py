@@ -279,8 +279,9 @@ class Ros2Input(InputState):
     the message's header.stamp if it has one); the subscription's callback
     runs on the node's executor thread."""
 
-    def __init__(self, bridge, spec, node, msg_class, leaves, timeout, each=None):
+    def __init__(self, bridge, spec, node, msg_class, leaves, timeout, each=None, qos=None):
         self.init_state(bridge, spec, timeout)
+        self.qos = INPUT_QOS if qos is None else qos
         self.local = spec.source
         self.node = node
         self.msg_class = msg_class
@@ -293,7 +294,7 @@ class Ros2Input(InputState):
     def open(self):
         def make(**events):
             return self.node.create_subscription(
-                self.msg_class, self.source, self._on_message, INPUT_QOS,
+                self.msg_class, self.source, self._on_message, self.qos,
                 event_callbacks=SubscriptionEventCallbacks(**events), qos_overriding_options=QOS_OVERRIDES)
 
         try:
@@ -348,8 +349,8 @@ class Ros2ImageInput(Ros2Input):
     copied: the message's buffer), its header.stamp the envelope; any other
     is refused, counted and said once (images.message_frame says why)."""
 
-    def __init__(self, bridge, spec, node, msg_class, timeout):
-        Ros2Input.__init__(self, bridge, spec, node, msg_class, (), timeout)
+    def __init__(self, bridge, spec, node, msg_class, timeout, qos=None):
+        Ros2Input.__init__(self, bridge, spec, node, msg_class, (), timeout, None, qos)
 
     def _on_message(self, msg):
         now = time.monotonic()
@@ -549,10 +550,12 @@ class NodeBridge(YarpBridge):
 
     def make_input(self, mux, spec, local, timeout):
         if spec.kind == "ros2":
-            msg_class, leaves, *each = self.topic_inputs[(mux.name, spec.index)]
+            # (message class, leaves[, each[, the QoS its mux asks]])
+            msg_class, leaves, *rest = self.topic_inputs[(mux.name, spec.index)]
+            each, qos = (list(rest) + [None, None])[:2]
             if spec.image:
-                return Ros2ImageInput(self, spec, self.node, msg_class, timeout)
-            return Ros2Input(self, spec, self.node, msg_class, leaves, timeout, *each)
+                return Ros2ImageInput(self, spec, self.node, msg_class, timeout, qos)
+            return Ros2Input(self, spec, self.node, msg_class, leaves, timeout, each, qos)
         if spec.image:
             return ImageInput(self, spec, local, timeout)
         return YarpBridge.make_input(self, mux, spec, local, timeout)

@@ -66,6 +66,26 @@ def _member_path(path: str) -> str:
     return ".".join(parts)
 
 
+def _qos_argument(i: ir.Input) -> str:
+    """The QoS argument of a topic's entry when its mux asks one, else none
+    (the runtime's default: best effort, volatile, depth 1)."""
+    if i.qos is None:
+        return ""
+    q = i.qos
+    if q.reliability not in ("reliable", "best_effort") or q.durability not in ("volatile", "transient_local") \
+            or q.depth < 1:
+        raise LoweringError(f"unsupported QoS {q}", i.span)
+    return (f", ybgc::ros2::InputQos{{{'true' if q.reliability == 'reliable' else 'false'}, "
+            f"{'true' if q.durability == 'transient_local' else 'false'}, {int(q.depth)}}}),  "
+            f"// {q.reliability}, {q.durability}, depth {int(q.depth)}")
+
+
+def _end(i: ir.Input) -> str:
+    """The end of a topic's entry: its QoS argument, if any, and the call's end."""
+    qos = _qos_argument(i)
+    return qos if qos else "),"
+
+
 def _image_reader(i: ir.Input, index: int) -> TopicReaderView:
     """A ROS 2 camera (sensor_msgs/Image, the whole frame): read by the runtime."""
     if i.ros_type != ir.IMAGE_TYPE or i.fields:
@@ -73,7 +93,7 @@ def _image_reader(i: ir.Input, index: int) -> TopicReaderView:
     c_type = "sensor_msgs__msg__Image"
     entry = (Line(2, f"ybgc::ros2::topic<{c_type}, &{c_type}__create, &{c_type}__destroy, &ybgc::images::read>("),
              Line(3, f"{index}, {cpp_string(i.name)}, {cpp_string('sensor_msgs/msg/Image')}, "
-                     "ROSIDL_GET_MSG_TYPE_SUPPORT(sensor_msgs, msg, Image)),"))
+                     f"ROSIDL_GET_MSG_TYPE_SUPPORT(sensor_msgs, msg, Image){_end(i)}"))
     what = f"{comment(i.name)} (sensor_msgs/msg/Image): the frame (ybgc::images::read)"
     return TopicReaderView("ybgc::images::read", c_type, "ybgc::Reading& out", what, (), entry, in_module=False)
 
@@ -106,7 +126,7 @@ def _reader(program: ir.Program, m: ir.Mux, k: int, i: ir.Input, index: int, mem
     function = f"read_{member}_{k}"
     entry = (Line(2, f"ybgc::ros2::topic<{c_type}, &{c_type}__create, &{c_type}__destroy, &{function}>("),
              Line(3, f"{index}, {cpp_string(i.name)}, {cpp_string(f'{pkg}/msg/{name}')}, "
-                     f"ROSIDL_GET_MSG_TYPE_SUPPORT({pkg}, msg, {name})),"))
+                     f"ROSIDL_GET_MSG_TYPE_SUPPORT({pkg}, msg, {name}){_end(i)}"))
     what = f"{comment(i.name)} ({comment(f'{pkg}/msg/{name}')}): {comment(' '.join(i.fields))}"
     if i.each is not None:
         what = (f"{comment(i.name)} ({comment(f'{pkg}/msg/{name}')}): a row for each element of "

@@ -74,6 +74,22 @@ class MsgImport:
     alias: str
 
 
+def _checked_qos(qos: ir.QoS, span) -> ir.QoS:
+    if qos.reliability not in RELIABILITY or qos.durability not in DURABILITY or qos.depth < 1:
+        raise LoweringError(f"unsupported QoS {qos}", span)
+    return qos
+
+
+def _qos_profile(qos: ir.QoS | None, span) -> str:
+    """The QoSProfile of a topic input whose mux asks one (Python source), else "None"."""
+    if qos is None:
+        return "None"
+    qos = _checked_qos(qos, span)
+    return (f"QoSProfile(history=HistoryPolicy.KEEP_LAST, depth={int(qos.depth)}, "
+            f"reliability=ReliabilityPolicy.{RELIABILITY[qos.reliability]}, "
+            f"durability=DurabilityPolicy.{DURABILITY[qos.durability]})")
+
+
 @dataclass(frozen=True)
 class TopicInputView:
     """A ROS 2 topic read by a mux: its message class and numeric leaves."""
@@ -83,6 +99,7 @@ class TopicInputView:
     msg_class: str
     leaves: str
     each: str = "None"  # the array of messages whose elements give one row each
+    qos: str = "None"  # the QoS its mux asks (a QoSProfile expression), else the runtime's INPUT_QOS
 
 
 @dataclass(frozen=True)
@@ -148,6 +165,11 @@ class NodeView:
     runtime_imports: tuple[RuntimeImport, ...] = ()
     camera_info: CameraInfoView | None = None  # beside a ROS 2 image
     image_output: ImageOutputView | None = None  # a YARP port of camera images
+
+    @property
+    def topic_qos(self) -> bool:
+        """Does a mux of ROS 2 topics ask its own QoS?"""
+        return any(t.qos != "None" for t in self.topic_inputs)
 
 
 # --------------------------------------------------------------------------
@@ -436,7 +458,7 @@ def _image_input(m: ir.Mux, i: ir.Input, k: int, topics: list, imports: dict) ->
     alias = msg_alias(i.ros_type)
     pkg, name = split_type(i.ros_type)
     imports[alias] = MsgImport(f"{pkg}.msg", name, alias)
-    topics.append(TopicInputView(py_literal(m.name), k, alias, py_literal(())))
+    topics.append(TopicInputView(py_literal(m.name), k, alias, py_literal(()), qos=_qos_profile(i.qos, i.span)))
     return (f"ROS 2 topic {i.name} ({ros2_type_name(i.ros_type)}): camera images of any encoding YARP "
             f"has a pixel type for")
 
@@ -470,7 +492,7 @@ def _lower_inputs(program: ir.Program):
                 if i.each is not None:
                     identifier(i.each, f"field of {i.ros_type}")
                 topics.append(TopicInputView(py_literal(m.name), k, alias, py_literal(tuple(i.fields)),
-                                             py_literal(i.each)))
+                                             py_literal(i.each), _qos_profile(i.qos, i.span)))
                 desc = f"ROS 2 topic {i.name} ({ros2_type_name(i.ros_type)} {', '.join(i.fields)}): {width}"
                 if i.each is not None:
                     desc = (f"ROS 2 topic {i.name} ({ros2_type_name(i.ros_type)}): a row of {width} for each "
@@ -518,9 +540,7 @@ def lower(program: ir.Program) -> NodeView:
         except LoweringError as e:
             raise e.at(out.type_span)
         imports[alias] = MsgImport(f"{pkg}.msg", name, alias)
-        qos = out.qos or ir.QoS()
-        if qos.reliability not in RELIABILITY or qos.durability not in DURABILITY or qos.depth < 1:
-            raise LoweringError(f"unsupported QoS {qos}")
+        qos = _checked_qos(out.qos or ir.QoS(), out.span)
         ros_output = RosOutputView(
             msg_class=alias, type_name=py_literal(ros2_type_name(msg_type)),
             topic=py_literal(out.name),

@@ -5,7 +5,9 @@ port and topic names (E401, E402), a port's element declaration
 `(float64 x6, int32 x3)` and a topic's message type and field
 `(pkg/Name field)` (E213, E301, E302, E309), ROS 2 topics without a type
 (E319), inputs read twice (W506), `timeout` and `verbose`; `accept`, the
-other ports an input takes Bottles from too (E208, E401, W506).
+other ports an input takes Bottles from too (E208, E401, W506); the QoS of
+a mux of ROS 2 topics (`reliability`, `durability`, `depth`; W506 on
+another mux).
 Reads ``mux_sections``, ``mux_keys``, ``mux_via``, ``output_keys``
 (the default timeout), ``options`` (the distro) and ``stores``. Sets
 ``muxes``, without converters.
@@ -20,7 +22,11 @@ from ybg.compiler.diagnostics import Sink, Span, did_you_mean
 from ybg.compiler.msgtypes import DISTROS, MsgDef, field_positions, normalize_name, numeric_leaves
 from ybg.compiler.names import identifier_problem, port_problem, sanitize_identifier, topic_problem
 from ybg.compiler.passes.context import Context
-from ybg.compiler.values import boolean, number
+from ybg.compiler.passes.sections import CHOICES
+from ybg.compiler.values import boolean, choice, number, whole
+
+#: the keys of a mux of ROS 2 topics that give its subscriptions' QoS
+QOS_KEYS = ("reliability", "durability", "depth")
 
 #: seconds without a new Bottle after which an input is stale
 DEFAULT_TIMEOUT = 1.0
@@ -82,10 +88,35 @@ def _mux(ctx: Context, name: str, sec: ast.Section, keys: dict[str, ast.Entry]) 
     if accepts is None:
         return None
     inputs = [dataclasses.replace(i, accepts=accepts[i.name]) if accepts.get(i.name) else i for i in inputs]
+    qos = _qos(ctx, keys, ctx.mux_via[name])
+    if qos is not None:
+        inputs = [dataclasses.replace(i, qos=qos) if i.kind == "ros2" else i for i in inputs]
     verbose = False
     if "verbose" in keys:
         verbose = bool(boolean(keys["verbose"], s))
     return ir.Mux(name, tuple(inputs), (), verbose)
+
+
+def _qos(ctx: Context, keys: dict[str, ast.Entry], via: str) -> ir.QoS | None:
+    """The QoS a mux of ROS 2 topics subscribes with, when its config gives
+    one: ``reliability``, ``durability``, ``depth``, each defaulting to
+    :data:`ir.INPUT_QOS`'s (a reliable input keeps 10 messages, as ROS's
+    default profile). None when none is given (W506 for other muxes)."""
+    s = ctx.sink
+    given = [k for k in QOS_KEYS if k in keys]
+    if not given:
+        return None
+    if via != "ros2":
+        for k in given:
+            s.warning("W506", f"`{k}` only applies to a mux of ROS 2 topics (`via = ros2`)", keys[k].key_span,
+                      "a YARP port and a ROS 1 topic have no QoS: remove the key")
+        return None
+    rel = choice(keys["reliability"], s, CHOICES["reliability"]) if "reliability" in keys else None
+    dur = choice(keys["durability"], s, CHOICES["durability"]) if "durability" in keys else None
+    depth = whole(keys["depth"], s, 1) if "depth" in keys else None
+    rel = rel or ir.INPUT_QOS.reliability
+    return ir.QoS(rel, dur or ir.INPUT_QOS.durability,
+                  depth if depth else (10 if rel == "reliable" else ir.INPUT_QOS.depth))
 
 
 def _input(ctx: Context, item: ast.Item, is_topic: bool, via: str, timeout: float) -> ir.Input | None:

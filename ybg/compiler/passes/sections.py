@@ -21,7 +21,7 @@ SECTION_KEYS: dict[str, tuple[str, ...]] = {
     "module": ("name", "distro"),
     "output": ("topic", "port", "connect", "type", "via", "node", "rate", "trigger", "queue",
                "on_stale", "on_nan", "publish", "timeout", "reliability", "durability", "depth", "image"),
-    "mux": ("ports", "topics", "via", "convert", "verbose", "timeout", "accept"),
+    "mux": ("ports", "topics", "via", "convert", "verbose", "timeout", "accept", "reliability", "durability", "depth"),
     "message": (),
     # fields of sensor_msgs/CameraInfo, and `topic`, `calibration`: checked by the images pass
     "camera_info": (),

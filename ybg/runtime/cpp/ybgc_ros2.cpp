@@ -1020,9 +1020,11 @@ bool Subscriptions::open(Deliver deliver)
     for (const Topic& t : topics_.topics) {
         rcl_subscription_options_t options = rcl_subscription_get_default_options();
         options.qos.history = RMW_QOS_POLICY_HISTORY_KEEP_LAST;
-        options.qos.depth = 1;
-        options.qos.reliability = RMW_QOS_POLICY_RELIABILITY_BEST_EFFORT;
-        options.qos.durability = RMW_QOS_POLICY_DURABILITY_VOLATILE;
+        options.qos.depth = t.qos.depth;
+        options.qos.reliability = t.qos.reliable ? RMW_QOS_POLICY_RELIABILITY_RELIABLE
+                                                 : RMW_QOS_POLICY_RELIABILITY_BEST_EFFORT;
+        options.qos.durability = t.qos.transientLocal ? RMW_QOS_POLICY_DURABILITY_TRANSIENT_LOCAL
+                                                      : RMW_QOS_POLICY_DURABILITY_VOLATILE;
         std::string resolved;
         std::string error;
         if (!node_->qos(t.name, "subscription", options.qos, resolved, error)) {

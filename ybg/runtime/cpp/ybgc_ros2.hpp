@@ -560,12 +560,22 @@ bool envelopeOf(const Msg& msg, double& seconds)
 /// One ROS 2 topic a bridge input reads: the input's index in
 /// BridgeSpec::inputs, the message type, and the module's reader of its
 /// fields (with the message's envelope).
+/// The QoS a topic input subscribes with: its mux's, else best effort,
+/// volatile and the last message kept, which matches every publisher.
+struct InputQos
+{
+    bool reliable = false;        // reliability = reliable (else best_effort)
+    bool transientLocal = false;  // durability = transient_local (else volatile)
+    std::size_t depth = 1;        // history: keep the last `depth`
+};
+
 struct Topic
 {
     std::size_t input;
     const char* name;  // the topic
     MessageType type;
     void (*read)(const void* msg, Reading& out);
+    InputQos qos;
 };
 
 /// The Topic of input `input` (topic `name`), a message of C struct Msg read
@@ -576,7 +586,7 @@ struct Topic
 /// ybgc_images.hpp).
 template <class Msg, Msg* (*Create)(), void (*Destroy)(Msg*), auto Read>
 Topic topic(std::size_t input, const char* name, const char* typeName,
-            const rosidl_message_type_support_t* typeSupport)
+            const rosidl_message_type_support_t* typeSupport, InputQos qos = {})
 {
     return {input, name, messageType<Msg, Create, Destroy>(typeName, typeSupport),
             [](const void* msg, Reading& out) {
@@ -590,7 +600,8 @@ Topic topic(std::size_t input, const char* name, const char* typeName,
                     Read(m, out.values);
                 }
                 out.hasEnvelope = envelopeOf(m, out.envelope);
-            }};
+            },
+            qos};
 }
 
 /// The ROS 2 topics a bridge reads, and the name of the node that reads

@@ -89,7 +89,7 @@ const ybgc::ros2::Topics kTopics = {
     "moveit_trajectory",  // node
     {
         ybgc::ros2::topic<trajectory_msgs__msg__JointTrajectory, &trajectory_msgs__msg__JointTrajectory__create, &trajectory_msgs__msg__JointTrajectory__destroy, &read_plan_0>(
-            0, "/arm_controller/joint_trajectory", "trajectory_msgs/msg/JointTrajectory", ROSIDL_GET_MSG_TYPE_SUPPORT(trajectory_msgs, msg, JointTrajectory)),
+            0, "/arm_controller/joint_trajectory", "trajectory_msgs/msg/JointTrajectory", ROSIDL_GET_MSG_TYPE_SUPPORT(trajectory_msgs, msg, JointTrajectory), ybgc::ros2::InputQos{true, false, 10}),  // reliable, volatile, depth 10
     },
 };
 

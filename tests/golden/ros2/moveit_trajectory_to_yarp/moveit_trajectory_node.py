@@ -84,9 +84,11 @@ DEFAULT_PREFIX = '/moveit_trajectory'
 DEFAULT_RATE = 0.0
 
 #: ROS 2 topics read by the muxes: (mux, input index) -> (message class, numeric leaves,
-#: and the array of messages whose elements give one row each)
+#: and the array of messages whose elements give one row each,
+#: and the QoS its mux asks)
 TOPIC_INPUTS = {
-    ('plan', 0): (ros_trajectory_msgs_JointTrajectory, ('time_from_start', 'positions'), 'points'),
+    ('plan', 0): (ros_trajectory_msgs_JointTrajectory, ('time_from_start', 'positions'), 'points',
+        QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)),
 }
 
 #: Bottle wire type of each element type on this output
