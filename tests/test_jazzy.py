@@ -16,8 +16,9 @@ with geometry converters):
 
 Every subscriber receives every message, the same bit for bit as the Kilted
 reference: Kilted and Jazzy interoperate on Fast DDS both ways. Then the
-other direction of a bridge: a Jazzy publisher to the Kilted rclpy node's
-ROS 2 input (harness.programs.QOS_READER), into a YARP port. ``ybgc probe``
+other direction of a bridge: a Jazzy publisher to the ROS 2 input of the
+Kilted-built native module and of the Kilted rclpy node
+(harness.programs.QOS_READER), into a YARP port. ``ybgc probe``
 checks the endpoints of either distro as its own (their type hashes, their
 QoS) before a module runs. And what mixes the two distros in one process: a
 Jazzy Python, or a Jazzy-built module, started with the library path a
@@ -57,12 +58,19 @@ def on_topic(program, suffix: str):
                                                           name=f"{program.output.name}_{suffix}"))
 
 
-def built(tmp_path_factory, program, ros2_env):
-    """The native module of ``program`` built against YARP 4.0.0 and the ROS 2
-    wheels of ``ros2_env``."""
-    builds = Builds(tmp_path_factory.mktemp(f"native_{program.module}"), NODE_YARP, ros2_env=ros2_env)
-    builds.add(program.module, program)
-    return builds.exe(program.module)
+def built(tmp_path_factory, ros2_env, *programs) -> list:
+    """The native modules of ``programs`` built in one CMake project against
+    YARP 4.0.0 and the ROS 2 wheels of ``ros2_env``."""
+    builds = Builds(tmp_path_factory.mktemp(f"native_{ros2_env.name}"), NODE_YARP, ros2_env=ros2_env)
+    for program in programs:
+        builds.add(program.module, program)
+    return [builds.exe(program.module) for program in programs]
+
+
+def reader_program(backend: str):
+    """harness.programs.QOS_READER: the ROS 2 topic /qos/goal, a
+    geometry_msgs/Point, into the YARP port /qos_reader/out:o."""
+    return text_program(QOS_READER, "qos_reader.ini", backend)
 
 
 @pytest.fixture(scope="module")
@@ -70,8 +78,8 @@ def graph(tmp_path_factory):
     require_jazzy()
     base = diff_tf_program()
     kilted_prog, jazzy_prog, node_prog = (on_topic(base, s) for s in ("kilted", "jazzy", "node"))
-    kilted_exe = built(tmp_path_factory, kilted_prog, VENV)
-    jazzy_exe = built(tmp_path_factory, jazzy_prog, JAZZY_VENV)
+    kilted_exe, reader_exe = built(tmp_path_factory, VENV, kilted_prog, reader_program("cpp"))
+    jazzy_exe, = built(tmp_path_factory, JAZZY_VENV, jazzy_prog)
     node_path = write_node(node_prog, tmp_path_factory.mktemp("jazzy_node"))
     with YarpServer(install=NODE_YARP) as server, Ros2Domain() as domain:
         env = ros2_environment(server.env, domain)
@@ -96,7 +104,8 @@ def graph(tmp_path_factory):
                 producer.wait_outputs(3)
             for s in subs.values():
                 s.wait_publishers(1)
-            yield SimpleNamespace(env=env, native=native, node=node, subs=subs, producers=producers)
+            yield SimpleNamespace(env=env, native=native, node=node, subs=subs, producers=producers,
+                                  reader_exe=reader_exe)
         finally:
             for p in reversed(procs):
                 p.stop()
@@ -183,17 +192,18 @@ def test_a_jazzy_build_started_with_the_kilted_library_path_mixes_the_two(graph)
         assert venv_libraries(probe.pid) == {VENV.name, JAZZY_VENV.name}
 
 
-def test_a_jazzy_publisher_feeds_the_kilted_node(graph, tmp_path):
+@pytest.mark.parametrize("backend", ["cpp", "ros2"])
+def test_a_jazzy_publisher_feeds_a_kilted_module(graph, tmp_path, backend):
     # the other direction of a bridge: a ROS 2 topic of Jazzy into a YARP
-    # port through the Kilted rclpy node
-    # (harness.programs.QOS_READER: /qos/goal, a geometry_msgs/Point, into /qos_reader/out:o)
-    program = text_program(QOS_READER, "qos_reader.ini", "ros2")
-    node = Module([VENV_PYTHON, write_node(program, tmp_path)], env=graph.env, name=program.module)
+    # port through the native module built against Kilted, and through the
+    # rclpy node on Kilted
+    program = reader_program(backend)
+    argv = [graph.reader_exe] if backend == "cpp" else [VENV_PYTHON, write_node(program, tmp_path)]
+    module = Module(argv, env=graph.env, name=f"{program.module}_{backend}")
     reader = YarpReader(graph.env, "/jazzy_test/in", source=program.output.name)
     publisher = JazzyPublisher(graph.env, program.muxes[0].inputs[0].name, msg_type="geometry_msgs/msg/Point",
                                node="jazzy_point")
-    with node, reader, publisher:
-        node.wait_log("event-driven")
+    with module, reader, publisher:
         reader.wait_connected()
         publisher.wait_matched(1)
         until_through(lambda: publisher.publish({"x": -1.0, "y": 0.0, "z": 0.0}), [reader])
