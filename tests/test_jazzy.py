@@ -77,7 +77,8 @@ def reader_program(backend: str):
 def graph(tmp_path_factory):
     require_jazzy()
     base = diff_tf_program()
-    kilted_prog, jazzy_prog, node_prog = (on_topic(base, s) for s in ("kilted", "jazzy", "node"))
+    programs = {s: on_topic(base, s) for s in ("kilted", "jazzy", "node")}
+    kilted_prog, jazzy_prog, node_prog = programs.values()
     kilted_exe, reader_exe = built(tmp_path_factory, VENV, kilted_prog, reader_program("cpp"))
     jazzy_exe, = built(tmp_path_factory, JAZZY_VENV, jazzy_prog)
     node_path = write_node(node_prog, tmp_path_factory.mktemp("jazzy_node"))
@@ -87,7 +88,7 @@ def graph(tmp_path_factory):
         native = {"kilted": Module([kilted_exe], env=env, name=kilted_prog.module),
                   "jazzy": Module([jazzy_exe], env=jenv, name=jazzy_prog.module)}
         node = Module([JAZZY_PYTHON, node_path], env=jenv, name=node_prog.module)
-        topic = {k: p.output.name for k, p in (("kilted", kilted_prog), ("jazzy", jazzy_prog), ("node", node_prog))}
+        topic = {k: p.output.name for k, p in programs.items()}
         # (publisher's distro, subscriber's distro): the subscriber
         subs = {("kilted", "kilted"): Ros2Subscriber(env, topic["kilted"], TF, node="kilted_of_kilted"),
                 ("kilted", "jazzy"): JazzySubscriber(env, topic["kilted"], TF, node="jazzy_of_kilted"),

@@ -31,7 +31,7 @@ from harness.ros2 import Ros2Publisher, Ros2Subscriber
 JAZZY_VENV = Path(os.environ.get("YBG_JAZZY_VENV", ROOT / ".venv-jazzy"))
 JAZZY_PYTHON = JAZZY_VENV / "bin" / "python"
 JAZZY_HINT = ("Install it with `scripts/setup.sh` (run from the repository root: it sets up "
-              f"{JAZZY_VENV.name} with ROS 2 Jazzy's wheels beside .venv, about 1.5 minutes the first time), "
+              f"{JAZZY_VENV} with ROS 2 Jazzy's wheels beside .venv, about 1.5 minutes the first time), "
               "then run the tests with `.venv/bin/python -m pytest`.")
 #: Jazzy's rclpy (Kilted's is 9.x)
 JAZZY_RCLPY = "7."
@@ -53,10 +53,14 @@ def require_jazzy(node_yarp: bool = True) -> None:
     else:
         r = subprocess.run([str(JAZZY_PYTHON), "-c", probe], env=jazzy_env(clean_environ()),
                            capture_output=True, text=True, timeout=60)
-        lines = (r.stderr or r.stdout).strip().splitlines()
+        lines = (r.stderr or r.stdout).strip().splitlines() or [f"exit status {r.returncode}"]
         got = r.stdout.strip()
-        err = ((lines[-1] if lines else f"exit status {r.returncode}") if r.returncode
-               else None if got.startswith(JAZZY_RCLPY) else f"its rclpy is {got}, not Jazzy's {JAZZY_RCLPY}x")
+        if r.returncode:
+            err = lines[-1]
+        elif not got.startswith(JAZZY_RCLPY):
+            err = f"its rclpy is {got}, not Jazzy's {JAZZY_RCLPY}x"
+        else:
+            err = None
     if err:
         fail(f"ROS 2 Jazzy not usable in {JAZZY_VENV}: {err}. {JAZZY_HINT}")
     missing = NODE_YARP.missing() if node_yarp else []
