@@ -16,6 +16,7 @@ Middleware
     yarp        yarpserver, YARP producer and reader peers, `yarp rpc`
     ros1        roscore, YARP's ROS 1 support (yarpserver --ros, type server), rospy peers
     ros2        ROS 2 domains, rclpy peers, /diagnostics, QoS
+    jazzy       ROS 2 Jazzy: its venv, the environment of its processes, its rclpy peers
     netns       four hosts of network namespaces (tests/test_network.py)
 
 Modules
@@ -28,6 +29,7 @@ Modules
     differential    the native ROS 2 module and the rclpy node on the same streams
     services    commands: YARP RPC and rclpy service peers, a rig of modules of commands
     compose     a composed robot (examples/icub_robot): its producers, subscribers and checks
+    variant     a second build of ybg_demo_msgs with one field more (one type name, two type hashes)
 
 Behaviour
     programs    the programs the tests run, and the configs each backend builds
