@@ -66,6 +66,11 @@ def pytest_generate_tests(metafunc):
     oldest = metafunc.definition.get_closest_marker("yarp_min")
     if oldest is not None:  # a tool that older YARP releases lack: those are not in the matrix
         versions = [v for v in versions if env.yarp_install(v).key >= tuple(oldest.args[0])]
+    if metafunc.definition.get_closest_marker("yarp_ends") is not None and len(versions) > 2:
+        # the oldest and the newest release: a release between them is shown by the
+        # version tests (tests/test_yarp_versions.py) and the runtime's own tests
+        ordered = sorted(versions, key=lambda v: env.yarp_install(v).key)
+        versions = [v for v in versions if v in (ordered[0], ordered[-1])]
     metafunc.parametrize("yarp", versions, indirect=True, scope="session",
                          ids=[f"yarp{v}" for v in versions])
 
@@ -75,6 +80,8 @@ def pytest_configure(config):
     use_ccache()
     config.addinivalue_line("markers", "yarp_min(version): run on the YARP releases of the matrix "
                                        "from `version` (a tuple) on only")
+    config.addinivalue_line("markers", "yarp_ends: run on the oldest and the newest YARP release of the "
+                                       "matrix only (docs/yarp-versions.md)")
     config.addinivalue_line("markers", "slow: a long test (real middleware, seconds or more); "
                                        "deselect with -m 'not slow'")
     # A default per-test timeout, so that a hung middleware process cannot

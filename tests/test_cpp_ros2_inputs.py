@@ -36,6 +36,9 @@ from ybg.backends.cpp import CppBackend
 from ybg.compiler.pipeline import compile_path
 from ybg.compiler.ir import QoS
 
+# on YARP 3.5 and 4.0.0: 3.12.3 is the version tests' (docs/yarp-versions.md)
+pytestmark = pytest.mark.yarp_ends
+
 POSE = "ros2_pose_goal_to_icub"
 GAZE = "ros2_to_yarp_gaze"
 MOVEIT = "moveit_trajectory_to_yarp"

@@ -35,6 +35,9 @@ from harness.ros2 import Ros2Domain, ros2_environment
 from harness.yarp import YarpServer
 from ybg import cli
 
+# on YARP 3.5 and 4.0.0: 3.12.3 is the version tests' (docs/yarp-versions.md)
+pytestmark = pytest.mark.yarp_ends
+
 
 W, H = 321, 241  # odd: every row of every pixel type padded by YARP's default quantum (8)
 

@@ -13,6 +13,9 @@ from harness.generated import generate, module_proc
 from harness.module import stop_within, wait_log
 from harness.yarp import YarpProducer, YarpReader
 
+# on YARP 3.5 and 4.0.0: 3.12.3 is the version tests' (docs/yarp-versions.md)
+pytestmark = pytest.mark.yarp_ends
+
 COMMAND = """\
 [module]
 name = {name}

@@ -14,6 +14,9 @@ from harness.module import stop_within, wait_log
 from harness.yarp import YarpProducer, YarpReader
 from ybg.compiler.pipeline import compile_text
 
+# on YARP 3.5 and 4.0.0: 3.12.3 is the version tests' (docs/yarp-versions.md)
+pytestmark = pytest.mark.yarp_ends
+
 ROS_TO_YARP = """\
 [output]
 port = /gaze/xd:i

@@ -28,6 +28,9 @@ from harness.procs import Proc
 from harness.ros2 import Ros2Domain, Ros2Publisher
 from harness.yarp import YarpProducer, YarpServer, rpc
 
+# on YARP 3.5 and 4.0.0: 3.12.3 is the version tests' (docs/yarp-versions.md)
+pytestmark = pytest.mark.yarp_ends
+
 NAME = "rpc_bridge"
 
 CONFIG = """\
