@@ -749,6 +749,11 @@ class ServedPort:
 
 _LOG_LOCK = threading.Lock()
 
+#: seconds for the stop's steps together (answering the calls in flight,
+#: the executor, closing the ports), leaving the rest of the 2 s a module
+#: has to exit to the ROS 2 context's shutdown
+STOP_WITHIN = 1.3
+
 
 class CommandsNode:
     """The services of one config of commands, inside an rclpy node."""
@@ -969,9 +974,9 @@ class CommandsNode:
                     break
             time.sleep(0.01)
 
-    def shut_down(self):
-        """Close every port within 1 s: True when everything closed (else
-        the caller exits at once, the names unregistered)."""
+    def shut_down(self, within=1.0):
+        """Close every port within ``within`` seconds: True when everything
+        closed (else the caller exits at once, the names unregistered)."""
         self.begin_stop(0.0)
         closed = []
         names = [p.name for p in self.served] + [c.local for c in self.callers.values()]
@@ -990,7 +995,7 @@ class CommandsNode:
 
         closer = threading.Thread(target=close_all, name="close ports", daemon=True)
         closer.start()
-        closer.join(1.0)
+        closer.join(within)
         done = not closer.is_alive() and len(closed) == len(names)
         if not done:
             for name in names:
@@ -1232,17 +1237,24 @@ def run_commands(spec, argv=None):
     finally:
         stop.set()
         clean = True
+        # every step of the stop within its own bound, and all of them within
+        # STOP_WITHIN: the process exits within its 2 s (docs/runtime.md)
+        end = time.monotonic() + STOP_WITHIN
+
+        def left(bound):
+            return max(0.05, min(bound, end - time.monotonic()))
+
         if commands is not None:
-            commands.begin_stop(0.5)  # the calls in flight answered
+            commands.begin_stop(left(0.5))  # the calls in flight answered
         if executor is not None:
             # the answers of those calls sent by the executor's threads
             closer = threading.Thread(target=executor.shutdown, kwargs={"timeout_sec": 0.3}, daemon=True)
             closer.start()
-            closer.join(0.4)
+            closer.join(left(0.4))
         if spinner is not None:
-            spinner.join(0.2)
+            spinner.join(left(0.2))
         if commands is not None:
-            clean = commands.shut_down()
+            clean = commands.shut_down(left(1.0))
             commands.print_totals()
         if not clean or (spinner is not None and spinner.is_alive()):
             sys.stdout.flush()
