@@ -33,10 +33,10 @@ from ybg.backends.py import PyBackend
 from ybg.backends.py.lower import LoweringError, py_literal
 from ybg.compiler.pipeline import compile_text
 from ybg.compiler.ir import (Converter, Counter, Default, Field, Input, Literal, Mux, MuxRef, Output, Program,
+                             Struct, Timestamp, TypeRef)
 
 # on YARP 3.5 and 4.0.0: 3.12.3 is the version tests' (docs/yarp-versions.md)
 pytestmark = pytest.mark.yarp_ends
-                             Struct, Timestamp, TypeRef)
 
 
 # --------------------------------------------------------------------------

@@ -58,11 +58,11 @@ from ybg.backends.ros2 import Ros2Backend
 from ybg.backends.runtime import PY_MODULES, RUNTIME_DIR
 from ybg.backends.ros2.lower import LoweringError, package_name
 from ybg.compiler.ir import (Counter, Default, ElementGroup, Field, Input, Literal, Mux,
+                             MessageArray, MuxRef, Output, Program, QoS, Seconds, Struct, Timestamp, Timing,
+                             TypeRef)
 
 # on YARP 3.5 and 4.0.0: 3.12.3 is the version tests' (docs/yarp-versions.md)
 pytestmark = pytest.mark.yarp_ends
-                             MessageArray, MuxRef, Output, Program, QoS, Seconds, Struct, Timestamp, Timing,
-                             TypeRef)
 
 TOL = 1e-12
 
