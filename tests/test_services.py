@@ -33,9 +33,6 @@ from harness.services import (SERVICE_EXAMPLES, RpcClient, RpcServer, ServiceCli
 from harness.yarp import YarpServer, rpc
 from ybg.lower import services as texts
 
-# on YARP 3.5 and 4.0.0: 3.12.3 is the version tests' (docs/yarp-versions.md)
-pytestmark = pytest.mark.yarp_ends
-
 BACKENDS = ("cpp", "ros2")
 TRIGGER = "std_srvs/srv/Trigger"
 SET_BOOL = "std_srvs/srv/SetBool"
