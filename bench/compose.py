@@ -50,6 +50,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import blocks as h  # noqa: E402
 from blocks import BenchError, mw  # noqa: E402
+from report import fmt_load, loadavg, write_section  # noqa: E402
 
 ROOT = h.ROOT
 BENCH = h.BENCH
@@ -545,29 +546,6 @@ def notes(data: dict) -> list:
     return out
 
 
-def fmt_load(load) -> str:
-    return ", ".join(f"{x:.2f}" for x in load) if load else "?"
-
-
-def write_section(text: str, path: Path = DOCS) -> None:
-    """Puts the section in place of the one there, else at the end of the page."""
-    page = path.read_text() if path.exists() else ""
-    start = page.find("\n" + SECTION + "\n")
-    if start >= 0:
-        nxt = page.find("\n## ", start + 1 + len(SECTION))
-        page = page[:start + 1] + text + ("\n" + page[nxt + 1:] if nxt >= 0 else "")
-    else:
-        page = page.rstrip() + "\n\n" + text
-    path.write_text(page)
-
-
-def loadavg() -> list:
-    try:
-        return [float(x) for x in Path("/proc/loadavg").read_text().split()[:3]]
-    except OSError:
-        return []
-
-
 def main(argv=None) -> int:
     import run as bench_run  # bench/run.py: machine(), source_state()
 
@@ -596,7 +574,7 @@ def main(argv=None) -> int:
     write_docs = args.docs or mode == "full"
     if args.report_only:
         data = json.loads(json_path.read_text())
-        write_section(section(data), args.docs_file)
+        write_section(section(data), SECTION, args.docs_file)
         say(f"written: {args.docs_file} (section {SECTION!r})")
         return 0
     backends = [s.strip() for s in args.subjects.split(",") if s.strip()]
@@ -659,7 +637,7 @@ def main(argv=None) -> int:
             say(f"{backend} {robot}: {q}: composed {num(c)}, other {num(s)}, ratio {num(r, 2)}")
     say(f"written: {json_path} ({t_end - t_start:.0f} s in all)")
     if write_docs:
-        write_section(section(data), args.docs_file)
+        write_section(section(data), SECTION, args.docs_file)
         say(f"written: {args.docs_file} (section {SECTION!r})")
     return 0
 

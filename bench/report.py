@@ -551,6 +551,27 @@ def fmt_load(load) -> str:
     return ", ".join(f"{x:.2f}" for x in load) if load else "?"
 
 
+def loadavg() -> list:
+    """The load average (1, 5, 15 min), or [] where /proc has none."""
+    try:
+        return [float(x) for x in Path("/proc/loadavg").read_text().split()[:3]]
+    except OSError:
+        return []
+
+
+def write_section(text: str, section: str, path: Path) -> None:
+    """Puts ``text``, the section headed ``section`` (a ``## `` line), in
+    place of the one the page has, else at its end."""
+    page = path.read_text() if path.exists() else ""
+    start = page.find("\n" + section + "\n")
+    if start >= 0:
+        nxt = page.find("\n## ", start + 1 + len(section))
+        page = page[:start + 1] + text + ("\n" + page[nxt + 1:] if nxt >= 0 else "")
+    else:
+        page = page.rstrip() + "\n\n" + text
+    path.write_text(page)
+
+
 if __name__ == "__main__":
     import sys
     path = Path(sys.argv[1]) if len(sys.argv) > 1 else BENCH / "results" / "bridges.json"

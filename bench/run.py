@@ -51,6 +51,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import blocks as h  # noqa: E402
 from blocks import BenchError, mw  # noqa: E402
+from report import loadavg  # noqa: E402
 
 ROOT = h.ROOT
 BENCH = h.BENCH
@@ -763,13 +764,6 @@ def source_state() -> dict:
     changed = git("status", "--porcelain", "--", "ybg")
     return {"commit": git("rev-parse", "--short", "HEAD"),
             "modified": [line[3:] for line in (changed or "").splitlines()]}
-
-
-def loadavg() -> list:
-    try:
-        return [float(x) for x in Path("/proc/loadavg").read_text().split()[:3]]
-    except OSError:
-        return []
 
 
 def machine() -> str:

@@ -50,6 +50,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import blocks as h  # noqa: E402
 from blocks import BenchError, mw  # noqa: E402
+from report import fmt_load, loadavg, write_section  # noqa: E402
 
 ROOT = h.ROOT
 BENCH = h.BENCH
@@ -496,10 +497,6 @@ def short(text: Optional[str]) -> str:
     return (text or "").strip().splitlines()[0][:200] if text else ""
 
 
-def fmt_load(load) -> str:
-    return ", ".join(f"{x:.2f}" for x in load) if load else "?"
-
-
 def notes(data: dict) -> list:
     out = []
     for s, info in data["subjects"].items():
@@ -523,25 +520,6 @@ def notes(data: dict) -> list:
                "from the connection's thread, one hand-over less, measured the same (1.17 x), so the cost "
                "is elsewhere, not found yet.")
     return out
-
-
-def write_section(text: str, path: Path = DOCS) -> None:
-    """Puts the section at the end of the page, in place of the one there."""
-    page = path.read_text() if path.exists() else ""
-    start = page.find("\n" + SECTION + "\n")
-    if start >= 0:
-        nxt = page.find("\n## ", start + 1 + len(SECTION))
-        rest = page[nxt + 1:] if nxt >= 0 else ""
-        page = page[:start + 1] + rest
-    page = page.rstrip() + "\n\n" + text
-    path.write_text(page)
-
-
-def loadavg() -> list:
-    try:
-        return [float(x) for x in Path("/proc/loadavg").read_text().split()[:3]]
-    except OSError:
-        return []
 
 
 def main(argv=None) -> int:
@@ -575,7 +553,7 @@ def main(argv=None) -> int:
         data = json.loads(json_path.read_text())
         data["targets"] = targets(data)
         data["notes"] = notes(data)
-        write_section(section(data), args.docs_file)
+        write_section(section(data), SECTION, args.docs_file)
         say(f"written: {args.docs_file} (section {SECTION!r})")
         return 0
 
@@ -632,7 +610,7 @@ def main(argv=None) -> int:
     print_figures(data)
     say(f"written: {json_path} ({t_end - t_start:.0f} s in all, build {t_built - t_start:.0f} s)")
     if write_docs:
-        write_section(section(data), args.docs_file)
+        write_section(section(data), SECTION, args.docs_file)
         say(f"written: {args.docs_file} (section {SECTION!r})")
     return 0
 
