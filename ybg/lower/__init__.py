@@ -13,7 +13,10 @@ and that no backend owns.
   port and on a ROS 1 topic through YARP);
 - :mod:`.python`: Python source for the runtime library's specs and the
   Bottle builder, shared by the backends that write Python;
-- :mod:`.package`: the ROS 2 package and launch file around a module;
+- :mod:`.package`: the ROS 2 package and launch file around a module, and
+  a composed module's parameter file;
+- :mod:`.compose`: what composed modules share, and the file name of a
+  program's config (in every module's texts that name it);
 - :mod:`.ros2_events`: what both runtimes say and count of the incompatible
   peers of a module's ROS 2 publishers and subscriptions;
 - :mod:`.templates`: the Jinja environment (templates only print) and its

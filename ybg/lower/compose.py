@@ -1,5 +1,5 @@
 """What the backends' composed modules share (docs/compose.md): where each
-bridge's config is, for the texts that name it, the folder of the bridges'
+bridge's config is, for the texts that name it (a single module's too), the folder of the bridges'
 modules, and the refusal of one bridge of a composition."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from ybg.lower.errors import LoweringError
 BRIDGES = "bridges"
 
 
-def config_name(program) -> str:
+def config_file(program) -> str:
     """The config's file name (the module's name for a program of no file)."""
     return os.path.basename(program.source) if program.source else program.module
 
@@ -25,7 +25,7 @@ def config_at(program) -> str:
         span = program.services[0].span if program.services else None
     else:
         span = program.output.span
-    name = config_name(program)
+    name = config_file(program)
     return f"{name}:{span.line}:{span.column}" if span is not None else name
 
 
@@ -36,4 +36,4 @@ def refusal(program, message: str, span=None) -> LoweringError:
     return e
 
 
-__all__ = ["BRIDGES", "config_name", "config_at", "refusal"]
+__all__ = ["BRIDGES", "config_file", "config_at", "refusal"]

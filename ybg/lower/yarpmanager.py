@@ -12,11 +12,11 @@ prefix.
 
 from __future__ import annotations
 
-import os
 import xml.etree.ElementTree as ET
 
 from ybg.compiler.ir import Program
 from ybg.runtime import VERSION
+from ybg.lower.compose import config_file
 
 #: the yarprun server (``yarprun --server /ybgc``) the application runs the module on
 NODE = "/ybgc"
@@ -47,7 +47,7 @@ def application(program: Program, command: str, parameters: str, workdir: str | 
     """The application's XML. ``command`` and ``parameters`` start the
     module in ``workdir`` (the folder it was generated into; None: wherever
     yarprun runs, for a module installed on the PATH)."""
-    config = os.path.basename(program.source) if program.source else program.module
+    config = config_file(program)
     app = ET.Element("application")
     _text(app, "name", program.module)
     _text(app, "description",

@@ -32,7 +32,7 @@ from ybg.backends.runtime import (CPP_COMPOSE_SOURCES, CPP_IMAGES_SOURCES, CPP_R
                                   cpp_files, runtime_view)
 from ybg.compiler import ir
 from ybg.lower import yarpmanager
-from ybg.lower.compose import BRIDGES, config_at, config_name, refusal
+from ybg.lower.compose import BRIDGES, config_at, config_file, refusal
 from ybg.lower.errors import LoweringError
 from ybg.lower.package import YAML_FILTERS, NodeParameters
 from ybg.lower.python import py_literal
@@ -172,10 +172,10 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
     rt = runtime_view("cpp", False)
     for program, view in views:
         namespace = cpp_identifier(f"bridge_{program.module}")
-        member = BridgeMember(namespace=namespace, composed=comment(name), config=comment(config_name(program)))
+        member = BridgeMember(namespace=namespace, composed=comment(name), config=comment(config_file(program)))
         files[f"{BRIDGES}/{view.filename}"] = template.render(m=view, rt=rt, member=member)
         members.append(MemberView(namespace=namespace, module=cpp_string(program.module),
-                                  config=cpp_string(config_name(program)), at=cpp_string(config_at(program)),
+                                  config=cpp_string(config_file(program)), at=cpp_string(config_at(program)),
                                   summary=comment(f"{program.module}: {_describe(program)}")))
     packages = sorted({p for _, v in views for p in v.ros2_packages})
     filename = f"{name}.cpp"
@@ -210,7 +210,7 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
 
 
 def _package(programs, name: str, views, packages) -> ComposedPackageView:
-    configs = ", ".join(config_name(p) for p in programs)
+    configs = ", ".join(config_file(p) for p in programs)
     with_node = [p for p, v in views if v.uses_ros2]
     return ComposedPackageView(
         config=f"{len(programs)} configs ({configs})",
@@ -229,7 +229,7 @@ def _package(programs, name: str, views, packages) -> ComposedPackageView:
 def application(programs, name: str, command: str, workdir: str | None) -> str:
     """The yarpmanager application of the composed module: the executable,
     and every bridge's connections (ybg.lower.yarpmanager.connections)."""
-    configs = ", ".join(config_name(p) for p in programs)
+    configs = ", ".join(config_file(p) for p in programs)
     app = ET.Element("application")
 
     def text(parent, tag, value):

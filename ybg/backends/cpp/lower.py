@@ -12,7 +12,6 @@ templates only print what this module hands them.
 from __future__ import annotations
 
 import math
-import os
 import re
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -26,6 +25,7 @@ from ybg.lower.tree import TIME_TYPES, coerce, default_scalar, nest_fields, time
 from ybg.lower.wire import WIRE_ROS1 as _WIRE_ROS1
 from ybg.lower.wire import WIRE_YARP as _WIRE_YARP
 from ybg.lower.wire import has_fixed_array, has_message_array, ros1_shape
+from ybg.lower.compose import config_file
 
 if TYPE_CHECKING:
     from ybg.backends.cpp.ros2 import Ros2View
@@ -650,7 +650,7 @@ def lower(program: ir.Program, builder=BottleBuilder) -> ModuleView:
          f"publishing {what_comment} on {where},"),
         f"{timing}, {policy}.",
     )
-    config_name = os.path.basename(program.source) if program.source else program.module
+    config_name = config_file(program)
     sizes = " + \", \" + ".join(
         f"{cpp_string(m.name + ' has ')} + ybgc::images::describe(mux.{members[m.name]})" if m.image is not None else
         f"{cpp_string(m.name + ' has ')} + std::to_string(mux.{members[m.name]}.size())" for m in program.muxes

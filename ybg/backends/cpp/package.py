@@ -11,12 +11,12 @@ holds it), without a launch file."""
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 
 from ybg.compiler import ir
 from ybg.lower.package import PackageView as LaunchView
 from ybg.lower.rosnames import node_name, node_parameters, package_name
+from ybg.lower.compose import config_file
 
 
 @dataclass(frozen=True)
@@ -31,7 +31,7 @@ def lower_package(program: ir.Program, packages: tuple[str, ...]) -> PackageView
     """The view-model of package.xml: ``packages``, the message packages the
     module links (ybg.backends.cpp.lower's ``ros2_packages``; none for a
     module of YARP ports alone)."""
-    config_name = os.path.basename(program.source) if program.source else program.module
+    config_name = config_file(program)
     out = program.output
     what = f"{out.msg_type or program.message.msg_type} on {out.name}" if out.kind == "ros2" else \
         f"the YARP port {out.name}"

@@ -20,7 +20,7 @@ import jinja2
 from ybg.backends.base import RenderOptions
 from ybg.backends.runtime import VERSION, python_files, runtime_view
 from ybg.lower import yarpmanager
-from ybg.lower.compose import BRIDGES, config_at, config_name
+from ybg.lower.compose import BRIDGES, config_at, config_file
 from ybg.lower.errors import LoweringError
 from ybg.lower.python import py_literal
 from ybg.lower.templates import py_comment_filter, template_environment
@@ -80,7 +80,7 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
         out = program.output
         what = f"{out.msg_type or 'untyped'} Bottles on {'the ROS 1 topic' if out.kind == 'ros1' else 'the YARP port'} " \
                f"{out.name}"
-        members.append(MemberView(py_literal(program.module), py_literal(config_name(program)), py_literal(config_at(program)),
+        members.append(MemberView(py_literal(program.module), py_literal(config_file(program)), py_literal(config_at(program)),
                                   py_literal(f"{BRIDGES}/{view.filename}"), f"{program.module}: {what}"))
     filename = f"{name}.py"
     view = ComposedView(filename, py_literal(name), name, len(programs), len(programs), BRIDGES, tuple(members))
@@ -93,7 +93,7 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
 def application(programs, name: str, filename: str, workdir: str | None) -> str:
     """The yarpmanager application of the composed module: the module, and
     every bridge's connections (ybg.lower.yarpmanager.connections)."""
-    configs = ", ".join(config_name(p) for p in programs)
+    configs = ", ".join(config_file(p) for p in programs)
     app = ET.Element("application")
 
     def text(parent, tag, value):

@@ -10,7 +10,6 @@ prints what this module hands it.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 
 from ybg.compiler import ir
@@ -18,6 +17,7 @@ from ybg.lower.errors import Line, LoweringError
 from ybg.lower.python import (BottleBuilder, InputView, MuxView, OutputView, RuntimeImport, bottle_output,
                               converter_views, py_literal, py_types, runtime_imports, timing_summary)
 from ybg.lower.wire import WIRE_ROS1, WIRE_YARP
+from ybg.lower.compose import config_file
 
 
 @dataclass(frozen=True)
@@ -98,7 +98,7 @@ def lower(program: ir.Program) -> ModuleView:
         output.description,
         py_literal(timing_summary(program)),
     )
-    config_name = os.path.basename(program.source) if program.source else program.module
+    config_name = config_file(program)
     rate = program.timing.rate
     return ModuleView(
         filename=f"{program.module}.py",

@@ -23,7 +23,7 @@ import jinja2
 from ybg.backends.base import RenderOptions
 from ybg.backends.runtime import PY_PACKAGE, python_files, runtime_text_filter, runtime_view
 from ybg.compiler import ir
-from ybg.lower.compose import BRIDGES, config_at, config_name, refusal
+from ybg.lower.compose import BRIDGES, config_at, config_file, refusal
 from ybg.lower.errors import LoweringError
 from ybg.lower.package import YAML_FILTERS, NodeParameters
 from ybg.lower.python import PYTHON_FILTERS, py_literal
@@ -133,7 +133,7 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
             m=view, rt=rt, rt_import=bridge_import, rt_package=bridge_package)
         stem = view.filename[: -len(".py")]
         where = f"{BRIDGES}/{view.filename}" if package is None else f".{BRIDGES}.{stem}"
-        config = config_name(program)
+        config = config_file(program)
         members.append(MemberView(
             module=py_literal(program.module), config=py_literal(config), at=py_literal(config_at(program)),
             where=py_literal(where), node_name=_node_name(program),
@@ -148,7 +148,7 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
         files.update(python_files())
         return files
 
-    configs = ", ".join(config_name(p) for p in programs)
+    configs = ", ".join(config_file(p) for p in programs)
     depends: list[str] = ["rclpy", "diagnostic_msgs"]
     for program in programs:
         used = services.used_packages(program) if isinstance(program, ir.Commands) else used_packages(program)

@@ -33,6 +33,7 @@ from ybg.lower.rosnames import (identifier, node_name, node_parameters, package_
                                 used_packages)
 from ybg.lower.tree import check_size, slice_stop
 from ybg.lower.wire import WIRE_YARP
+from ybg.lower.compose import config_file
 
 #: Python conversion of one value of a ROS primitive field (the name of a
 #: helper of the generated node, or a builtin)
@@ -592,7 +593,7 @@ def lower(program: ir.Program) -> NodeView:
         py_literal(desc),
         py_literal(timing_summary(program)),
     )
-    config_name = os.path.basename(program.source) if program.source else program.module
+    config_name = config_file(program)
     rate = program.timing.rate
     return NodeView(
         filename=f"{identifier(program.module, 'module name')}_node.py",
@@ -645,7 +646,7 @@ def _camera_info(program: ir.Program, info: ir.CameraInfo, imports: dict) -> Cam
 def lower_package(program: ir.Program, view: NodeView) -> PackageView:
     """The view-model of the ament_python package around the node."""
     pkg = package_name(program.module)
-    config_name = os.path.basename(program.source) if program.source else program.module
+    config_name = config_file(program)
     out = program.output
     if out.kind == "ros2":
         what = f"{ros2_type_name(out.msg_type or program.message.msg_type or '')} on {out.name}"
