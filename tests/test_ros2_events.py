@@ -134,6 +134,7 @@ def test_both_runtimes_say_the_lowering_librarys_texts():
     assert core.INCOMPATIBLE_QOS_TEXT == texts.INCOMPATIBLE_QOS_TEXT == cpp_text("kIncompatibleQosText")
     assert core.INCOMPATIBLE_TYPE_TEXT == texts.INCOMPATIBLE_TYPE_TEXT == cpp_text("kIncompatibleTypeText")
     assert core.EVENTS_TOTALS_LINE == texts.EVENTS_TOTALS_LINE
+    assert core.SUBSCRIBERS_TEXT == texts.SUBSCRIBERS_TEXT == cpp_text("kSubscribersText")
 
 
 #: the ROS 2 side depends on no YARP release: one of the matrix

@@ -54,9 +54,10 @@ class Differential:
                 producer.wait_outputs(2)
             for s in self.subs:
                 s.wait_publishers(1)
-            # and the node's publisher has matched its subscriber: a message
+            # and each publisher has matched its subscriber: a message
             # published before that is lost (discovery is not symmetric in time)
-            self.node.wait_log(f"{self.node_topic}: 1 subscriber")
+            self.native.wait_log(f"{self.program.output.name}: 1 subscriber\n")
+            self.node.wait_log(f"{self.node_topic}: 1 subscriber\n")
         except BaseException:
             self.__exit__()
             raise

@@ -12,6 +12,12 @@ Said once per publisher or subscription, the first peer of each kind::
     ROS 2 {kind} {topic}: a {peer} of an incompatible QoS (...)
     ROS 2 {kind} {topic}: a {peer} of another definition of {type} (...)
 
+Said by a publisher each time its matched subscriptions change (a message
+published before a subscription has matched is not delivered to it; {s} is
+"" for one, "s" otherwise)::
+
+    {topic}: {n} subscriber{s}
+
 Exit totals, one line per publisher or subscription that had any, after the
 ``published`` line::
 
@@ -35,6 +41,9 @@ INCOMPATIBLE_QOS_TEXT = ("ROS 2 {kind} {topic}: a {peer} of an incompatible QoS 
 INCOMPATIBLE_TYPE_TEXT = ("ROS 2 {kind} {topic}: a {peer} of another definition of {type} (its type hash "
                           "{theirs}; this {kind}'s: {ours}): no messages between them; further incompatible "
                           "type events of it are only counted")
+#: a publisher's matched subscriptions, when they change: {topic} as the
+#: config names it, {n} how many, {s} "" for one and "s" otherwise
+SUBSCRIBERS_TEXT = "{topic}: {n} subscriber{s}"
 #: the exit totals' line (Python %-format: kind, topic, QoS count, type count)
 EVENTS_TOTALS_LINE = "ros2 %s %s: incompatible QoS %d, incompatible type %d"
 #: the keys of one `stats` list, after ``ros2 KIND TOPIC``

@@ -579,6 +579,8 @@ INCOMPATIBLE_QOS_TEXT = ("ROS 2 {kind} {topic}: a {peer} of an incompatible QoS 
 INCOMPATIBLE_TYPE_TEXT = ("ROS 2 {kind} {topic}: a {peer} of another definition of {type} (its type hash "
                           "{theirs}; this {kind}'s: {ours}): no messages between them; further incompatible "
                           "type events of it are only counted")
+#: a publisher's matched subscriptions, each time they change
+SUBSCRIBERS_TEXT = "{topic}: {n} subscriber{s}"
 #: the exit totals' line of an endpoint that had incompatible peers
 EVENTS_TOTALS_LINE = "ros2 %s %s: incompatible QoS %d, incompatible type %d"
 

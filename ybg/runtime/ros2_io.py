@@ -32,7 +32,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from .compose import SWITCH_INTERVAL, Composer, describe, load_failure  # ybgc:runtime-import
 from .core import _FLOAT_TYPES, _INT_TYPES, InputState, parse_accept, seconds_to_ns  # ybgc:runtime-import
-from .core import INCOMPATIBLE_QOS_TEXT, INCOMPATIBLE_TYPE_TEXT, EndpointEvents  # ybgc:runtime-import
+from .core import INCOMPATIBLE_QOS_TEXT, INCOMPATIBLE_TYPE_TEXT, SUBSCRIBERS_TEXT, EndpointEvents  # ybgc:runtime-import
 from .images import ImageInput, append_rows, fit_calibration, frame_of, message_frame  # ybgc:runtime-import
 from .yarp_io import YarpBridge  # ybgc:runtime-import
 
@@ -474,7 +474,7 @@ class Ros2Output:
 
     def _on_matched(self, info, topic=None):
         n = info.current_count
-        self.log("%s: %d subscriber%s" % (topic or self.port_name, n, "" if n == 1 else "s"))
+        self.log(SUBSCRIBERS_TEXT.format(topic=topic or self.port_name, n=n, s="" if n == 1 else "s"))
 
     def connections(self):
         return []

@@ -343,7 +343,7 @@ struct ImagePublisher::Rcl
     sensor_msgs__msg__CameraInfo* info = nullptr;
     std::string topic;  // as remapped
     bool reportedError = false;
-    std::unique_ptr<ros2::IncompatiblePeers> peers;  // of its publisher
+    std::unique_ptr<ros2::PeerEvents> peers;  // of its publisher
 };
 
 ImagePublisher::ImagePublisher(const ros2::Ros2Spec& spec, const ros2::MessageType& type, ros2::FillMessage fill,
@@ -353,7 +353,7 @@ ImagePublisher::ImagePublisher(const ros2::Ros2Spec& spec, const ros2::MessageTy
 {
     if (cameraInfo_ != nullptr) {
         rcl_->topic = cameraInfo_->topic;
-        rcl_->peers = std::make_unique<ros2::IncompatiblePeers>("publisher", cameraInfo_->topic,
+        rcl_->peers = std::make_unique<ros2::PeerEvents>("publisher", cameraInfo_->topic,
                                                                 "sensor_msgs/msg/CameraInfo");
     }
 }

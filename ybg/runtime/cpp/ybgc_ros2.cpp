@@ -162,8 +162,8 @@ struct Node::Rcl
     std::mutex diagnosticsMutex;
     std::condition_variable diagnosticsWake;
     bool diagnosticsStop = false;
-    // the events of its publishers and subscriptions (IncompatiblePeers)
-    std::vector<IncompatiblePeers*> peers;
+    // the events of its publishers and subscriptions (PeerEvents)
+    std::vector<PeerEvents*> peers;
     std::thread peersThread;
     std::mutex peersMutex;
     std::condition_variable peersWake;
@@ -393,7 +393,7 @@ void Node::diagnose(TotalsSource totals)
     diagnostic_msgs__msg__DiagnosticArray__fini(&msg);
 }
 
-void Node::watch(IncompatiblePeers* peers)
+void Node::watch(PeerEvents* peers)
 {
     Rcl& r = *rcl_;
     std::lock_guard<std::mutex> lock(r.peersMutex);
@@ -407,7 +407,7 @@ void Node::watch(IncompatiblePeers* peers)
     }
 }
 
-void Node::unwatch(IncompatiblePeers* peers)
+void Node::unwatch(PeerEvents* peers)
 {
     Rcl& r = *rcl_;
     std::lock_guard<std::mutex> lock(r.peersMutex);  // not while it takes them
@@ -420,7 +420,7 @@ void Node::takeEvents()
     Rcl& r = *rcl_;
     std::unique_lock<std::mutex> lock(r.peersMutex);
     while (!r.peersWake.wait_for(lock, std::chrono::milliseconds(100), [&r] { return r.peersStop; })) {
-        for (IncompatiblePeers* peers : r.peers) {
+        for (PeerEvents* peers : r.peers) {
             peers->take();
         }
     }
@@ -654,6 +654,9 @@ std::string hashText(const rosidl_type_hash_t& hash)
 const char* const kIncompatibleQosText =
     "ROS 2 {kind} {topic}: a {peer} of an incompatible QoS ({policy}; the {peer}'s: {theirs}; this {kind}'s: "
     "{ours}): no messages between them; further incompatible QoS events of it are only counted";
+/// What a publisher says each time its matched subscriptions change ({s}: ""
+/// for one, "s" otherwise), as the Python node.
+const char* const kSubscribersText = "{topic}: {n} subscriber{s}";
 const char* const kIncompatibleTypeText =
     "ROS 2 {kind} {topic}: a {peer} of another definition of {type} (its type hash {theirs}; this {kind}'s: "
     "{ours}): no messages between them; further incompatible type events of it are only counted";
@@ -688,30 +691,32 @@ bool counted(std::atomic<std::uint64_t>& n, std::int32_t total, std::int32_t cha
 
 }  // namespace
 
-struct IncompatiblePeers::Rcl
+struct PeerEvents::Rcl
 {
     Node* node = nullptr;
     const rcl_publisher_t* publisher = nullptr;
     const rcl_subscription_t* subscription = nullptr;
     rcl_event_t qosEvent = rcl_get_zero_initialized_event();
     rcl_event_t typeEvent = rcl_get_zero_initialized_event();
+    rcl_event_t matchedEvent = rcl_get_zero_initialized_event();  // a publisher's
     bool qosOk = false;
     bool typeOk = false;
+    bool matchedOk = false;
     std::atomic<std::uint64_t> qos{0};
     std::atomic<std::uint64_t> type{0};
 };
 
-IncompatiblePeers::IncompatiblePeers(const char* kind, std::string topic, std::string typeName) :
+PeerEvents::PeerEvents(const char* kind, std::string topic, std::string typeName) :
         kind_(kind), topic_(std::move(topic)), typeName_(std::move(typeName)), rcl_(std::make_unique<Rcl>())
 {
 }
 
-IncompatiblePeers::~IncompatiblePeers()
+PeerEvents::~PeerEvents()
 {
     stop();
 }
 
-void IncompatiblePeers::watch(Node& node, const rcl_publisher_t* publisher)
+void PeerEvents::watch(Node& node, const rcl_publisher_t* publisher)
 {
     Rcl& r = *rcl_;
     r.publisher = publisher;
@@ -719,10 +724,11 @@ void IncompatiblePeers::watch(Node& node, const rcl_publisher_t* publisher)
     r.qosOk = rcl_publisher_event_init(&r.qosEvent, publisher, RCL_PUBLISHER_OFFERED_INCOMPATIBLE_QOS)
         == RCL_RET_OK;
     r.typeOk = rcl_publisher_event_init(&r.typeEvent, publisher, RCL_PUBLISHER_INCOMPATIBLE_TYPE) == RCL_RET_OK;
+    r.matchedOk = rcl_publisher_event_init(&r.matchedEvent, publisher, RCL_PUBLISHER_MATCHED) == RCL_RET_OK;
     init(node);
 }
 
-void IncompatiblePeers::watch(Node& node, const rcl_subscription_t* subscription)
+void PeerEvents::watch(Node& node, const rcl_subscription_t* subscription)
 {
     Rcl& r = *rcl_;
     r.subscription = subscription;
@@ -733,17 +739,17 @@ void IncompatiblePeers::watch(Node& node, const rcl_subscription_t* subscription
     init(node);
 }
 
-void IncompatiblePeers::init(Node& node)
+void PeerEvents::init(Node& node)
 {
     Rcl& r = *rcl_;
     rcl_reset_error();
     r.node = &node;
-    if (r.qosOk || r.typeOk) {
+    if (r.qosOk || r.typeOk || r.matchedOk) {
         node.watch(this);
     }
 }
 
-void IncompatiblePeers::stop()
+void PeerEvents::stop()
 {
     Rcl& r = *rcl_;
     if (r.node != nullptr) {
@@ -758,9 +764,13 @@ void IncompatiblePeers::stop()
         finished(rcl_event_fini(&r.typeEvent));
         r.typeOk = false;
     }
+    if (r.matchedOk) {
+        finished(rcl_event_fini(&r.matchedEvent));
+        r.matchedOk = false;
+    }
 }
 
-void IncompatiblePeers::take()
+void PeerEvents::take()
 {
     Rcl& r = *rcl_;
     if (r.qosOk) {
@@ -783,9 +793,20 @@ void IncompatiblePeers::take()
             rcl_reset_error();
         }
     }
+    if (r.matchedOk) {
+        rmw_matched_status_t status{};
+        if (rcl_take_event(&r.matchedEvent, &status) == RCL_RET_OK) {
+            if (status.current_count_change != 0) {
+                const std::size_t n = status.current_count;
+                say(filled(kSubscribersText, {{"topic", topic_}, {"n", std::to_string(n)}, {"s", n == 1 ? "" : "s"}}));
+            }
+        } else {
+            rcl_reset_error();
+        }
+    }
 }
 
-std::string IncompatiblePeers::qosText(int policy)
+std::string PeerEvents::qosText(int policy)
 {
     Rcl& r = *rcl_;
     const bool publishes = r.publisher != nullptr;
@@ -817,7 +838,7 @@ std::string IncompatiblePeers::qosText(int policy)
                                          {"theirs", theirs}, {"ours", ours != nullptr ? qosWords(*ours) : "unknown"}});
 }
 
-std::string IncompatiblePeers::typeText()
+std::string PeerEvents::typeText()
 {
     Rcl& r = *rcl_;
     const bool publishes = r.publisher != nullptr;
@@ -850,7 +871,7 @@ std::string IncompatiblePeers::typeText()
                                           {"theirs", theirs}, {"ours", ours}});
 }
 
-Totals::Ros2Endpoint IncompatiblePeers::counts() const
+Totals::Ros2Endpoint PeerEvents::counts() const
 {
     return {kind_, topic_, rcl_->qos.load(), rcl_->type.load()};
 }
@@ -986,7 +1007,7 @@ struct Subscriptions::Rcl
 {
     rcl_allocator_t allocator = rcl_get_default_allocator();
     std::vector<rcl_subscription_t> subscriptions;  // one a topic, in Topics order
-    std::vector<std::unique_ptr<IncompatiblePeers>> peers;  // one a topic, in Topics order
+    std::vector<std::unique_ptr<PeerEvents>> peers;  // one a topic, in Topics order
     std::vector<void*> messages;                    // one taken message a topic
     std::size_t subscribed = 0;
     std::thread thread;
@@ -999,7 +1020,7 @@ Subscriptions::Subscriptions(const Topics& topics, std::vector<std::string> rosA
         node_(publisher == nullptr ? ownNode_.get() : &publisher->node()), rcl_(std::make_unique<Rcl>())
 {
     for (const Topic& t : topics_.topics) {
-        rcl_->peers.push_back(std::make_unique<IncompatiblePeers>("subscription", t.name, t.type.name));
+        rcl_->peers.push_back(std::make_unique<PeerEvents>("subscription", t.name, t.type.name));
     }
 }
 

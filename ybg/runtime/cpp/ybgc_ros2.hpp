@@ -290,15 +290,18 @@ class Node;
 /// bridge's `stats`, exit totals and /diagnostics), the first of each kind
 /// said with the peer's QoS (the first peer in the graph whose reliability
 /// or durability does not match its own) or type hash, in the Python node's
-/// words. An event kind the rmw does not support is left out. Taken by its
-/// Node's thread (Node::poll), every 100 ms.
-class IncompatiblePeers
+/// words; and a publisher's matched subscriptions, said when they change
+/// ("TOPIC: N subscribers", as the Python node: a message published before a
+/// subscription has matched is not delivered to it). An event kind the rmw
+/// does not support is left out. Taken by its Node's thread (Node::takeEvents),
+/// every 100 ms.
+class PeerEvents
 {
 public:
-    IncompatiblePeers(const char* kind, std::string topic, std::string typeName);
-    ~IncompatiblePeers();
-    IncompatiblePeers(const IncompatiblePeers&) = delete;
-    IncompatiblePeers& operator=(const IncompatiblePeers&) = delete;
+    PeerEvents(const char* kind, std::string topic, std::string typeName);
+    ~PeerEvents();
+    PeerEvents(const PeerEvents&) = delete;
+    PeerEvents& operator=(const PeerEvents&) = delete;
 
     /// Its events on `publisher` (`subscription`) of `node`, taken by `node`
     /// until stop().
@@ -363,9 +366,9 @@ public:
     bool diagnostics(double& period) const;
     /// Takes the events of `peers` every 100 ms, by a thread of its own,
     /// until unwatch(peers) or close().
-    void watch(IncompatiblePeers* peers);
+    void watch(PeerEvents* peers);
     /// No longer takes them (returns once it does not).
-    void unwatch(IncompatiblePeers* peers);
+    void unwatch(PeerEvents* peers);
 
 private:
     struct Rcl;
@@ -451,7 +454,7 @@ private:
     std::string describe_;
     void* msg_ = nullptr;
     bool reportedPublishError_ = false;
-    IncompatiblePeers peers_;
+    PeerEvents peers_;
 };
 
 /// Moves the ROS arguments of a command line (from `--ros-args` to `--` or
