@@ -25,6 +25,7 @@ from ybg.backends.cpp.lower import lower as lower_module
 from ybg.backends.cpp.rcl import RUNTIME_PACKAGES, c_header, c_struct
 from ybg.compiler import ir
 from ybg.lower.errors import Line, LoweringError
+from ybg.lower.qos import checked_qos
 from ybg.lower.rosnames import node_name, split_type, used_packages
 from ybg.lower.tree import check_size, slice_stop
 
@@ -305,9 +306,7 @@ def ros2_view(program: ir.Program) -> Ros2View:
                                 | set(RUNTIME_PACKAGES)))
     except LoweringError as e:
         raise e.at(out.type_span)
-    qos = out.qos or ir.QoS()
-    if qos.reliability not in ("reliable", "best_effort") or qos.durability not in ("volatile", "transient_local"):
-        raise LoweringError(f"unknown QoS {qos}")
+    qos = checked_qos(out.qos or ir.QoS(), out.span)
     node = node_name(program)
     spec = (f"{{{cpp_string(out.name)}, {cpp_string(node)}, {'true' if qos.reliability == 'reliable' else 'false'}, "
             f"{'true' if qos.durability == 'transient_local' else 'false'}, {int(qos.depth):d}}}")

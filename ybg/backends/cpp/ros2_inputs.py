@@ -22,6 +22,7 @@ from ybg.backends.cpp.escape import comment, cpp_identifier, cpp_string
 from ybg.backends.cpp.rcl import RUNTIME_PACKAGES, c_header
 from ybg.compiler import ir
 from ybg.lower.errors import Line, LoweringError
+from ybg.lower.qos import checked_qos
 from ybg.lower.rosnames import node_name, split_type, used_packages
 
 _ELEMENT = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)((?:\[[0-9]+\])*)\Z")
@@ -71,10 +72,7 @@ def _qos_argument(i: ir.Input) -> str:
     (the runtime's default: best effort, volatile, depth 1)."""
     if i.qos is None:
         return ""
-    q = i.qos
-    if q.reliability not in ("reliable", "best_effort") or q.durability not in ("volatile", "transient_local") \
-            or q.depth < 1:
-        raise LoweringError(f"unsupported QoS {q}", i.span)
+    q = checked_qos(i.qos, i.span)
     return (f", ybgc::ros2::InputQos{{{'true' if q.reliability == 'reliable' else 'false'}, "
             f"{'true' if q.durability == 'transient_local' else 'false'}, {int(q.depth)}}}),  "
             f"// {q.reliability}, {q.durability}, depth {int(q.depth)}")

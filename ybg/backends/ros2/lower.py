@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from ybg.compiler import ir
 from ybg.lower.errors import Line, LoweringError
 from ybg.lower.package import PackageView
+from ybg.lower.qos import checked_qos
 from ybg.lower.python import (BottleBuilder, InputView, MuxView, OutputView, RuntimeImport, bottle_output,
                               converter_views, py_literal, runtime_imports, timing_summary)
 from ybg.lower.rosnames import (identifier, node_name, node_parameters, package_name, ros2_type_name, split_type,
@@ -75,17 +76,11 @@ class MsgImport:
     alias: str
 
 
-def _checked_qos(qos: ir.QoS, span) -> ir.QoS:
-    if qos.reliability not in RELIABILITY or qos.durability not in DURABILITY or qos.depth < 1:
-        raise LoweringError(f"unsupported QoS {qos}", span)
-    return qos
-
-
 def _qos_profile(qos: ir.QoS | None, span) -> str:
     """The QoSProfile of a topic input whose mux asks one (Python source), else "None"."""
     if qos is None:
         return "None"
-    qos = _checked_qos(qos, span)
+    qos = checked_qos(qos, span)
     return (f"QoSProfile(history=HistoryPolicy.KEEP_LAST, depth={int(qos.depth)}, "
             f"reliability=ReliabilityPolicy.{RELIABILITY[qos.reliability]}, "
             f"durability=DurabilityPolicy.{DURABILITY[qos.durability]})")
@@ -541,7 +536,7 @@ def lower(program: ir.Program) -> NodeView:
         except LoweringError as e:
             raise e.at(out.type_span)
         imports[alias] = MsgImport(f"{pkg}.msg", name, alias)
-        qos = _checked_qos(out.qos or ir.QoS(), out.span)
+        qos = checked_qos(out.qos or ir.QoS(), out.span)
         ros_output = RosOutputView(
             msg_class=alias, type_name=py_literal(ros2_type_name(msg_type)),
             topic=py_literal(out.name),
