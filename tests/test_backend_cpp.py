@@ -20,7 +20,6 @@ tests/test_golden.py).
 """
 from __future__ import annotations
 
-import functools
 import json
 import math
 import os
@@ -35,7 +34,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from harness.behaviour import BridgeBehaviour, ModuleCommandLine
+from harness.behaviour import BridgeBehaviour, ModuleCommandLine, NeverStartsAtAFixedRateOnTodayYarp, on_today_yarp
 from harness.behaviour_ros1 import Ros1Behaviour
 from harness.differential import Differential
 from harness.launchers import CppModules
@@ -62,20 +61,12 @@ ROOT = Path(__file__).resolve().parents[1]
 # the behaviour harness on the C++ modules (its Launcher: harness/launchers.py)
 
 
-def on_today_yarp(test):
-    """A test of the behaviour harness, with its parameters, run on today's
-    YARP (4.0) only: for a behaviour that other tests show on every release."""
-    @functools.wraps(test)
-    def run(self, *args, **kwargs):
-        return test(self, *args, **kwargs)
-    return pytest.mark.yarp_min((4, 0))(run)
-
 
 # the first test of a YARP release builds every module of the session (two
 # jobs, about two minutes on a quiet machine, more on a busy one): more time
 # than a single test gets
 @pytest.mark.timeout(900)
-class TestCppBehaviour(BridgeBehaviour, Ros1Behaviour, ModuleCommandLine):
+class TestCppBehaviour(NeverStartsAtAFixedRateOnTodayYarp, BridgeBehaviour, Ros1Behaviour, ModuleCommandLine):
     backend = "cpp"
     help_options = ("--name P", "--prefix P", "--rate HZ", "--timeout S", "--verbose", "--from FILE", "--context CTX",
                     "--help")
@@ -100,18 +91,6 @@ class TestCppBehaviour(BridgeBehaviour, Ros1Behaviour, ModuleCommandLine):
     test_fixed_rate_skips_overrun_cycles = on_today_yarp(BridgeBehaviour.test_fixed_rate_skips_overrun_cycles)
     test_hold_policy_and_cli_options = on_today_yarp(BridgeBehaviour.test_hold_policy_and_cli_options)
     test_hold_policy_and_trigger_any = on_today_yarp(BridgeBehaviour.test_hold_policy_and_trigger_any)
-
-    # waiting for inputs that never deliver on every release; at a fixed rate
-    # too (the runtime's own loop, which calls no YARP while nothing comes) on
-    # today's only
-    @pytest.mark.parametrize("args", [()], ids=["event-driven"])
-    def test_producer_never_starts(self, modules, yarp_server, env, args):
-        super().test_producer_never_starts(modules, yarp_server, env, args)
-
-    @pytest.mark.yarp_min((4, 0))
-    @pytest.mark.parametrize("args", [("--rate", "20")], ids=["fixed-rate"])
-    def test_producer_never_starts_at_a_fixed_rate(self, modules, yarp_server, env, args):
-        super().test_producer_never_starts(modules, yarp_server, env, args)
 
 
 # --------------------------------------------------------------------------

@@ -40,7 +40,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from harness.behaviour import BridgeBehaviour
+from harness.behaviour import BridgeBehaviour, NeverStartsAtAFixedRateOnTodayYarp, on_today_yarp
 from harness.env import EXAMPLES, LEGACY_DIR, ROOT, VENV_PYTHON
 from harness.generated import load_module, module_file, write_generated
 from harness.launchers import Ros2Modules, require_message_packages, write_node
@@ -123,14 +123,6 @@ def assert_close(actual, expected, path="msg"):
         assert actual == expected and type(actual) is type(expected), f"{path}: {actual!r} != {expected!r}"
 
 
-def on_today_yarp(test):
-    """A test of the behaviour harness, with its parameters, run on today's
-    YARP (4.0) only: for a behaviour that other tests show on every release."""
-    @functools.wraps(test)
-    def run(self, *args, **kwargs):
-        return test(self, *args, **kwargs)
-    return pytest.mark.yarp_min((4, 0))(run)
-
 
 @pytest.fixture
 def mw(yarp_server, ros2_domain):
@@ -143,7 +135,7 @@ def mw(yarp_server, ros2_domain):
 # topic; the module's command line as ROS parameters: harness/launchers.py)
 
 
-class TestRos2Behaviour(BridgeBehaviour):
+class TestRos2Behaviour(NeverStartsAtAFixedRateOnTodayYarp, BridgeBehaviour):
     """The node between YARP ports (the ros2 backend builds YARP outputs
     too), and every config it builds; not ROS 1."""
 
@@ -197,18 +189,6 @@ class TestRos2Behaviour(BridgeBehaviour):
         BridgeBehaviour.test_a_burst_within_the_backlog_is_relayed_whole_and_in_order)
     test_a_reader_held_up_skips_the_oldest_and_says_so = on_today_yarp(
         BridgeBehaviour.test_a_reader_held_up_skips_the_oldest_and_says_so)
-
-    # waiting for inputs that never deliver on every release; at a fixed rate
-    # too (the runtime's own loop, which calls no YARP while nothing comes) on
-    # today's only
-    @pytest.mark.parametrize("args", [()], ids=["event-driven"])
-    def test_producer_never_starts(self, modules, yarp_server, env, args):
-        super().test_producer_never_starts(modules, yarp_server, env, args)
-
-    @pytest.mark.yarp_min((4, 0))
-    @pytest.mark.parametrize("args", [("--rate", "20")], ids=["fixed-rate"])
-    def test_producer_never_starts_at_a_fixed_rate(self, modules, yarp_server, env, args):
-        super().test_producer_never_starts(modules, yarp_server, env, args)
 
 
 # --------------------------------------------------------------------------

@@ -19,6 +19,7 @@ port), never left to a race with the machine's speed.
 from __future__ import annotations
 
 import contextlib
+import functools
 import math
 import os
 import re
@@ -756,6 +757,32 @@ class BridgeBehaviour:
         finally:
             for p in reversed(peers):
                 p.stop()
+
+
+def on_today_yarp(test):
+    """A test of the behaviour harness, with its parameters, run on today's
+    YARP (4.0) only: for a behaviour that other tests show on every release
+    (``test_x = on_today_yarp(BridgeBehaviour.test_x)`` in a backend's class)."""
+    @functools.wraps(test)
+    def run(self, *args, **kwargs):
+        return test(self, *args, **kwargs)
+    return pytest.mark.yarp_min((4, 0))(run)
+
+
+class NeverStartsAtAFixedRateOnTodayYarp:
+    """Put before ``BridgeBehaviour`` in a backend's class: waiting for inputs
+    that never deliver on every release, event-driven; at a fixed rate too
+    (the runtime's own loop, which calls no YARP while nothing comes) on
+    today's YARP only."""
+
+    @pytest.mark.parametrize("args", [()], ids=["event-driven"])
+    def test_producer_never_starts(self, modules, yarp_server, env, args):
+        BridgeBehaviour.test_producer_never_starts(self, modules, yarp_server, env, args)
+
+    @pytest.mark.yarp_min((4, 0))
+    @pytest.mark.parametrize("args", [("--rate", "20")], ids=["fixed-rate"])
+    def test_producer_never_starts_at_a_fixed_rate(self, modules, yarp_server, env, args):
+        BridgeBehaviour.test_producer_never_starts(self, modules, yarp_server, env, args)
 
 
 class ModuleCommandLine:
