@@ -31,6 +31,7 @@ import os
 import shutil
 import subprocess
 import threading
+import time
 from pathlib import Path
 from typing import Optional
 
@@ -228,10 +229,20 @@ class Rig:
             self.name_server = self.place("names", Proc(
                 argv, env=self.env("names"), name="yarpserver", log_dir=self.tmpdir,
                 die_with_parent=True))
-        self.name_server.start()
-        wait_until(lambda: self.exists("/root"), 30, "the rig's yarpserver",
-                   self.name_server)
-        return self.name_server
+        # started again at once after a kill, it can find its port still
+        # held (the killed process not yet reaped on a busy machine, or its
+        # connections in TIME_WAIT): it says so and exits 1; tried again
+        # while that lasts (10 s at most)
+        end = time.monotonic() + 10.0
+        while True:
+            self.name_server.start()
+            try:
+                wait_until(lambda: self.exists("/root"), 30, "the rig's yarpserver", self.name_server)
+                return self.name_server
+            except RuntimeError:
+                if time.monotonic() > end or "Aborting" not in self.name_server.log_text()[-300:]:
+                    raise
+                time.sleep(0.25)
 
 
 def stop_all() -> None:
