@@ -30,6 +30,7 @@ Fixtures
                       (harness.build.session_builds).
 """
 import os
+import resource
 
 import pytest
 
@@ -42,7 +43,16 @@ from harness.ros1 import YarpRosStack  # noqa: E402
 from harness.ros2 import Ros2Domain  # noqa: E402
 from harness.yarp import YarpServer, require_yarp  # noqa: E402
 
+#: where a test's CPU count starts (pytest_runtest_setup)
+_CPU_AT_SETUP = pytest.StashKey[float]()
+
 DEFAULT_TIMEOUT = 180  # seconds per test, when pytest-timeout is installed
+#: the seconds of a test that may build the session's C++ modules of a YARP
+#: release (the first to ask one of them builds them all: about a minute on
+#: a quiet machine, with an empty ccache; minutes on a busy one)
+BUILD_TIMEOUT = 900
+#: the fixtures that give the session's modules (harness.build.session_builds)
+BUILD_FIXTURES = {"builds", "cpp_builds"}
 
 
 def pytest_addoption(parser):
@@ -92,29 +102,68 @@ def pytest_configure(config):
             config.option.timeout = DEFAULT_TIMEOUT
 
 
+def pytest_collection_modifyitems(config, items):
+    """A test that may build the session's modules has the build's time,
+    unless it sets its own."""
+    for item in items:
+        if BUILD_FIXTURES & set(getattr(item, "fixturenames", ())) and item.get_closest_marker("timeout") is None:
+            item.add_marker(pytest.mark.timeout(BUILD_TIMEOUT))
+
+
 def pytest_unconfigure(config):
     procs.stop_all()
 
 
 # --- where the time goes: the seconds of each test file (setup, call and
-# teardown; under pytest-xdist, summed over the workers), printed after the
-# run, so that a test that costs more than it should is seen
+# teardown; under pytest-xdist, summed over the workers), and the CPU seconds
+# it cost (its worker's own and those of the processes it started and waited
+# for: the middleware, the peers, the modules, the compilers), printed after
+# the run, so that a test that costs more than it should is seen. On a
+# machine of few cores the run's time is its CPU's: the CPU column says where
+# to cut.
 
 _FILE_SECONDS: dict = {}
+_FILE_CPU: dict = {}
+
+
+def _cpu_seconds() -> float:
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtest_setup(item):
+    item.stash[_CPU_AT_SETUP] = _cpu_seconds()
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    outcome = yield
+    if call.when == "teardown" and _CPU_AT_SETUP in item.stash:
+        outcome.get_result().user_properties.append(("cpu_s", _cpu_seconds() - item.stash[_CPU_AT_SETUP]))
 
 
 def pytest_runtest_logreport(report):
     path = report.nodeid.split("::", 1)[0]
     _FILE_SECONDS[path] = _FILE_SECONDS.get(path, 0.0) + report.duration
+    for key, value in report.user_properties:
+        if key == "cpu_s":
+            _FILE_CPU[path] = _FILE_CPU.get(path, 0.0) + value
 
 
 def pytest_terminal_summary(terminalreporter, exitstatus, config):
     if not _FILE_SECONDS or config.getoption("collectonly", False):
         return
     total = sum(_FILE_SECONDS.values())
-    terminalreporter.write_sep("-", f"seconds per test file ({total:.1f} s of tests in all)")
-    for path, seconds in sorted(_FILE_SECONDS.items(), key=lambda kv: -kv[1])[:20]:
-        terminalreporter.write_line(f"{seconds:8.1f}  {path}")
+    cpu = sum(_FILE_CPU.values())
+    terminalreporter.write_sep("-", f"seconds per test file ({total:.1f} s of tests in all, "
+                                    f"{cpu:.1f} s of CPU)")
+    terminalreporter.write_line(f"{'seconds':>8}  {'CPU s':>8}  file")
+    for path, seconds in sorted(_FILE_SECONDS.items(), key=lambda kv: -kv[1])[:25]:
+        terminalreporter.write_line(f"{seconds:8.1f}  {_FILE_CPU.get(path, 0.0):8.1f}  {path}")
+    terminalreporter.write_line("by CPU:")
+    for path, seconds in sorted(_FILE_CPU.items(), key=lambda kv: -kv[1])[:25]:
+        terminalreporter.write_line(f"{_FILE_SECONDS.get(path, 0.0):8.1f}  {seconds:8.1f}  {path}")
 
 
 @pytest.fixture

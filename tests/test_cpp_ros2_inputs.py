@@ -28,7 +28,7 @@ from harness.build import Builds
 from harness.env import EXAMPLES, VENV
 from harness.launchers import write_node
 from harness.module import Module, totals
-from harness.programs import config_program, text_program
+from harness.programs import SHARED_NODE, text_program
 from harness.ros2 import Ros2Publisher, ros2_environment, ros2_type, subscriber_for
 from harness.yarp import YarpProducer, YarpReader
 from ybg.backends import LoweringError, check_result
@@ -43,50 +43,23 @@ POSE = "ros2_pose_goal_to_icub"
 GAZE = "ros2_to_yarp_gaze"
 MOVEIT = "moveit_trajectory_to_yarp"
 
-#: a ROS 2 output fed by a YARP port and a ROS 2 topic: one node publishes and subscribes
-SHARED_NODE = """\
-[module]
-name = arm_and_goal
-
-[output]
-topic = /arm_and_goal/joint_states
-type = sensor_msgs/JointState
-via = ros2
-
-[mux arm]
-ports = /arm/state:o (float64 x3)
-convert = deg_to_rad
-
-[mux goal]
-topics = /arm_and_goal/goal (geometry_msgs/PointStamped point)
-via = ros2
-
-[message]
-header.stamp = timestamp(goal)
-header.frame_id = "goal"
-position = arm
-velocity = goal
-"""
 
 
-@pytest.fixture(scope="module")
-def built(tmp_path_factory, yarp) -> Builds:
-    """The ROS 2 -> YARP examples, generated with --backend cpp and built
-    (one CMake project) against ``yarp`` and the ROS 2 wheels."""
-    b = Builds(tmp_path_factory.mktemp(f"cpp_ros2_inputs_{yarp.version}"), yarp)
-    for stem in (POSE, GAZE, MOVEIT):
-        b.add(stem, config_program(EXAMPLES / f"{stem}.ini", "cpp"))
-    b.add("shared_node", text_program(SHARED_NODE, "arm_and_goal.ini", "cpp"))
-    return b
+@pytest.fixture
+def built(builds) -> Builds:
+    """The session's modules of ``yarp`` (conftest.py): among them the ROS 2
+    -> YARP examples, by their stems, and ``shared_node`` (SHARED_NODE),
+    generated with --backend cpp and built against the ROS 2 wheels."""
+    return builds
 
 
-# the first test builds the modules (two jobs: seconds on a quiet machine,
-# minutes on a busy one): more time than a single test gets
+# the first test may build the session's modules (two jobs: about a minute
+# on a quiet machine, minutes on a busy one): more time than a single test gets
 @pytest.mark.timeout(900)
 def test_modules_build_with_werror(built):
     """Each module's generated CMakeLists links rcl and the message packages
     of the topics it reads, with a YARP output too; built with -Werror."""
-    for key in built.programs:
+    for key in (POSE, GAZE, MOVEIT, "shared_node"):
         assert os.access(built.exe(key), os.X_OK)
 
 

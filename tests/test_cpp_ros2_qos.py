@@ -24,7 +24,7 @@ import pytest
 from harness.build import Builds
 from harness.generated import generate
 from harness.module import Module, Node
-from harness.programs import QOS_CONFIG as CONFIG, QOS_READER as READER, QOS_VALUE as VALUE, text_program
+from harness.programs import QOS_SIM_TIME, QOS_VALUE as VALUE
 from harness.ros2 import QosSubscriber, Ros2Publisher, ros2_environment, wait_incompatible
 from harness.yarp import YarpProducer, YarpReader
 from ybg.compiler.ir import QoS
@@ -33,32 +33,14 @@ pytestmark = pytest.mark.yarp_min((4, 0))  # the ROS 2 side depends on no YARP r
 
 TOPIC = "/qos/point"
 
-#: a ROS 2 topic in, a YARP port out, with the times of the node's clock
-SIM_TIME = """\
-[module]
-name = sim_reader
-
-[output]
-port = /sim_reader/out:o
-
-[mux goal]
-topics = /sim/goal (geometry_msgs/Point)
-via = ros2
-
-[message]
-point = goal
-seconds = time
-stamp = timestamp
-"""
 
 
-@pytest.fixture(scope="module")
-def built(tmp_path_factory, yarp) -> Builds:
-    b = Builds(tmp_path_factory.mktemp(f"cpp_ros2_qos_{yarp.version}"), yarp)
-    b.add("point", text_program(CONFIG, "qos_bridge.ini", "cpp"))
-    b.add("reader", text_program(READER, "qos_reader.ini", "cpp"))
-    b.add("sim", text_program(SIM_TIME, "sim_reader.ini", "cpp"))
-    return b
+@pytest.fixture
+def built(builds) -> Builds:
+    """The session's modules of ``yarp`` (conftest.py), among them
+    ``qos_point``, ``qos_reader`` and ``qos_sim`` (harness.programs's
+    QOS_CONFIG, QOS_READER and QOS_SIM_TIME)."""
+    return builds
 
 
 @pytest.fixture
@@ -69,7 +51,7 @@ def env(yarp_server, ros2_domain):
 def start(built, env, *args):
     """The module publishing /qos/point, started with ``args`` and its producer connected."""
     producer = YarpProducer(env, "/qos/p:o").start()
-    module = Module([built.exe("point"), *args], env=env, name="qos_bridge").start()
+    module = Module([built.exe("qos_point"), *args], env=env, name="qos_bridge").start()
     module.wait_log("event-driven")
     producer.wait_outputs(1)
     return module, producer
@@ -149,7 +131,7 @@ def test_reliable_subscriber_does_not_match_a_best_effort_override(built, env):
     ("depth:=-2", "depth: -2 is not an integer of at least 0"),
 ])
 def test_a_bad_override_is_an_error(built, env, value, said):
-    module = Module([built.exe("point"), *overrides(value)], env=env, name="qos_bridge_bad").start()
+    module = Module([built.exe("qos_point"), *overrides(value)], env=env, name="qos_bridge_bad").start()
     try:
         end = time.monotonic() + 60
         while module.alive:
@@ -191,7 +173,7 @@ def test_subscription_override(built, env, override):
     with the module's own best-effort volatile subscription."""
     args = overrides("durability:=transient_local", entity="subscription", topic="/qos/goal")
     pub = Ros2Publisher(env, "/qos/goal", "geometry_msgs/msg/Point").start()
-    module = Module([built.exe("reader"), *(args if override else [])], env=env, name="qos_reader").start()
+    module = Module([built.exe("qos_reader"), *(args if override else [])], env=env, name="qos_reader").start()
     try:
         durability = "transient_local" if override else "volatile"
         module.wait_log(f"/qos/goal (geometry_msgs/msg/Point; best_effort, {durability}, depth 1)")
@@ -215,9 +197,9 @@ def test_yarp_output_use_sim_time_writes_the_simulated_time(built, env, tmp_path
     clock = Ros2Publisher(env, "/clock", "rosgraph_msgs/msg/Clock", messages=[{"clock": sim}], rate=50)
     args = ["--ros-args", "-p", "use_sim_time:=true"]
     if backend == "cpp":
-        module = Module([built.exe("sim"), *args], env=env, name="sim_reader")
+        module = Module([built.exe("qos_sim"), *args], env=env, name="sim_reader")
     else:
-        folder = generate(tmp_path, SIM_TIME, "sim_reader", "ros2")
+        folder = generate(tmp_path, QOS_SIM_TIME, "sim_reader", "ros2")
         module = Node(env, folder / "sim_reader_node.py", *args)
     reader = YarpReader(env, "/sim_reader/check:i", source="/sim_reader/out:o")
     goal = Ros2Publisher(env, "/sim/goal", "geometry_msgs/msg/Point")
@@ -250,7 +232,7 @@ def test_help_lists_the_ros_arguments(built):
     ROS arguments it takes."""
     import subprocess
 
-    for key in ("point", "reader"):
+    for key in ("qos_point", "qos_reader"):
         r = subprocess.run([str(built.exe(key)), "--help"], capture_output=True, text=True, timeout=60)
         assert r.returncode == 0, r.stderr
         for word in ("--ros-args", "use_sim_time", "diagnostic_updater.period", "qos_overrides./TOPIC.publisher"):
@@ -263,7 +245,7 @@ def test_options_as_ros_parameters(built, env):
     `parameters`), the command line's own winning; a refused value exits 2
     before anything opens."""
     producer = YarpProducer(env, "/qos/p:o").start()
-    module = Module([built.exe("point"), "--ros-args", "-p", "rate:=25", "-p", "prefix:=/qos_params"], env=env,
+    module = Module([built.exe("qos_point"), "--ros-args", "-p", "rate:=25", "-p", "prefix:=/qos_params"], env=env,
                     name="qos_params").start()
     try:
         module.wait_log(", 25 Hz")
@@ -272,14 +254,14 @@ def test_options_as_ros_parameters(built, env):
     finally:
         module.stop()
         producer.stop()
-    module = Module([built.exe("point"), "--rate", "10", "--ros-args", "-p", "rate:=25"], env=env,
+    module = Module([built.exe("qos_point"), "--rate", "10", "--ros-args", "-p", "rate:=25"], env=env,
                     name="qos_params_line").start()
     try:
         module.wait_log(", 10 Hz")
         stop_clean(module)
     finally:
         module.stop()
-    module = Module([built.exe("point"), "--ros-args", "-p", "rate:=-3"], env=env, name="qos_params_bad").start()
+    module = Module([built.exe("qos_point"), "--ros-args", "-p", "rate:=-3"], env=env, name="qos_params_bad").start()
     try:
         assert module.wait_exit(60) == 2
         assert "parameter rate must be 0 (event-driven) or positive" in module.log_text()

@@ -14,11 +14,11 @@ from types import SimpleNamespace
 
 import pytest
 
-from harness.build import Builds
+from harness.build import Builds, session_builds
 from harness.generated import generate
 from harness.module import Module, Node, stop_clean, totals
 from harness.env import yarp_install
-from harness.programs import text_program
+from harness.programs import DIAGNOSTICS_CONFIG as CONFIG
 from harness.ros2 import QosSubscriber, statuses, yarp_and_ros2
 from harness.yarp import YarpProducer
 
@@ -29,28 +29,6 @@ def mw(ros2_domain):
         yield both
 
 
-CONFIG = """\
-[module]
-name = diag_bridge
-
-[output]
-topic = /diag/point
-type = geometry_msgs/Point
-rate = 20
-on_stale = hold
-timeout = 1.5
-
-[mux arm]
-ports = /diag/arm:o (float64 x2)
-
-[mux hand]
-ports = /diag/hand:o (float64 x1)
-
-[message]
-x = arm[0]
-y = arm[1]
-z = hand[0]
-"""
 
 NODE = "diag_bridge"
 INPUT_ARM = f"{NODE}: input /diag/arm:o"
@@ -74,10 +52,9 @@ def wait_status(sub: QosSubscriber, pred, what: str, timeout: float = 60.0) -> d
 
 @pytest.fixture(scope="module")
 def native(tmp_path_factory) -> Builds:
-    """CONFIG built with --backend cpp (against the name server's YARP)."""
-    b = Builds(tmp_path_factory.mktemp("cpp_diagnostics"), yarp_install("3.5"))
-    b.add("diag", text_program(CONFIG, f"{NODE}.ini", "cpp"))
-    return b
+    """The session's modules of the name server's YARP, among them
+    ``diag_bridge`` (CONFIG) built with --backend cpp."""
+    return session_builds(tmp_path_factory, yarp_install("3.5"))
 
 
 @pytest.fixture(params=["ros2", "cpp"])
@@ -86,7 +63,7 @@ def start_node(request, tmp_path):
     def start(mw, *args):
         if request.param == "cpp":
             native = request.getfixturevalue("native")
-            return Module([native.exe("diag"), *args], env=mw.env, name=NODE).start()
+            return Module([native.exe("diag_bridge"), *args], env=mw.env, name=NODE).start()
         folder = generate(tmp_path, CONFIG, NODE, "ros2")
         return Node(mw.env, folder / f"{NODE}_node.py", *args).start()
     return start

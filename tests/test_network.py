@@ -26,7 +26,7 @@ from pathlib import Path
 import pytest
 
 from harness import netns
-from harness.build import Builds
+from harness.build import session_builds
 from harness.env import VENV_PYTHON, yarp_install
 from harness.launchers import CppModules, PyModules, Ros2Modules, write_node
 from harness.module import Module, assert_clean_exit, stop_clean, totals
@@ -89,9 +89,10 @@ def rig(install):
 
 @pytest.fixture(scope="module")
 def cpp_builds(install, tmp_path_factory):
-    """The C++ relay, built once against YARP 4.0.0 (optimized, as a user's)."""
-    builds = Builds(tmp_path_factory.mktemp("net_cpp"), install)
-    builds.add("relay_bridge", relay_program(), optimize=True)
+    """The session's C++ modules of YARP 4.0.0 (built once for the run),
+    among them the relay, optimized as a user's (harness.programs.TIMED)."""
+    builds = session_builds(tmp_path_factory, install)
+    assert "relay_bridge" in builds.optimized
     return builds
 
 
@@ -105,9 +106,9 @@ def launcher(backend: str, folder: Path, cpp_builds=None):
 
 
 @pytest.fixture(params=BACKENDS)
-def modules(request, tmp_path, install):
-    builds = request.getfixturevalue("cpp_builds") if request.param == "cpp" else None
-    return launcher(request.param, tmp_path, builds)
+def modules(request, tmp_path, install, cpp_builds):
+    # (cpp_builds is built on a first executable asked of it: by a cpp test)
+    return launcher(request.param, tmp_path, cpp_builds if request.param == "cpp" else None)
 
 
 # --------------------------------------------------------------------------

@@ -423,6 +423,37 @@ transforms[1].transform.translation.z = tool[2]
 transforms[1].transform.rotation = tool[3:7]
 """
 
+#: a ROS 2 output fed by a YARP port and a ROS 2 topic: one node publishes and subscribes
+SHARED_NODE = """\
+[module]
+name = arm_and_goal
+
+[output]
+topic = /arm_and_goal/joint_states
+type = sensor_msgs/JointState
+via = ros2
+
+[mux arm]
+ports = /arm/state:o (float64 x3)
+convert = deg_to_rad
+
+[mux goal]
+topics = /arm_and_goal/goal (geometry_msgs/PointStamped point)
+via = ros2
+
+[message]
+header.stamp = timestamp(goal)
+header.frame_id = "goal"
+position = arm
+velocity = goal
+"""
+
+
+def shared_node_program() -> Program:
+    """SHARED_NODE, for the native module (tests/test_cpp_ros2_inputs.py)."""
+    return text_program(SHARED_NODE, "arm_and_goal.ini", "cpp")
+
+
 def diff_native_program() -> Program:
     """A ROS 2 output of float32, uint8, bool and string fields, for the
     differential test of the native module and the rclpy node."""
@@ -454,6 +485,12 @@ def build_programs() -> dict:
     programs["typed_ros_input"] = ros1_input_program
     programs["diff_native"] = diff_native_program
     programs["diff_tf"] = diff_tf_program
+    programs["shared_node"] = shared_node_program
+    # tests/test_cpp_ros2_qos.py's
+    programs["qos_point"] = lambda: text_program(QOS_CONFIG, "qos_bridge.ini", "cpp")
+    programs["qos_reader"] = lambda: text_program(QOS_READER, "qos_reader.ini", "cpp")
+    programs["qos_sim"] = lambda: text_program(QOS_SIM_TIME, "sim_reader.ini", "cpp")
+    programs["diag_bridge"] = lambda: text_program(DIAGNOSTICS_CONFIG, "diag_bridge.ini", "cpp")
     for path in bottle_configs("cpp"):  # the image modules: tests/test_images_cpp.py's build
         programs[path.stem] = lambda path=path: config_program(path, "cpp")
     return programs
@@ -575,4 +612,46 @@ via = ros2
 
 [message]
 point = goal
+"""
+
+#: a ROS 2 output at a fixed rate with two inputs, each on /diagnostics (tests/test_diagnostics.py)
+DIAGNOSTICS_CONFIG = """\
+[module]
+name = diag_bridge
+
+[output]
+topic = /diag/point
+type = geometry_msgs/Point
+rate = 20
+on_stale = hold
+timeout = 1.5
+
+[mux arm]
+ports = /diag/arm:o (float64 x2)
+
+[mux hand]
+ports = /diag/hand:o (float64 x1)
+
+[message]
+x = arm[0]
+y = arm[1]
+z = hand[0]
+"""
+
+#: a ROS 2 topic in, a YARP port out, with the times of the node's clock
+QOS_SIM_TIME = """\
+[module]
+name = sim_reader
+
+[output]
+port = /sim_reader/out:o
+
+[mux goal]
+topics = /sim/goal (geometry_msgs/Point)
+via = ros2
+
+[message]
+point = goal
+seconds = time
+stamp = timestamp
 """
