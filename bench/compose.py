@@ -277,10 +277,34 @@ def latency(records: list, keys: dict) -> dict:
     return out
 
 
+def start_to_first(sink, procs: list, keys: dict, label: str) -> dict:
+    """Start ``procs``; the seconds from then to the first message of each
+    bridge ({module: s}) at the sink."""
+    sink.ask("clear_first")
+    t0 = time.monotonic()
+    for p in procs:
+        p.start()
+    end = time.monotonic() + 60
+    first: dict = {}
+    while time.monotonic() < end:
+        first = sink.first()
+        if all(k in first for k in keys.values()):
+            break
+        for p in procs:
+            if not p.alive:
+                raise BenchError(f"{p.name} exited ({p.returncode}): {p.log_text()[-2000:]}")
+        time.sleep(0.05)
+    missing = [m for m, k in keys.items() if k not in first]
+    if missing:
+        raise BenchError(f"{label}: no message of {', '.join(missing)} within 60 s")
+    return {m: first[k] - t0 for m, k in keys.items()}
+
+
 def run_arm(ctx: dict, bridges: list, commands: list, label: str, seconds: float,
-            env_extra: Optional[dict] = None) -> dict:
+            env_extra: Optional[dict] = None, restarts: int = 0) -> dict:
     """Start ``commands`` (one argv a process) beside a producer of every
-    input port of ``bridges`` and a sink of every topic; measure."""
+    input port of ``bridges`` and a sink of every topic; measure. Then stop
+    them and start them again ``restarts`` times, for the start alone."""
     tmp = Path(ctx["tmp"])
     server = domain = producer = sink = None
     procs: list = []
@@ -297,24 +321,9 @@ def run_arm(ctx: dict, bridges: list, commands: list, label: str, seconds: float
         producer.popen.stdin.write(f"run {10 ** 7} {RATE}\n".encode())
         producer.popen.stdin.flush()
         time.sleep(0.5)
-        t0 = time.monotonic()
-        for k, argv in enumerate(commands):
-            procs.append(mw.Proc(argv, env=env, name=f"{label}_{k}", die_with_parent=True).start())
+        procs = [mw.Proc(argv, env=env, name=f"{label}_{k}", die_with_parent=True) for k, argv in enumerate(commands)]
         keys = {b.module: b.key for b in bridges}
-        end = time.monotonic() + 60
-        first: dict = {}
-        while time.monotonic() < end:
-            first = sink.first()
-            if all(k in first for k in keys.values()):
-                break
-            for p in procs:
-                if not p.alive:
-                    raise BenchError(f"{p.name} exited ({p.returncode}): {p.log_text()[-2000:]}")
-            time.sleep(0.05)
-        missing = [m for m, k in keys.items() if k not in first]
-        if missing:
-            raise BenchError(f"{label}: no message of {', '.join(missing)} within 60 s")
-        to_first = {m: first[k] - t0 for m, k in keys.items()}
+        to_first = start_to_first(sink, procs, keys, label)
         time.sleep(3.0)
         pids = [p.pid for p in procs]
         sink.ask("reset")
@@ -336,6 +345,16 @@ def run_arm(ctx: dict, bridges: list, commands: list, label: str, seconds: float
                "messages_per_second": {m: v["n"] / window for m, v in lat.items()}}
         statuses = [p.stop(timeout=10, sig=mw.signal.SIGINT) for p in procs]
         out["exit_statuses"] = statuses
+        # the start again: DDS discovery between a new participant and the
+        # sink's is a race whose loser waits for the next announcement
+        trials = [out["start_to_first_s"]["all"]]
+        for _ in range(restarts):
+            time.sleep(1.0)
+            trials.append(max(start_to_first(sink, procs, keys, label).values()))
+            for p in procs:
+                p.stop(timeout=10, sig=mw.signal.SIGINT)
+        out["start_to_first_s"]["trials"] = trials
+        out["start_to_first_s"]["median_of_trials"] = h.quantile(sorted(trials), 0.5)
         return out
     finally:
         for p in procs:
@@ -370,11 +389,12 @@ def robot_stage(ctx: dict, args, name: str, robots: tuple, backend: str) -> dict
     run = (lambda path: [h.PYTHON, path]) if backend == "ros2" else (lambda path: [path])
     out = {"bridges": [b.module for b in bridges], "build_s": round(time.monotonic() - t0, 1)}
     say(f"  composed: one process of {len(bridges)} bridges")
-    out["composed"] = run_arm(ctx, bridges, [run(composed)], f"{name}_{backend}_composed", args.seconds)
+    out["composed"] = run_arm(ctx, bridges, [run(composed)], f"{name}_{backend}_composed", args.seconds,
+                              restarts=args.restarts)
     say(f"    {summarize(out['composed'])}")
     say(f"  separate: {len(bridges)} processes")
     out["separate"] = run_arm(ctx, bridges, [run(separate[b.module]) for b in bridges],
-                              f"{name}_{backend}_separate", args.seconds)
+                              f"{name}_{backend}_separate", args.seconds, restarts=args.restarts)
     say(f"    {summarize(out['separate'])}")
     return out
 
@@ -430,8 +450,17 @@ def figures(data: dict, backend: str) -> list:
                      ratio(c["cpu_percent"], s["cpu_percent"])))
         rows.append((robot, "threads", c["threads"], s["threads"], ratio(c["threads"], s["threads"])))
         rows.append((robot, "sockets", c["sockets"], s["sockets"], ratio(c["sockets"], s["sockets"])))
-        rows.append((robot, "start to a first message of every bridge (s)", c["start_to_first_s"]["all"],
-                     s["start_to_first_s"]["all"], ratio(c["start_to_first_s"]["all"], s["start_to_first_s"]["all"])))
+        cs, ss = c["start_to_first_s"], s["start_to_first_s"]
+        if "trials" in cs and "trials" in ss:
+            k = len(cs["trials"])
+            rows.append((robot, f"start to a first message of every bridge (s; median of {k} starts)",
+                         cs["median_of_trials"], ss["median_of_trials"],
+                         ratio(cs["median_of_trials"], ss["median_of_trials"])))
+            rows.append((robot, f"start to a first message of every bridge (s; the slowest of {k} starts)",
+                         max(cs["trials"]), max(ss["trials"]), ratio(max(cs["trials"]), max(ss["trials"]))))
+        else:
+            rows.append((robot, "start to a first message of every bridge (s)", cs["all"], ss["all"],
+                         ratio(cs["all"], ss["all"])))
         cm = median_of(v["median_us"] for v in c["latency"].values())
         sm = median_of(v["median_us"] for v in s["latency"].values())
         rows.append((robot, f"latency: median of the {n} bridges' medians (us)", cm, sm, ratio(cm, sm)))
@@ -480,7 +509,9 @@ def section(data: dict) -> str:
         f"over {data['seconds']:.0f} s after 3 s of warm-up; CPU over the same window; RSS, PSS, "
         "threads and sockets in its middle (sums over the processes of separate modules). Start: from starting "
         "the process(es), producers already writing, to a first message of every bridge at the "
-        "subscriber. The machine has 2 cores shared with other work: figures move from run to run.")
+        "subscriber; the first start of each arm and then, the process(es) stopped, started again "
+        f"{data.get('restarts', 0)} times. The machine has 2 cores shared with other work: figures "
+        "move from run to run.")
     lines.append("")
     for backend in data.get("backends", []):
         rows = figures(data, backend)
@@ -532,8 +563,13 @@ def notes(data: dict) -> list:
         "messages a second there, 100 with a bridge alone. Composed and separate modules are measured "
         "against the same subscriber and load.",
         "Start: most of it is DDS discovery, the subscriber learning the new participant(s) and their "
-        "endpoints (Fast DDS announces a participant a few times at start, then every 3 s); the native "
-        "composed process runs its bridges within about 0.3 s of its start (tests/test_compose_cpp.py).",
+        "endpoints. A start of about 3.1 s is one where a discovery message between the new "
+        "participant and the subscriber's was lost and sent again at Fast DDS's next announcement "
+        "(every 3 s after its first few): measured by hand, 1 start in 8 or 9 of the composed native "
+        "module and of the composed rclpy node alike (the others 0.16 to 0.2 s, and 0.55 to 0.9 s), "
+        "also with the nodes' parameter services left out (fewer endpoints); the module cannot "
+        "hasten it. The median of the starts is the start a robot has; the slowest says how late it "
+        "can be.",
     ]
     if "ros2" in data.get("backends", []):
         out.append("The composed rclpy node runs its bridges' threads under one interpreter lock: it "
@@ -555,6 +591,8 @@ def main(argv=None) -> int:
     ap.add_argument("--seconds", type=float, help="the measurement window of each arm (default 10)")
     ap.add_argument("--alone-seconds", type=float, help="the window of each bridge alone (default 5)")
     ap.add_argument("--alone", type=int, help="how many of the 12 bridges to run alone (default all)")
+    ap.add_argument("--restarts", type=int, help="how many times each robot is started again for its start "
+                    "time (default 4, --quick 1)")
     ap.add_argument("--subjects", default="cpp", help="cpp and/or ros2 (default cpp)")
     ap.add_argument("--robots", help="icub12 and/or icub24 (default both; ros2: icub12)")
     ap.add_argument("--results", type=Path, help="the JSON (default bench/results/compose.json, "
@@ -568,6 +606,8 @@ def main(argv=None) -> int:
     mode = "quick" if args.quick else "full"
     args.seconds = args.seconds or (3.0 if args.quick else 10.0)
     args.alone_seconds = args.alone_seconds or (3.0 if args.quick else 5.0)
+    if args.restarts is None:
+        args.restarts = 1 if args.quick else 4
     if args.alone is None and args.quick:
         args.alone = 2
     json_path = args.results or (BENCH / "results" / ("quick" if args.quick else "") / "compose.json")
@@ -601,6 +641,7 @@ def main(argv=None) -> int:
         "mode": mode,
         "seconds": args.seconds,
         "alone_seconds": args.alone_seconds,
+        "restarts": args.restarts,
         "rate": RATE,
         "width": WIDTH,
         "load_before": load0,
