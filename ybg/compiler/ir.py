@@ -488,10 +488,16 @@ class Struct:
 # Output, timing, policies
 
 
+#: the reliability and durability policies a config can name (the checker's
+#: words for the keys, and what every runtime can make)
+RELIABILITIES = ("reliable", "best_effort")
+DURABILITIES = ("volatile", "transient_local")
+
+
 @dataclass(frozen=True)
 class QoS:
-    reliability: str = "reliable"  # reliable | best_effort
-    durability: str = "volatile"  # volatile | transient_local
+    reliability: str = "reliable"  # one of RELIABILITIES
+    durability: str = "volatile"  # one of DURABILITIES
     depth: int = 10
 
 
@@ -938,6 +944,7 @@ __all__ = [
     "ElementGroup", "Input", "Converter", "GeometryConverter", "ExprNode", "ExprConverter", "AnyConverter",
     "GeometryKind", "GEOMETRY", "GEOMETRY_WIDTHS", "QUATERNION_RESULTS", "EULER_AXES", "EXPR_FUNCTIONS", "Mux", "TypeRef", "Literal", "MuxRef",
     "Counter", "Timestamp", "Seconds", "Default", "Field", "Struct", "MessageArray", "QoS", "INPUT_QOS", "ImageFrame",
+    "RELIABILITIES", "DURABILITIES",
     "CameraInfo", "IMAGE_ENCODINGS", "PIXEL_NAMES", "ANY_ENCODING", "IMAGE_TYPE", "FRAME_FIELDS",
     "DEFAULT_QUEUE", "Output", "Timing", "Policy", "Program", "to_dict", "to_json", "from_dict",
     "from_json", "IR_VERSION", "NUMERIC_TYPES", "INTEGER_TYPES", "FLOAT_TYPES",

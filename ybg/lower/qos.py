@@ -7,18 +7,14 @@ from ybg.compiler import ir
 from ybg.compiler.diagnostics import Span
 from ybg.lower.errors import LoweringError
 
-#: the reliability and durability policies a config can name
-RELIABILITIES = ("reliable", "best_effort")
-DURABILITIES = ("volatile", "transient_local")
-
 
 def checked_qos(qos: ir.QoS, span: Span | None = None) -> ir.QoS:
     """``qos``, or a LoweringError at ``span`` when a runtime cannot make it
     (the checker refuses such a config first: this guards the IR a program
     builds by hand)."""
-    if qos.reliability not in RELIABILITIES or qos.durability not in DURABILITIES or int(qos.depth) < 1:
+    if qos.reliability not in ir.RELIABILITIES or qos.durability not in ir.DURABILITIES or int(qos.depth) < 1:
         raise LoweringError(f"unsupported QoS {qos}", span)
     return qos
 
 
-__all__ = ["RELIABILITIES", "DURABILITIES", "checked_qos"]
+__all__ = ["checked_qos"]

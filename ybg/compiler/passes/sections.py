@@ -11,7 +11,7 @@ Reads the document. Sets ``sections``, ``mux_sections``, ``service_sections``,
 
 from __future__ import annotations
 
-from ybg.compiler import ast
+from ybg.compiler import ast, ir
 from ybg.compiler.diagnostics import did_you_mean
 from ybg.compiler.passes.context import Context
 from ybg.compiler.values import check_keys
@@ -38,8 +38,8 @@ CHOICES: dict[str, tuple[str, ...]] = {
     "on_stale": ("skip", "hold"),
     "on_nan": ("pass", "drop"),
     "publish": ("always", "new"),
-    "reliability": ("reliable", "best_effort"),
-    "durability": ("volatile", "transient_local"),
+    "reliability": ir.RELIABILITIES,
+    "durability": ir.DURABILITIES,
 }
 
 
