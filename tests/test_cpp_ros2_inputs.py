@@ -44,7 +44,6 @@ GAZE = "ros2_to_yarp_gaze"
 MOVEIT = "moveit_trajectory_to_yarp"
 
 
-
 @pytest.fixture
 def built(builds) -> Builds:
     """The session's modules of ``yarp`` (conftest.py): among them the ROS 2

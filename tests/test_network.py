@@ -31,7 +31,7 @@ from harness.env import VENV_PYTHON, yarp_install
 from harness.launchers import CppModules, PyModules, Ros2Modules, write_node
 from harness.module import Module, assert_clean_exit, stop_clean, totals
 from harness.netns import Rig, rss_kb
-from harness.programs import relay_program, ros2_example
+from harness.programs import ros2_example
 from harness.reference import exactly, expected_message, sent_values, wait_matching, write_all
 from harness.ros2 import subscriber_for, wait_matched
 from harness.yarp import YarpProducer, YarpReader

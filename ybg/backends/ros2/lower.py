@@ -21,7 +21,6 @@ config name is checked (:func:`~ybg.lower.rosnames.identifier`) or used only ins
 from __future__ import annotations
 
 import keyword
-import os
 from dataclasses import dataclass
 
 from ybg.compiler import ir

@@ -354,7 +354,7 @@ ImagePublisher::ImagePublisher(const ros2::Ros2Spec& spec, const ros2::MessageTy
     if (cameraInfo_ != nullptr) {
         rcl_->topic = cameraInfo_->topic;
         rcl_->peers = std::make_unique<ros2::PeerEvents>("publisher", cameraInfo_->topic,
-                                                                "sensor_msgs/msg/CameraInfo");
+                                                         "sensor_msgs/msg/CameraInfo");
     }
 }
 
