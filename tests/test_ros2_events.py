@@ -135,6 +135,7 @@ def test_both_runtimes_say_the_lowering_librarys_texts():
     assert core.INCOMPATIBLE_TYPE_TEXT == texts.INCOMPATIBLE_TYPE_TEXT == cpp_text("kIncompatibleTypeText")
     assert core.EVENTS_TOTALS_LINE == texts.EVENTS_TOTALS_LINE
     assert core.SUBSCRIBERS_TEXT == texts.SUBSCRIBERS_TEXT == cpp_text("kSubscribersText")
+    assert core.PUBLISHERS_TEXT == texts.PUBLISHERS_TEXT == cpp_text("kPublishersText")
 
 
 #: the ROS 2 side depends on no YARP release: one of the matrix
@@ -213,6 +214,10 @@ def test_another_definition_of_the_type(mw, modules, backend):
         peers += [own_sub, own_pub]
         own_sub.wait_publishers(1)
         own_pub.wait_matched(1)
+        # the module's side of both matches (its subscription is best effort:
+        # a message sent before it has matched the publisher is lost)
+        module.wait_log(f"{OUT}: 1 subscriber\n")
+        module.wait_log(f"{IN}: 1 publisher\n")
         own_pub.publish({"label": "own"})
         got = {}
 
@@ -233,3 +238,5 @@ def test_another_definition_of_the_type(mw, modules, backend):
             p.stop()
     assert re.search(rf"input {IN}: received 1, dropped 0", log), log
     assert "another definition" not in log, log
+    # the variant's peers never matched, seen from the module's side too
+    assert f"{OUT}: 2 subscribers" not in log and f"{IN}: 2 publishers" not in log, log

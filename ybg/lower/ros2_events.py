@@ -12,11 +12,13 @@ Said once per publisher or subscription, the first peer of each kind::
     ROS 2 {kind} {topic}: a {peer} of an incompatible QoS (...)
     ROS 2 {kind} {topic}: a {peer} of another definition of {type} (...)
 
-Said by a publisher each time its matched subscriptions change (a message
-published before a subscription has matched is not delivered to it; {s} is
-"" for one, "s" otherwise)::
+Said by a publisher each time its matched subscriptions change, and by a
+subscription each time its matched publishers change (a message published
+before both sides have matched is not delivered; {s} is "" for one, "s"
+otherwise)::
 
     {topic}: {n} subscriber{s}
+    {topic}: {n} publisher{s}
 
 Exit totals, one line per publisher or subscription that had any, after the
 ``published`` line::
@@ -44,6 +46,8 @@ INCOMPATIBLE_TYPE_TEXT = ("ROS 2 {kind} {topic}: a {peer} of another definition 
 #: a publisher's matched subscriptions, when they change: {topic} as the
 #: config names it, {n} how many, {s} "" for one and "s" otherwise
 SUBSCRIBERS_TEXT = "{topic}: {n} subscriber{s}"
+#: a subscription's matched publishers, when they change (as above)
+PUBLISHERS_TEXT = "{topic}: {n} publisher{s}"
 #: the exit totals' line (Python %-format: kind, topic, QoS count, type count)
 EVENTS_TOTALS_LINE = "ros2 %s %s: incompatible QoS %d, incompatible type %d"
 #: the keys of one `stats` list, after ``ros2 KIND TOPIC``

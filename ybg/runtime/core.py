@@ -581,6 +581,8 @@ INCOMPATIBLE_TYPE_TEXT = ("ROS 2 {kind} {topic}: a {peer} of another definition 
                           "type events of it are only counted")
 #: a publisher's matched subscriptions, each time they change
 SUBSCRIBERS_TEXT = "{topic}: {n} subscriber{s}"
+#: a subscription's matched publishers, each time they change
+PUBLISHERS_TEXT = "{topic}: {n} publisher{s}"
 #: the exit totals' line of an endpoint that had incompatible peers
 EVENTS_TOTALS_LINE = "ros2 %s %s: incompatible QoS %d, incompatible type %d"
 

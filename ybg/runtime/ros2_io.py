@@ -32,7 +32,8 @@ from rclpy.signals import SignalHandlerOptions
 
 from .compose import SWITCH_INTERVAL, Composer, describe, load_failure  # ybgc:runtime-import
 from .core import _FLOAT_TYPES, _INT_TYPES, InputState, parse_accept, seconds_to_ns  # ybgc:runtime-import
-from .core import INCOMPATIBLE_QOS_TEXT, INCOMPATIBLE_TYPE_TEXT, SUBSCRIBERS_TEXT, EndpointEvents  # ybgc:runtime-import
+from .core import INCOMPATIBLE_QOS_TEXT, INCOMPATIBLE_TYPE_TEXT, EndpointEvents  # ybgc:runtime-import
+from .core import PUBLISHERS_TEXT, SUBSCRIBERS_TEXT  # ybgc:runtime-import
 from .images import ImageInput, append_rows, fit_calibration, frame_of, message_frame  # ybgc:runtime-import
 from .yarp_io import YarpBridge  # ybgc:runtime-import
 
@@ -306,7 +307,7 @@ class Ros2Input(InputState):
 
     def _on_matched(self, info):
         n = info.current_count
-        self.bridge.log("%s: %d publisher%s" % (self.source, n, "" if n == 1 else "s"))
+        self.bridge.log(PUBLISHERS_TEXT.format(topic=self.source, n=n, s="" if n == 1 else "s"))
 
     def _on_message(self, msg):
         now = time.monotonic()

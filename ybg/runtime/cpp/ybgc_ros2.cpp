@@ -657,6 +657,8 @@ const char* const kIncompatibleQosText =
 /// What a publisher says each time its matched subscriptions change ({s}: ""
 /// for one, "s" otherwise), as the Python node.
 const char* const kSubscribersText = "{topic}: {n} subscriber{s}";
+/// ... and a subscription each time its matched publishers change.
+const char* const kPublishersText = "{topic}: {n} publisher{s}";
 const char* const kIncompatibleTypeText =
     "ROS 2 {kind} {topic}: a {peer} of another definition of {type} (its type hash {theirs}; this {kind}'s: "
     "{ours}): no messages between them; further incompatible type events of it are only counted";
@@ -698,7 +700,7 @@ struct PeerEvents::Rcl
     const rcl_subscription_t* subscription = nullptr;
     rcl_event_t qosEvent = rcl_get_zero_initialized_event();
     rcl_event_t typeEvent = rcl_get_zero_initialized_event();
-    rcl_event_t matchedEvent = rcl_get_zero_initialized_event();  // a publisher's
+    rcl_event_t matchedEvent = rcl_get_zero_initialized_event();
     bool qosOk = false;
     bool typeOk = false;
     bool matchedOk = false;
@@ -735,6 +737,8 @@ void PeerEvents::watch(Node& node, const rcl_subscription_t* subscription)
     r.qosOk = rcl_subscription_event_init(&r.qosEvent, subscription, RCL_SUBSCRIPTION_REQUESTED_INCOMPATIBLE_QOS)
         == RCL_RET_OK;
     r.typeOk = rcl_subscription_event_init(&r.typeEvent, subscription, RCL_SUBSCRIPTION_INCOMPATIBLE_TYPE)
+        == RCL_RET_OK;
+    r.matchedOk = rcl_subscription_event_init(&r.matchedEvent, subscription, RCL_SUBSCRIPTION_MATCHED)
         == RCL_RET_OK;
     init(node);
 }
@@ -798,7 +802,8 @@ void PeerEvents::take()
         if (rcl_take_event(&r.matchedEvent, &status) == RCL_RET_OK) {
             if (status.current_count_change != 0) {
                 const std::size_t n = status.current_count;
-                say(filled(kSubscribersText, {{"topic", topic_}, {"n", std::to_string(n)}, {"s", n == 1 ? "" : "s"}}));
+                say(filled(r.publisher != nullptr ? kSubscribersText : kPublishersText,
+                           {{"topic", topic_}, {"n", std::to_string(n)}, {"s", n == 1 ? "" : "s"}}));
             }
         } else {
             rcl_reset_error();

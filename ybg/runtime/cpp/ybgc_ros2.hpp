@@ -290,9 +290,10 @@ class Node;
 /// bridge's `stats`, exit totals and /diagnostics), the first of each kind
 /// said with the peer's QoS (the first peer in the graph whose reliability
 /// or durability does not match its own) or type hash, in the Python node's
-/// words; and a publisher's matched subscriptions, said when they change
-/// ("TOPIC: N subscribers", as the Python node: a message published before a
-/// subscription has matched is not delivered to it). An event kind the rmw
+/// words; and the matched peers, said when they change: a publisher's
+/// subscriptions ("TOPIC: N subscribers"), a subscription's publishers
+/// ("TOPIC: N publishers"), as the Python node (a message published before
+/// both sides have matched is not delivered). An event kind the rmw
 /// does not support is left out. Taken by its Node's thread (Node::takeEvents),
 /// every 100 ms.
 class PeerEvents
