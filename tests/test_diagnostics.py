@@ -162,12 +162,13 @@ def test_status_levels():
     def head(status):  # the level (a byte in the message) as a number, and the text
         return status[0][0], status[1]
 
-    bridge = SimpleNamespace(rate=None, published=7, skipped_cycles=0, build_errors=2)
+    bridge = SimpleNamespace(rate=None, published=7, skipped_cycles=0, build_errors=2, missed=3)
     status = ros2_io.output_status(bridge, 2.5)
     assert head(status) == (OK, "event-driven: 2.50 Hz")
     values = status[2]
     assert dict(values)["rate configured (Hz)"] == "event-driven"
     assert dict(values)["build failures"] == "2"
+    assert dict(values)["missed by readers"] == "3"
     bridge.rate = 20.0
     assert head(ros2_io.output_status(bridge, 18.0)) == (OK, "18.00 Hz of 20 Hz")
     assert head(ros2_io.output_status(bridge, 17.99)) == (WARN, "rate too low: 17.99 Hz of 20 Hz")

@@ -172,9 +172,16 @@ def quiet(module: Module, producer: YarpProducer, periods: int) -> None:
     module.wait_log(f"input {SRC} is stale", count=periods)
 
 
-def settle(reader: YarpReader, published: int) -> None:
-    """Every message the module published reached the reader."""
-    reader.wait(lambda: len(reader.bottles) >= published, 30, f"{published} messages")
+def settle(reader: YarpReader, t: dict) -> None:
+    """Every message the module published (its totals ``t``) reached the
+    reader, but those it counts missed (written while the reader's
+    connection still sent the one before: YARP skips it for that reader)
+    and the last: the module goes on at its rate until it stops, and the
+    message of its last cycle may be written as its port closes, which
+    fast_tcp (no acknowledgement) does not wait for."""
+    least = t["published"] - 1 - t["missed"]
+    reader.wait(lambda: len(reader.bottles) >= least, 30, f"{least} messages")
+    assert len(reader.bottles) <= t["published"], t
 
 
 # --------------------------------------------------------------------------
@@ -266,14 +273,11 @@ def fault_name_server_restarted(rig: Rig, modules) -> dict:
         quiet(module, producer, 2)
         rss1 = rss_kb(module.pid)
         t = stop_module(rig, module)
-        # the module goes on at 100 Hz until it stops: the message of its last
-        # cycle may be written as its port closes, which fast_tcp (no
-        # acknowledgement) does not wait for; every one before it arrives
-        settle(reader, t["published"] - 1)
+        settle(reader, t)
     sent = sent_total(producer)
     assert module.count(rf"connected {SRC} -> {IN}") == 2
     assert t[SRC][0] <= sent + SENT_UNSAID and t[SRC][1:3] == (0, 2)
-    assert t["published"] == len(reader.bottles) == t[SRC][0] - t[SRC][3]
+    assert t["published"] == len(reader.bottles) + t["missed"] == t[SRC][0] - t[SRC][3]
     return {"registered again (s)": registered_again, "late producer found (s)": found,
             "sent": sent, "received": t[SRC][0], "unused": t[SRC][3],
             "rss before (kB)": rss0, "rss after (kB)": rss1}
@@ -306,15 +310,14 @@ def fault_producer_cut(rig: Rig, modules) -> dict:
         quiet(module, producer, 2)
         rss1 = rss_kb(module.pid)
         t = stop_module(rig, module)
-        # the module goes on at 100 Hz until it stops: the message of its last
-        # cycle may be written as its port closes, which fast_tcp (no
-        # acknowledgement) does not wait for; every one before it arrives
-        settle(reader, t["published"] - 1)
+        settle(reader, t)
     sent = sent_total(producer)
     assert during == 0, f"{during} messages published while {SRC} was stale"
     assert said == 1 and module.count(r"is fresh again") == 1  # once each for the cut
     counters = [b.data[0] for b in reader.bottles]
-    assert counters == list(range(len(counters)))
+    # in order from 0; a gap only where the module counts a message missed
+    assert counters[0] == 0 and all(a < b for a, b in zip(counters, counters[1:])), counters
+    assert counters[-1] + 1 - len(counters) <= t["missed"], (counters, t)
     received, dropped, periods, unused = t[SRC]
     assert (dropped, periods) == (0, 2)
     assert received <= sent + SENT_UNSAID and t["published"] == received - unused, (t, sent)
@@ -409,9 +412,10 @@ def fault_flood(rig: Rig, modules) -> dict:
     sends at 10 times that for 10 s: every Bottle is read (strictly), each
     cycle uses the newest, the others are counted unused; memory flat.
     The reader takes the output over fast_tcp (no acknowledgement per
-    message): a module busy with the flood on a loaded machine drops a
-    message for a reader not scheduled within its patience, which is not
-    what this fault is about."""
+    message). On a loaded machine a message may be written while the
+    reader's connection still sends the one before (its thread not
+    scheduled within the module's patience): YARP skips it for that
+    reader, and the module counts it missed (settle())."""
     with contextlib.ExitStack() as stack:
         module, reader, producer = relay(stack, rig, modules, "--rate", "100", rate=1000,
                                          count=int(1000 * FLOOD), started=False, carrier="fast_tcp")
@@ -424,17 +428,14 @@ def fault_flood(rig: Rig, modules) -> dict:
                     "the last Bottle in a message")
         rss1 = rss_kb(module.pid)
         t = stop_module(rig, module)
-        # the module goes on at 100 Hz until it stops: the message of its last
-        # cycle may be written as its port closes, which fast_tcp (no
-        # acknowledgement) does not wait for; every one before it arrives
-        settle(reader, t["published"] - 1)
+        settle(reader, t)
     sent = sent_total(producer)
     received, dropped, periods, unused = t[SRC]
     used = received - unused
     assert (received, dropped) == (sent, 0), (t, sent)
     assert 0 < used <= t["published"] and unused >= sent - t["published"]
     assert rss1 - rss0 < FLAT_KB, (rss0, rss1)
-    return {"sent": sent, "published": t["published"], "unused": unused,
+    return {"sent": sent, "published": t["published"], "missed": t["missed"], "unused": unused,
             "rss before (kB)": rss0, "rss after (kB)": rss1}
 
 

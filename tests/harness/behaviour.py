@@ -38,6 +38,7 @@ from harness.reference import (COUNTER, Envelope, assert_matches, exactly, expec
 from harness.ros1 import RospySubscriber, ros1_type_known, rospy_publisher
 from harness.ros2 import Ros2Publisher
 from harness.yarp import YarpProducer, YarpReader, yarp_env, yarp_ports
+from ybg.runtime.core import MISSED_LINE
 
 #: the runtime's bound on unread Bottles (docs/runtime.md, "Reading"): a
 #: reader more than this far behind skips the oldest unread
@@ -498,7 +499,11 @@ class BridgeBehaviour:
                 os.kill(stalled.pid, signal.SIGCONT)
                 stalled.stop()
         assert rss1 - rss0 < 8 * 1024, f"memory grew from {rss0} kB to {rss1} kB"
-        assert_clean_exit(yarp_server, module, rc, elapsed)
+        log = assert_clean_exit(yarp_server, module, rc, elapsed)
+        # what the stalled reader missed is counted, in every runtime's one text
+        t = totals(log)
+        assert 1 <= t["missed"] <= t["published"], t
+        assert "  " + MISSED_LINE % t["missed"] + "\n" in log, log[-2000:]
 
     def test_a_burst_within_the_backlog_is_relayed_whole_and_in_order(self, modules, yarp_server, env):
         """Inputs are read strictly: bursts of 65 Bottles written back to back

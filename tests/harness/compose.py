@@ -175,10 +175,10 @@ def composed_stats(server, port: str) -> dict:
 
 def bridge_stats(text: str) -> dict:
     """One bridge's list of `stats`: inputs {source: (received, dropped,
-    stale, unused, refused)}, published (n, skipped, failures), rate."""
+    stale, unused, refused)}, published (n, skipped, failures, missed), rate."""
     inputs = {m[0]: tuple(map(int, m[1:])) for m in re.findall(
         r'\(input "?([^"\s]+)"? received (\d+) dropped (\d+) stale (\d+) unused (\d+) refused (\d+)\)', text)}
-    published = re.search(r"\(published (\d+) skipped (\d+) failures (\d+)\)", text)
+    published = re.search(r"\(published (\d+) skipped (\d+) failures (\d+) missed (\d+)\)", text)
     rate = re.search(r'\(rate "?([^"\s]+)"? configured "?([^"\s)]+)"?\)', text)
     return {"inputs": inputs, "published": tuple(map(int, published.groups())) if published else None,
             "rate": rate.groups() if rate else None}

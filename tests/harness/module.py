@@ -78,8 +78,9 @@ class Node(Module):
 
 
 def totals(log: str) -> dict:
-    """{source: (received, dropped, stale periods)}, 'published', 'skipped'
-    and 'failures' (messages that could not be built) from the exit totals."""
+    """{source: (received, dropped, stale periods)}, 'published', 'skipped',
+    'failures' (messages that could not be built) and 'missed' (by YARP
+    readers: 0 when the totals have no such line) from the exit totals."""
     out = {}
     for m in re.finditer(r"input (\S+): received (\d+), dropped (\d+), stale periods (\d+)", log):
         out[m.group(1)] = tuple(int(x) for x in m.groups()[1:])
@@ -89,6 +90,8 @@ def totals(log: str) -> dict:
         out["skipped"] = int(m.group(2))
         if m.group(3) is not None:
             out["failures"] = int(m.group(3))
+        missed = re.search(r"^\S*\s*readers missed (\d+) messages", log, re.M)
+        out["missed"] = int(missed.group(1)) if missed else 0
     return out
 
 
@@ -186,20 +189,21 @@ def stop_within(proc: Proc, seconds: float = 2.0, sig=signal.SIGINT) -> tuple:
 # (each input's `refused N` follows: tests/test_foreign_source.py)
 STATS_INPUT = re.compile(r'^\s*input "?([^"\s]+)"? received (\d+) dropped (\d+) stale (\d+) unused (\d+) refused \d+$',
                          re.M)
-STATS_PUBLISHED = re.compile(r"^\s*published (\d+) skipped (\d+) failures (\d+)$", re.M)
+STATS_PUBLISHED = re.compile(r"^\s*published (\d+) skipped (\d+) failures (\d+) missed (\d+)$", re.M)
 # the rates are text, which YARP prints quoted when it starts with a digit
 STATS_RATE = re.compile(r'^\s*rate "?([^"\s]+)"? configured "?([^"\s]+)"?$', re.M)
 
 
 def stats(server, port: str) -> dict:
     """The `stats` answer: {"inputs": {source: (received, dropped, stale, unused)},
-    "published": (published, skipped, failures), "rate": (achieved, configured)}."""
+    "published": (published, skipped, failures), "missed" (messages YARP
+    readers missed), "rate": (achieved, configured)}."""
     text = rpc(server, port, "stats")
     published = STATS_PUBLISHED.search(text)
     rate = STATS_RATE.search(text)
     assert published and rate, text
     return {"inputs": {m[0]: tuple(map(int, m[1:])) for m in STATS_INPUT.findall(text)},
-            "published": tuple(map(int, published.groups())),
+            "published": tuple(map(int, published.groups()[:3])), "missed": int(published.group(4)),
             "rate": (float(rate.group(1)), rate.group(2)), "text": text}
 
 

@@ -34,7 +34,7 @@ Member = collections.namedtuple("Member", "module config at where")
 COMPOSED_HELP = (
     "help: this list",
     "stats: one list per bridge, its name then its own stats: per input (input SOURCE received N dropped N "
-    "stale N unused N refused N), (published N skipped N failures N), (rate ACHIEVED configured "
+    "stale N unused N refused N), (published N skipped N failures N missed N), (rate ACHIEVED configured "
     "HZ|event-driven); a node of commands: per service (service NAME calls N answered N failed N timed_out N "
     "no_server N unfit N); a bridge that is not running: (NAME \"not running\" WHY)",
     "quit: stop every bridge (each closes its ports and prints its totals; exit 0, or 1 if a bridge could "

@@ -535,12 +535,18 @@ class Bridge:
     def totals(self):
         """The totals as they stand, read under the lock: ([(source,
         received, dropped, stale periods, unused, refused) per input],
-        published, skipped cycles, build failures). What `stats` answers on
-        the RPC port."""
+        published, skipped cycles, build failures, messages YARP readers
+        missed). What `stats` answers on the RPC port."""
         with self.cond:
             inputs = [(i.source, i.received, i.dropped, i.stale_periods, i.unused, i.refused)
                       for i in self.inputs]
-            return inputs, self.published, self.skipped_cycles, self.build_errors
+            return inputs, self.published, self.skipped_cycles, self.build_errors, self.missed
+
+    @property
+    def missed(self):
+        """The messages a reader of the output's YARP port missed (0 for an
+        output of no YARP port)."""
+        return getattr(self.output, "missed", 0)
 
     def _print_totals(self, prefix=""):
         """The totals at exit; ``prefix`` heads each line (the bridge's name,
@@ -552,6 +558,8 @@ class Bridge:
             lines.append(line + refused_text(inp))
         lines.append("  published %d messages, skipped %d cycles, build failures %d"
                      % (self.published, self.skipped_cycles, self.build_errors))
+        if self.missed:
+            lines.append("  " + MISSED_LINE % self.missed)
         lines.extend("  " + EVENTS_TOTALS_LINE % e for e in self.ros2_events() if e[2] or e[3])
         print("\n".join(prefix + line for line in lines), flush=True)
 
@@ -583,6 +591,9 @@ INCOMPATIBLE_TYPE_TEXT = ("ROS 2 {kind} {topic}: a {peer} of another definition 
 SUBSCRIBERS_TEXT = "{topic}: {n} subscriber{s}"
 #: a subscription's matched publishers, each time they change
 PUBLISHERS_TEXT = "{topic}: {n} publisher{s}"
+#: the exit totals' line of the messages YARP readers missed, when any (the
+#: C++ runtime's missedLine(): ybgc_totals.cpp)
+MISSED_LINE = "readers missed %d messages (each written while a reader was still taking the one before)"
 #: the exit totals' line of an endpoint that had incompatible peers
 EVENTS_TOTALS_LINE = "ros2 %s %s: incompatible QoS %d, incompatible type %d"
 

@@ -625,7 +625,8 @@ def output_status(bridge, achieved):
     return level, text, (
         ("published", str(bridge.published)), ("rate achieved (Hz)", "%.3f" % achieved),
         ("rate configured (Hz)", "event-driven" if rate is None else "%g" % rate),
-        ("skipped cycles", str(bridge.skipped_cycles)), ("build failures", str(bridge.build_errors)))
+        ("skipped cycles", str(bridge.skipped_cycles)), ("build failures", str(bridge.build_errors)),
+        ("missed by readers", str(bridge.missed)))
 
 
 def _with_events(status, endpoint):

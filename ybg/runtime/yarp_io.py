@@ -850,7 +850,7 @@ def fill_bottle(bottle, message, wire):
 
 class YarpOutput:
     """Writes each message on a BufferedPortBottle, never waiting for a
-    slow reader (a reader that lags misses messages)."""
+    slow reader: a reader that lags misses messages, counted (``missed``)."""
 
     def __init__(self, kind, port_name, connect_to, msg_type, wire):
         self.kind = kind
@@ -860,6 +860,7 @@ class YarpOutput:
         self.wire = wire
         self.port = yarp.BufferedPortBottle()
         self.patient = True
+        self.missed = 0
 
     def open(self):
         self.port.setWriteOnly()
@@ -878,7 +879,8 @@ class YarpOutput:
     def publish(self, message):
         # A message written while the previous one is still being sent is
         # dropped for the connections that are still busy; so wait for it a
-        # little, unless a reader has already shown it stalls.
+        # little, unless a reader has already shown it stalls. Written while
+        # still busy, it is counted as missed.
         if self.port.isWriting():
             if self.patient:
                 deadline = time.monotonic() + self.PATIENCE
@@ -888,6 +890,8 @@ class YarpOutput:
         else:
             self.patient = True
         fill_bottle(self.port.prepare(), message, self.wire)
+        if self.port.isWriting():
+            self.missed += 1
         self.port.write()
 
     def stalled(self, grace=0.2):
@@ -946,7 +950,7 @@ class _QuickTransport(xmlrpc.client.Transport):
 RPC_HELP = (
     "help: this list",
     "stats: the totals so far: per input (input SOURCE received N dropped N stale N unused N refused N), "
-    "(published N skipped N failures N), (rate ACHIEVED configured HZ|event-driven), and per ROS 2 publisher "
+    "(published N skipped N failures N missed N), (rate ACHIEVED configured HZ|event-driven), and per ROS 2 publisher "
     "and subscription (ros2 publisher|subscription TOPIC incompatible_qos N incompatible_type N)",
     "quit: stop the module (it closes its ports and exits 0, as on SIGINT)",
 )
@@ -977,7 +981,7 @@ def rpc_respond(command, reply, bridge, meter):
 def stats_items(reply, bridge, meter):
     """What `stats` answers of ``bridge``, appended to ``reply`` (after its
     vocab ``many``): one list per input, the messages, the rate."""
-    inputs, published, skipped, failures = bridge.totals()
+    inputs, published, skipped, failures, missed = bridge.totals()
     for source, received, dropped, stale, unused, refused in inputs:
         item = reply.addList()
         item.addString("input")
@@ -987,7 +991,7 @@ def stats_items(reply, bridge, meter):
             item.addString(key)
             item.addInt64(n)
     item = reply.addList()
-    for key, n in (("published", published), ("skipped", skipped), ("failures", failures)):
+    for key, n in (("published", published), ("skipped", skipped), ("failures", failures), ("missed", missed)):
         item.addString(key)
         item.addInt64(n)
     # the rates as text, with the digits that mean something (a float64

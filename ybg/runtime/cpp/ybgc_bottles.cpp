@@ -550,9 +550,13 @@ public:
             prepared_->clear();
             prepared_->add(yarp::os::Value(bytes.data(), static_cast<int>(bytes.size())));
         }
-        writePatiently(port_, patient_);
+        if (writePatiently(port_, patient_)) {
+            ++missed_;
+        }
         return true;
     }
+
+    std::uint64_t missed() const override { return missed_; }
 
     void close() override
     {
@@ -572,6 +576,7 @@ private:
     std::string registered_;
     yarp::os::Bottle* prepared_ = nullptr;  // the message being built
     bool patient_ = true;
+    std::atomic<std::uint64_t> missed_{0};  // messages a busy reader missed
 };
 
 std::unique_ptr<MessageSink> yarpOutput(const OutputSpec& spec, MakeMessage make)

@@ -39,7 +39,7 @@ namespace {
 const char* const kHelp[] = {
     "help: this list",
     "stats: one list per bridge, its name then its own stats: per input (input SOURCE received N dropped N "
-    "stale N unused N refused N), (published N skipped N failures N), (rate ACHIEVED configured "
+    "stale N unused N refused N), (published N skipped N failures N missed N), (rate ACHIEVED configured "
     "HZ|event-driven); a bridge that is not running: (NAME \"not running\" WHY)",
     "quit: stop every bridge (each closes its ports and prints its totals; exit 0, or 1 if a bridge could "
     "not start)",

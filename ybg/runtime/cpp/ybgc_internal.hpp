@@ -233,23 +233,26 @@ std::unique_ptr<MessageSink> yarpOutput(const OutputSpec& spec, MakeMessage make
 /// the previous one is still being sent is dropped for the connections that
 /// are still busy; so it waits for them a little (50 ms at most), unless a
 /// reader has already shown that it stalls (`patient` false: it then waits
-/// no more until the port is found idle again).
+/// no more until the port is found idle again). True when it wrote while a
+/// connection was still busy: a reader missed this message.
 template <class Port>
-void writePatiently(Port& port, bool& patient)
+bool writePatiently(Port& port, bool& patient)
 {
-    if (port.isWriting()) {
-        if (patient) {
-            const SteadyClock::time_point deadline = SteadyClock::now() + std::chrono::milliseconds(50);
-            while (port.isWriting() && SteadyClock::now() < deadline) {
-                std::this_thread::sleep_for(std::chrono::microseconds(50));
-            }
-            patient = !port.isWriting();
+    bool busy = port.isWriting();
+    if (busy && patient) {
+        const SteadyClock::time_point deadline = SteadyClock::now() + std::chrono::milliseconds(50);
+        while (port.isWriting() && SteadyClock::now() < deadline) {
+            std::this_thread::sleep_for(std::chrono::microseconds(50));
         }
-    } else {
+        busy = port.isWriting();
+        patient = !busy;
+    } else if (!busy) {
         patient = true;
     }
     port.write();
+    return busy;
 }
+
 
 // --- the RPC port (ybgc_totals.cpp) -----------------------------------------------------
 
@@ -269,13 +272,16 @@ private:
 
 /// What `stats` answers of a bridge, appended to `out` (after its vocab
 /// `many`): one list per input (input SOURCE received N dropped N stale N
-/// unused N refused N), (published N skipped N failures N), (rate ACHIEVED
+/// unused N refused N), (published N skipped N failures N missed N), (rate ACHIEVED
 /// configured HZ|event-driven); `rate`: the configured rate, 0 event-driven.
 void statsItems(yarp::os::Bottle& out, const Totals& totals, double achieved, double rate);
 
 /// The exit totals' line of a ROS 2 publisher or subscription that had
 /// incompatible peers (without its indent), as the Python runtime's.
 std::string ros2TotalsLine(const Totals::Ros2Endpoint& e);
+/// The exit totals' line of the messages YARP readers missed, when any
+/// (the Python runtime's core.MISSED_LINE).
+std::string missedLine(std::uint64_t missed);
 
 /// The module's RPC port `<prefix>/rpc:i`, as YARP modules have one (`yarp
 /// rpc /<module>/rpc:i`): `help`, `stats`, `quit` (also `exit`, `bye`: the

@@ -377,7 +377,8 @@ std::vector<Status> statuses(const Totals& totals, const std::string& node, doub
                 {"rate achieved (Hz)", printed("%.3f", achieved)},
                 {"rate configured (Hz)", totals.rate <= 0 ? "event-driven" : printed("%g", totals.rate)},
                 {"skipped cycles", std::to_string(totals.skipped)},
-                {"build failures", std::to_string(totals.failures)}};
+                {"build failures", std::to_string(totals.failures)},
+                {"missed by readers", std::to_string(totals.missed)}};
     addEvents(s.values, totals, "publisher", totals.output);
     out.push_back(std::move(s));
     return out;

@@ -197,6 +197,7 @@ public:
         out.published = published_;
         out.skipped = skippedCycles_;
         out.failures = buildFailures_;
+        out.missed = output_.missed();
         out.ros2 = ros2Events();
         return out;
     }
@@ -552,6 +553,9 @@ private:
         }
         out += prefix + "  published " + std::to_string(published_) + " messages, skipped "
             + std::to_string(skippedCycles_) + " cycles, build failures " + std::to_string(buildFailures_) + "\n";
+        if (const std::uint64_t missed = output_.missed(); missed != 0) {
+            out += prefix + "  " + missedLine(missed) + "\n";
+        }
         for (const Totals::Ros2Endpoint& e : ros2Events()) {
             if (e.qos != 0 || e.type != 0) {
                 out += prefix + "  " + ros2TotalsLine(e) + "\n";

@@ -583,6 +583,7 @@ struct Totals
     std::uint64_t published = 0;
     std::uint64_t skipped = 0;
     std::uint64_t failures = 0;
+    std::uint64_t missed = 0;   // messages a YARP reader missed (MessageSink::missed())
 };
 
 /// The bridge's totals, read when called (under its lock: never call it
@@ -620,6 +621,10 @@ public:
     virtual void watch(TotalsSource /*totals*/) {}
     /// Appends the incompatible peers of its ROS 2 publishers (none: nothing).
     virtual void ros2Events(std::vector<Totals::Ros2Endpoint>& /*out*/) const {}
+    /// The messages a reader of its YARP port missed: written while the
+    /// reader's connection was still sending the one before, which YARP
+    /// then skips for that connection (0 for a sink of no YARP port).
+    virtual std::uint64_t missed() const { return 0; }
 };
 
 /// Why a message cannot be built when a mux is shorter than it (`sizes`: each

@@ -72,7 +72,7 @@ void printMux(const char* name, const Rows& rows)
 const char* const kRpcHelp[] = {
     "help: this list",
     "stats: the totals so far: per input (input SOURCE received N dropped N stale N unused N refused N), "
-    "(published N skipped N failures N), (rate ACHIEVED configured HZ|event-driven), and per ROS 2 publisher "
+    "(published N skipped N failures N missed N), (rate ACHIEVED configured HZ|event-driven), and per ROS 2 publisher "
     "and subscription (ros2 publisher|subscription TOPIC incompatible_qos N incompatible_type N)",
     "quit: stop the module (it closes its ports and exits 0, as on SIGINT)",
 };
@@ -109,7 +109,8 @@ void statsItems(yarp::os::Bottle& out, const Totals& totals, double achieved, do
     }
     yarp::os::Bottle& counts = out.addList();
     for (const auto& [key, n] : {std::pair<const char*, std::uint64_t>{"published", totals.published},
-                                 {"skipped", totals.skipped}, {"failures", totals.failures}}) {
+                                 {"skipped", totals.skipped}, {"failures", totals.failures},
+                                 {"missed", totals.missed}}) {
         counts.addString(key);
         counts.addInt64(static_cast<std::int64_t>(n));
     }
@@ -137,6 +138,12 @@ std::string ros2TotalsLine(const Totals::Ros2Endpoint& e)
 {
     return "ros2 " + e.kind + " " + e.topic + ": incompatible QoS " + std::to_string(e.qos) + ", incompatible type "
         + std::to_string(e.type);
+}
+
+std::string missedLine(std::uint64_t missed)
+{
+    return "readers missed " + std::to_string(missed)
+        + " messages (each written while a reader was still taking the one before)";
 }
 
 RpcPort::RpcPort(std::string name, std::function<Totals()> totals, std::function<void()> quit, double rate) :
