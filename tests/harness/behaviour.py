@@ -31,7 +31,7 @@ from pathlib import Path
 import pytest
 
 from harness.env import EXAMPLES, base_env, free_port
-from harness.module import assert_clean_exit, hold_the_reader, rate_from_counters, totals
+from harness.module import assert_clean_exit, assert_delivered, hold_the_reader, rate_from_counters, totals
 from harness.programs import DEG, EVIL_LIST, FIXED_STRINGS, hypothesis_strings, needs_ros1, bottle_configs
 from harness.reference import (COUNTER, Envelope, assert_matches, exactly, expected, mux_values, sent_values,
                                topic_message)
@@ -292,11 +292,12 @@ class BridgeBehaviour:
                 module.wait_log("input /t/src:o is fresh again")
                 assert module.count(r"connected /t/src:o -> /relay2/data/in0:i") == 2
                 counters = [b.data[0] for b in reader.bottles]
-                assert counters == list(range(len(counters)))  # no message lost or repeated by the module
             finally:
                 producer.stop()
             rc, elapsed = module.interrupt()
         log = assert_clean_exit(yarp_server, module, rc, elapsed, ["/relay2/data/in0:i"])
+        assert counters[0] == 0
+        assert_delivered(counters, log)  # no message lost or repeated by the module
         assert "stale periods 1" in log
 
     def test_producer_killed_and_restarted_twice(self, modules, yarp_server, env):
@@ -362,7 +363,7 @@ class BridgeBehaviour:
             rc, elapsed = module.interrupt()
         log = assert_clean_exit(yarp_server, module, rc, elapsed, ["/relay_bridge/out:o"])
         counters = [b.data[0] for b in got]
-        assert counters == list(range(counters[0], counters[0] + len(got)))  # each message reached the reader
+        assert_delivered(counters, log)  # each message reached the reader
         skipped = totals(log)["skipped"]
         low, high = rate_from_counters(got[10:], skipped, 50.0)
         assert low <= 50.5 and high >= 49.5, (low, high, skipped)
@@ -514,10 +515,10 @@ class BridgeBehaviour:
         unread), and the next burst starts once the module has built the
         last one's final message (its --verbose values say so), so that the
         result does not depend on how fast the machine is. What reaches the
-        reader is in order and exact; that every message reaches it is not
-        what this test is about (a module drops a message for a connection
-        still busy past its patience, and on a loaded machine the module's
-        or the reader's thread may not be scheduled in time)."""
+        reader is in order and exact, and every message reaches it but those
+        the module counts missed (written while the connection still sent the
+        one before, past the module's patience: on a loaded machine the
+        module's or the reader's thread may not be scheduled in time)."""
         bursts, size = 8, BACKLOG + 1
         n = bursts * size
         with modules.module("relay_bridge", env, "--verbose") as module, \
@@ -542,9 +543,10 @@ class BridgeBehaviour:
         assert re.search(r"input /t/src:o: received (\d+), dropped 0, stale periods \d+, unused 0", log)
         values = [float(m.group(1)) for m in re.finditer(r"\[data\] 0: (\S+)\n", log)]
         assert values[:n] == [float(k) for k in range(n)] and set(values[n:]) == {-1.0}
-        assert totals(log)["published"] == len(values)
+        t = totals(log)
+        assert t["published"] == len(values)
         counters = [b.data[0] for b in got]
-        assert counters == sorted(set(counters)) and len(counters) > n // 2, counters
+        assert counters == sorted(set(counters)) and n - len(counters) <= t["missed"], (counters, t)
         assert exactly([b.data for b in got], [[k, float(k)] for k in counters])
 
     def test_a_reader_held_up_skips_the_oldest_and_says_so(self, modules, yarp_server, env):
@@ -660,7 +662,7 @@ class BridgeBehaviour:
         log = assert_clean_exit(yarp_server, module, rc, elapsed, ["/other/m/in0:i", "/hold_bridge/out:o"])
         assert all(h.data[1] == [90.0] for h in held)
         counters = [h.data[0] for h in held]
-        assert counters == list(range(counters[0], counters[0] + len(held)))
+        assert_delivered(counters, log)
         stamps = [sec + nsec / 1e9 for sec, nsec in (h.data[2] for h in held)]
         gaps = sorted(b - a for a, b in zip(stamps, stamps[1:]))
         assert 0.04 <= gaps[len(gaps) // 2] <= 0.06, gaps  # 20 Hz, not event-driven (the config's)
