@@ -366,9 +366,9 @@ def fault_consumer_cut(rig: Rig, modules) -> dict:
     counters = [b.data[0] for b in reader.bottles]
     assert counters == sorted(set(counters))  # in order, none twice
     missed = t["published"] - len(reader.bottles)
-    assert missed > 0
+    assert missed > 0 and t["missed"] > 0, t  # and the module said so
     return {"output resumed after the link (s)": resumed, "published": t["published"],
-            "missed by the consumer": missed, "rss before (kB)": rss0,
+            "missed by the consumer": missed, "missed (the module's count)": t["missed"], "rss before (kB)": rss0,
             "rss at the end of the cut (kB)": rss_cut, "rss after (kB)": rss1}
 
 
