@@ -95,12 +95,12 @@ def totals(log: str) -> dict:
     return out
 
 
-def assert_delivered(counters: list, log: str) -> None:
+def assert_delivered(counters: list, t: dict) -> None:
     """The module's message counters a reader got: in order, none twice, and
     a gap only where the module counts messages missed in its exit totals
-    ``log`` (written while the reader's connection still sent the one
-    before: a reader not scheduled in time on a loaded machine)."""
-    missed = totals(log)["missed"]
+    ``t`` (totals(): written while the reader's connection still sent the
+    one before, a reader not scheduled in time on a loaded machine)."""
+    missed = t["missed"]
     assert counters == sorted(set(counters)), f"out of order or repeated: {counters}"
     lost = counters[-1] - counters[0] + 1 - len(counters) if counters else 0
     assert lost <= missed, f"{lost} messages never reached the reader, {missed} counted missed: {counters}"

@@ -880,8 +880,10 @@ class YarpOutput:
         # A message written while the previous one is still being sent is
         # dropped for the connections that are still busy; so wait for it a
         # little, unless a reader has already shown it stalls. Written while
-        # still busy, it is counted as missed.
-        if self.port.isWriting():
+        # still busy, it is counted as missed (a port found idle stays so
+        # until this write).
+        busy = self.port.isWriting()
+        if busy:
             if self.patient:
                 deadline = time.monotonic() + self.PATIENCE
                 while self.port.isWriting() and time.monotonic() < deadline:
@@ -890,7 +892,7 @@ class YarpOutput:
         else:
             self.patient = True
         fill_bottle(self.port.prepare(), message, self.wire)
-        if self.port.isWriting():
+        if busy and self.port.isWriting():
             self.missed += 1
         self.port.write()
 

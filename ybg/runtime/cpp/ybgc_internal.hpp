@@ -253,7 +253,6 @@ bool writePatiently(Port& port, bool& patient)
     return busy;
 }
 
-
 // --- the RPC port (ybgc_totals.cpp) -----------------------------------------------------
 
 /// The rate achieved: messages published per second since the previous
