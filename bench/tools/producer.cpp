@@ -1,6 +1,6 @@
 // Benchmark producer: writes stamped Bottles of float64 on N YARP ports.
 //
-//   bench_producer --ports /bench/src0:o,/bench/src1:o --width 15
+//   bench_producer --ports /bench/src0:o,/bench/src1:o --width 15 [--write strict|plain]
 //
 // Commands on stdin, one a line; each answers with one line on stdout,
 // starting with "@" (YARP prints its own messages there too):
@@ -17,7 +17,13 @@
 // latency is measured from it). The envelope carries (s, the tick's time):
 // one acquisition stamp for every port of a tick, as a robot's state ports
 // do (the joints sampled in one control cycle), whenever each write happens.
-// Writes are strict (a Bottle is never dropped by the producer).
+// Writes are strict by default (a Bottle is never dropped by the producer).
+// --write plain: YARP's plain write(), as a robot's devices write their state
+// ports: a Bottle is not sent on a connection still busy with the one before,
+// and the producer never waits for a connection. A peer stopped and started
+// again (bench/compose.py does, for the start time) can leave a connection
+// whose send never completes: a strict write would wait for it, and no port
+// would be written again.
 
 #include <time.h>
 
@@ -88,16 +94,23 @@ int main(int argc, char* argv[])
 {
     std::vector<std::string> names;
     int width = 15;
+    bool strict = true;
+    bool usage = false;
     for (int i = 1; i + 1 < argc; i += 2) {
         const std::string key = argv[i];
+        const std::string value = argv[i + 1];
         if (key == "--ports") {
-            names = split(argv[i + 1], ',');
+            names = split(value, ',');
         } else if (key == "--width") {
-            width = std::atoi(argv[i + 1]);
+            width = std::atoi(value.c_str());
+        } else if (key == "--write" && (value == "strict" || value == "plain")) {
+            strict = value == "strict";
+        } else {
+            usage = true;
         }
     }
-    if (names.empty() || width < 3) {
-        std::fprintf(stderr, "usage: bench_producer --ports A,B,... --width W (W >= 3)\n");
+    if (usage || names.empty() || width < 3) {
+        std::fprintf(stderr, "usage: bench_producer --ports A,B,... --width W (W >= 3) [--write strict|plain]\n");
         return 2;
     }
     std::signal(SIGPIPE, SIG_IGN);  // a peer that goes away must not kill this process
@@ -166,7 +179,11 @@ int main(int argc, char* argv[])
                     }
                     yarp::os::Stamp stamp(static_cast<int>(seq), sampled);
                     ports[p]->setEnvelope(stamp);
-                    ports[p]->writeStrict();
+                    if (strict) {
+                        ports[p]->writeStrict();
+                    } else {
+                        ports[p]->write();
+                    }
                 }
                 addNs(next, period);
                 timespec now{};
