@@ -78,13 +78,17 @@ def test_invalid_across_configs_said_in_each_config_naming_the_other(folder: Pat
 
     found = json.loads(r.stdout)
     found = found["diagnostics"] if isinstance(found, dict) else found
+    expected = {}
     for path in configs:
         m = re.search(r"# expect: ([EWN][0-9]{3}) ([0-9]+):([0-9]+)", path.read_text(encoding="utf-8"))
         assert m and m.group(1) == code, f"{path.name}: `# expect: {code} LINE:COL`"
+        expected[path.name] = (int(m.group(2)), int(m.group(3)))
+    for path in configs:
         mine = [d for d in found if Path(d["file"]).name == path.name and d["code"] == code]
-        assert [(d["line"], d["column"]) for d in mine] == [(int(m.group(2)), int(m.group(3)))], (path.name, found)
-        others = [p.name for p in configs if p != path]
-        assert any(f"{o}:" in mine[0]["message"] for o in others), mine[0]["message"]
+        assert [(d["line"], d["column"]) for d in mine] == [expected[path.name]], (path.name, found)
+        # the other config named at its own position (the value there, as here)
+        others = [f"{o}:{line}:{column}" for o, (line, column) in expected.items() if o != path.name]
+        assert any(o in mine[0]["message"] for o in others), (mine[0]["message"], others)
     assert sorted(p.name for p in folder.iterdir()) == sorted(p.name for p in configs)
 
 

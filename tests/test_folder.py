@@ -7,6 +7,7 @@ with no file checks every config of the folder."""
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -112,6 +113,8 @@ def test_several_configs_is_a_clear_error_naming_them(tmp_path):
     d = folder(tmp_path, HAND, IMU)
     before = sorted(p.name for p in d.iterdir())
     for command, args in ONE_CONFIG.items():
+        if command == "graph":  # the robot's graph (test_a_folder_is_a_robot)
+            continue
         r = ybgc_in(d, *args)
         assert r.returncode == 2, (command, r.stderr)
         assert "2 ybgc configs" in r.stderr and "imu_ros2.ini" in r.stderr and "mixed_types_yarp.ini" in r.stderr
@@ -161,3 +164,112 @@ def test_a_named_config_is_used_whatever_the_folder_holds(tmp_path):
     assert r.returncode == 0 and json.loads(r.stdout)["source"] == "imu_ros2.ini", r.stderr
     r = ybgc_in(d, "ir", "missing.ini")
     assert r.returncode == 2 and "missing.ini" in r.stderr and "Traceback" not in r.stderr
+
+
+# --------------------------------------------------------------------------
+# A folder named is a robot: its configs, as if each were named
+
+ICUB = ROOT / "examples" / "icub_robot"
+HOMING = ROOT / "examples" / "home_arm_trigger.ini"
+
+
+def test_check_of_a_robot_folder_and_a_folder_with_a_file(tmp_path):
+    """`ybgc check examples/icub_robot` checks its 14 configs, as `ybgc
+    check` does in that folder; a folder and a file mixed check together,
+    across configs too; a folder with no config is a usage error."""
+    for args in (["check", "examples/icub_robot"], ["check", "examples/icub_robot/"],
+                 ["check", "examples/icub_robot", "examples/home_arm_trigger.ini"],
+                 ["check", "--strict", "--skip-foreign", "examples/icub_robot"]):
+        r = ybgc_in(ROOT, *args)
+        assert (r.returncode, r.stdout, r.stderr) == (0, "", ""), (args, r.stderr)
+    r = ybgc_in(ROOT, "check", "--format", "json", "examples/icub_robot", "examples/home_arm_trigger.ini")
+    assert (r.returncode, r.stdout) == (0, "[]\n"), r.stderr
+    # a copy of one of its bridges beside the folder: the clash said in both, at the values
+    shutil.copytree(ICUB, tmp_path / "robot")
+    shutil.copy(ICUB / "head.ini", tmp_path / "twin.ini")
+    r = ybgc_in(tmp_path, "check", "robot", "twin.ini")
+    assert r.returncode == 1
+    hint = ("    hint: two bridges of one name open the same ports (`/<name>/rpc:i` ...) and the same ROS node: give "
+            "each its own `name` in [module]")
+    assert r.stderr.splitlines() == [
+        "robot/head.ini:5:8: error E362 module `icub_head` is also the name of another bridge (twin.ini:5:8)", hint,
+        "twin.ini:5:8: error E362 module `icub_head` is also the name of another bridge (robot/head.ini:5:8)", hint,
+    ], r.stderr
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    r = ybgc_in(tmp_path, "check", "empty", "twin.ini")
+    assert r.returncode == 2 and r.stderr == (
+        "ybgc: error: no ybgc config in the folder empty (no .ini file there has a [message] section and an "
+        "[output] or [general] one, nor [service] sections)\n"
+        "    hint: name the configs: ybgc check empty/config.ini\n"), r.stderr
+
+
+def test_compose_of_a_robot_folder_and_a_file(tmp_path):
+    """`ybgc compose examples/icub_robot` composes the folder's 14 bridges
+    into a module named after the folder, the same files as `ybgc compose`
+    in the folder; with a file beside the folder, 15 bridges."""
+    r = ybgc_in(tmp_path, "compose", ICUB, "--backend", "ros2", "-o", "named")
+    written = sorted(p.relative_to(tmp_path / "named") for p in (tmp_path / "named").rglob("*") if p.is_file())
+    assert (r.returncode, r.stdout) == (0, ""), r.stderr
+    assert r.stderr == (f"ybgc: ros2 module `icub_robot` of 14 bridges in named/ "
+                        f"({len(written)} files written, 0 unchanged)\n"), r.stderr
+    here = ybgc_in(ICUB, "compose", "--backend", "ros2", "-o", tmp_path / "here")
+    assert here.returncode == 0, here.stderr
+    in_folder = sorted(p.relative_to(tmp_path / "here") for p in (tmp_path / "here").rglob("*") if p.is_file())
+    assert in_folder == written
+    node = "icub_robot_node.py"
+    assert (tmp_path / "named" / node).read_text() == (tmp_path / "here" / node).read_text()
+    r = ybgc_in(tmp_path, "compose", ICUB, HOMING, "--backend", "ros2", "-o", "mixed")
+    assert r.returncode == 0 and "`icub_robot` of 15 bridges in mixed/" in r.stderr, r.stderr
+    assert "left_arm_homing" in (tmp_path / "mixed" / node).read_text()
+
+
+def test_graph_of_a_robot_folder(tmp_path):
+    """`ybgc graph DIR`: every bridge of the robot in one picture, a box
+    (cluster, subgraph) a bridge, each port read once; the same picture
+    as `ybgc graph` in the folder, and as the configs named one by one."""
+    configs = sorted(ICUB.glob("*.ini"))
+    r = ybgc_in(tmp_path, "graph", ICUB, "--format", "dot")
+    assert r.returncode == 0, r.stderr
+    dot = r.stdout.splitlines()
+    assert dot[:2] == [f"// generated by ybgc from {ICUB}: the dataflow of module icub_robot",
+                       'digraph "icub_robot" {']
+    clusters = [line for line in dot if line.startswith("  subgraph cluster_bridge")]
+    assert len(clusters) == len(configs) == 14
+    modules = [line.split('"')[1] for line in dot if line.startswith('    label="')]
+    assert modules == [program_module(c) for c in configs]
+    ports = [line for line in dot if re.match(r"  in[0-9]+ \[label=", line)]
+    assert len(ports) == len({line.split('"')[1].split("\\n")[0] for line in ports}) == 15
+    here = ybgc_in(ICUB, "graph", "--format", "dot")
+    assert here.stdout.splitlines()[1:] == dot[1:], here.stderr
+    each = ybgc_in(tmp_path, "graph", *configs, "--format", "dot")
+    assert each.stdout.splitlines()[1:] == dot[1:], each.stderr
+    r = ybgc_in(tmp_path, "graph", ICUB, HOMING, "--format", "mermaid")
+    assert r.returncode == 0 and r.stdout.count("  subgraph bridge") == 15, r.stderr
+    r = ybgc_in(tmp_path, "graph", ICUB)  # a picture: ./<robot>.svg
+    assert r.stderr == "ybgc: svg graph of `icub_robot` (14 bridges) in icub_robot.svg\n"
+    assert (tmp_path / "icub_robot.svg").read_text().count('<g class="node output"') == 14
+
+
+def test_commands_of_one_config_take_a_folders_one_config(tmp_path):
+    """`ybgc ir DIR`, `ybgc DIR --backend B`: the folder's one config (its
+    ybgc.ini first); several: the error names them and, for a module, the
+    compose command of the folder."""
+    one = tmp_path / "one"
+    one.mkdir()
+    folder(one, HAND)
+    r = ybgc_in(tmp_path, "ir", "one")
+    assert r.returncode == 0 and json.loads(r.stdout)["module"] == "hand_status", r.stderr
+    r = ybgc_in(tmp_path, "one", "--backend", "py", "-o", "out")
+    assert r.returncode == 0 and (tmp_path / "out" / "hand_status.py").is_file(), r.stderr
+    r = ybgc_in(tmp_path, ICUB, "--backend", "cpp")
+    assert r.returncode == 2
+    assert r.stderr.startswith(f"ybgc: error: the folder {ICUB} has 14 ybgc configs: {ICUB}/ft_left_arm.ini, "), r.stderr
+    assert r.stderr.endswith(f"hint: name the one to use (ybgc {ICUB}/ft_left_arm.ini --backend cpp), or call it "
+                             f"ybgc.ini; for all of them as one module: ybgc compose {ICUB} --backend cpp\n")
+
+
+def program_module(path: Path) -> str:
+    from ybg.compiler.pipeline import compile_path
+
+    return compile_path(path).program.module

@@ -10,7 +10,10 @@
 With no CONFIG named, a command takes the folder's config: ``ybgc.ini``,
 else the one ybgc config among the folder's ``.ini`` files (those that are
 not ybgc configs are skipped, as ``--skip-foreign`` does); ``ybgc check``
-with none named checks every config of the folder.
+with none named checks every config of the folder. A folder named as a
+CONFIG is a robot: its configs, as if each were named (``ybgc check
+examples/icub_robot``, ``ybgc compose examples/icub_robot extra.ini``); a
+command of one config takes the folder's one config.
 
 The backends, their names and what each makes are those of the registry
 (``ybg.backends.REGISTRY``); ``ybgc generate --help`` lists them.
@@ -55,6 +58,7 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 
 _FOLDER_HELP = f"default: the folder's config ({FOLDER_CONFIG}, or the one config there)"
+_ROBOT_HELP = "a config, or a folder of them (a robot: every config there); default: every config of the folder"
 
 
 def _backends_epilog() -> str:
@@ -69,7 +73,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", parser_class=_Parser)
 
     c = sub.add_parser("check", help="check configs and report problems")
-    c.add_argument("files", nargs="*", metavar="CONFIG", help="default: every config of the folder")
+    c.add_argument("files", nargs="*", metavar="CONFIG", help=_ROBOT_HELP)
     c.add_argument("--strict", action="store_true", help="warnings fail too")
     c.add_argument("--format", choices=("text", "json", "github"), default="text")
     c.add_argument("--backend", choices=backend_names(), help="also check that this backend can build it")
@@ -115,7 +119,7 @@ def build_parser() -> argparse.ArgumentParser:
     k = sub.add_parser("compose", help="compose several configs into one module: one process, one ROS 2 "
                                        "context, one node per bridge (docs/compose.md)",
                        formatter_class=argparse.RawDescriptionHelpFormatter, epilog=_backends_epilog())
-    k.add_argument("files", nargs="*", metavar="CONFIG", help="default: every config of the folder")
+    k.add_argument("files", nargs="*", metavar="CONFIG", help=_ROBOT_HELP)
     k.add_argument("--backend", "-b", required=True, choices=backend_names(), help="what to make (backends below)")
     k.add_argument("--name", help="the composed module's name: its executable, its RPC port /<name>/rpc:i "
                                   "(default: the folder's name)")
@@ -127,7 +131,9 @@ def build_parser() -> argparse.ArgumentParser:
     _common(k)
 
     d = sub.add_parser("graph", help="draw the dataflow: ports -> muxes -> converters -> fields -> output")
-    d.add_argument("file", nargs="?", metavar="CONFIG", help=_FOLDER_HELP)
+    d.add_argument("files", nargs="*", metavar="CONFIG",
+                   help="a config, or several, or a folder of them (a robot: every bridge, side by side); "
+                        f"default: the folder's config ({FOLDER_CONFIG}), else every config there")
     d.add_argument("--format", choices=tuple(FORMATS),
                    help="default: from the -o file's ending (.svg, .dot or .gv, .mmd or .mermaid), else svg")
     d.add_argument("-o", "--output", metavar="FILE",
@@ -138,7 +144,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     r = sub.add_parser("probe", help="before a module starts: its config against the running YARP network and "
                                      "ROS 2 graph (docs/probe.md)")
-    r.add_argument("files", nargs="*", metavar="CONFIG", help="default: every config of the folder")
+    r.add_argument("files", nargs="*", metavar="CONFIG", help=_ROBOT_HELP)
     r.add_argument("--wait", type=float, default=3.0, metavar="S",
                    help="seconds for ROS 2 discovery and for a Bottle from each input port (default 3)")
     r.add_argument("--prefix", "--name", dest="prefix", metavar="PREFIX",
@@ -207,6 +213,31 @@ def folder_configs(folder: Path = Path(".")) -> list[str]:
     return [str(p) for p in found]
 
 
+def expand_folders(files, command: str) -> list[str]:
+    """``files`` with each folder among them replaced by its configs
+    (:func:`folder_configs`: a robot's folder), in the order named, each
+    config once; a folder without a config is a usage error."""
+    out: list[str] = []
+    for f in files:
+        if Path(f).is_dir():
+            found = folder_configs(Path(f))
+            if not found:
+                _usage_error(f"no ybgc config in the folder {f} (no .ini file there has a [message] section and "
+                             "an [output] or [general] one, nor [service] sections)",
+                             f"name the configs: ybgc {command} {f.rstrip('/')}/config.ini")
+        else:
+            found = [f]
+        out += [c for c in found if c not in out]
+    return out
+
+
+def robot_name(files) -> str:
+    """The name a robot of ``files`` goes by: the first folder named, else
+    the folder of the first config."""
+    first = Path(files[0])
+    return (first if first.is_dir() else first.parent).resolve().name
+
+
 def _usage_error(message: str, hint: str) -> None:
     sys.stderr.write(f"ybgc: error: {message}\n    hint: {hint}\n")
     sys.exit(EXIT_USAGE)
@@ -219,30 +250,45 @@ def _write_error(e) -> int:
     return EXIT_USAGE
 
 
-def folder_config(command: str) -> str:
-    """The config ``command`` takes when none is named: ``ybgc.ini``, else
-    the one config of the folder; none or several is a usage error."""
-    if Path(FOLDER_CONFIG).is_file():
-        return FOLDER_CONFIG
-    configs = folder_configs()
+def folder_config(command: str, named: str | None = None) -> str:
+    """The config ``command`` takes: ``named``, or when that is a folder or
+    None (the current folder), the folder's ``ybgc.ini``, else its one
+    config; none or several is a usage error."""
+    if named is not None and not Path(named).is_dir():
+        return named
+    folder = Path(named or ".")
+    if (folder / FOLDER_CONFIG).is_file():
+        return str(folder / FOLDER_CONFIG)
+    configs = folder_configs(folder)
     if len(configs) == 1:
         return configs[0]
-    folder = Path.cwd()
+    said = f"the folder {named}" if named else "no config named, and"
+    where = named if named else Path.cwd()
     if not configs:
-        _usage_error(f"no config named, and no ybgc config in {folder} (no {FOLDER_CONFIG}, and no .ini file "
-                     "there has a [message] section and an [output] or [general] one, nor [service] sections)",
+        _usage_error(f"{said} no ybgc config in {where} (no {FOLDER_CONFIG}, and no .ini file "
+                     "there has a [message] section and an [output] or [general] one, nor [service] sections)"
+                     if not named else
+                     f"{said} has no ybgc config (no {FOLDER_CONFIG}, and no .ini file there has a [message] "
+                     "section and an [output] or [general] one, nor [service] sections)",
                      f"name the config: ybgc {command} path/to/config.ini")
-    _usage_error(f"no config named, and {len(configs)} ybgc configs in {folder}: {', '.join(configs)}",
-                 f"name the one to use (ybgc {command} {configs[0]}), or call it {FOLDER_CONFIG}")
+    several = f"{said} {len(configs)} ybgc configs in {where}" if not named else \
+        f"{said} has {len(configs)} ybgc configs"
+    robot = f"; for all of them as one module: ybgc compose {named or '.'} {command}" \
+        if command.startswith("--backend") else ""
+    usage = f"ybgc {configs[0]} {command}" if command.startswith("--backend") else f"ybgc {command} {configs[0]}"
+    _usage_error(f"{several}: {', '.join(configs)}",
+                 f"name the one to use ({usage}), or call it {FOLDER_CONFIG}{robot}")
 
 
 def _select(args) -> list[str]:
     if not args.files:  # check: every config of the folder; fmt: the folder's one
         configs = folder_configs() if args.command == "check" else []
         return configs or [folder_config(args.command)]
+    files = expand_folders(args.files, args.command)
     if not getattr(args, "skip_foreign", False):
-        return list(args.files)
-    return [f for f in args.files if is_config_file(f)]
+        return files
+    named = set(args.files)  # a folder's configs are configs already
+    return [f for f in files if f not in named or is_config_file(f)]
 
 
 def _io_error(result) -> bool:
@@ -381,7 +427,7 @@ def cmd_ir(args) -> int:
     from ybg.compiler.typehash import program_store, with_type_hashes
 
     options = _options(args)
-    result = _compile(args.file or folder_config("ir"), args, options)
+    result = _compile(folder_config("ir", args.file), args, options)
     _print([result], "text")
     if result.program is None:
         return EXIT_USAGE if _io_error(result) else EXIT_PROBLEMS
@@ -406,7 +452,7 @@ def cmd_generate(args) -> int:
     from ybg.backends import LoweringError, RenderOptions, get_backend, lowering_diagnostic
     from ybg.writer import WriteError, write_files
 
-    result = _compile(args.file or folder_config(f"--backend {args.backend}"), args, _options(args))
+    result = _compile(folder_config(f"--backend {args.backend}", args.file), args, _options(args))
     _print([result], "text")
     if result.program is None:
         return EXIT_USAGE if _io_error(result) else EXIT_PROBLEMS
@@ -446,7 +492,7 @@ def cmd_compose(args) -> int:
     from ybg.compiler.names import identifier_problem, sanitize_identifier
     from ybg.writer import WriteError, write_files
 
-    files = list(args.files) or folder_configs()
+    files = expand_folders(args.files, "compose") or folder_configs()
     if not files:
         _usage_error(f"no config named, and no ybgc config in {Path.cwd()}",
                      "name the configs: ybgc compose a.ini b.ini --backend cpp")
@@ -463,7 +509,7 @@ def cmd_compose(args) -> int:
         return EXIT_USAGE
     if any(r.program is None or r.errors for r in results):
         return EXIT_PROBLEMS
-    name = args.name or sanitize_identifier(Path(files[0]).resolve().parent.name)
+    name = args.name or sanitize_identifier(robot_name(args.files or files))
     problem = identifier_problem(name)
     if problem:
         _usage_error(f"the composed module's name `{name}` {problem}",
@@ -501,26 +547,37 @@ def cmd_compose(args) -> int:
 
 
 def cmd_graph(args) -> int:
-    from ybg.graph import render
+    from ybg.graph import render, render_robot
     from ybg.writer import WriteError, write_output
 
     fmt = args.format or SUFFIXES.get(Path(args.output or "").suffix.lower(), "svg")
-    result = _compile(args.file or folder_config("graph"), args, _options(args))
-    _print([result], "text")
-    if result.program is None or result.errors:
-        return EXIT_USAGE if _io_error(result) else EXIT_PROBLEMS
-    text = render(result.program, fmt)
-    output = args.output or (f"{result.program.module}.svg" if fmt == "svg" else "-")
+    options = _options(args)
+    # the configs named, or the folder's; several (or a folder of several): the robot
+    files = expand_folders(args.files, "graph") or folder_configs() or [folder_config("graph")]
+    if not args.files and Path(FOLDER_CONFIG).is_file():
+        files = [FOLDER_CONFIG]
+    results = [_compile(f, args, options) for f in files]
+    _print(results, "text")
+    if any(r.program is None or r.errors for r in results):
+        return EXIT_USAGE if any(_io_error(r) for r in results) else EXIT_PROBLEMS
+    if len(results) == 1:  # one bridge's dataflow
+        name = results[0].program.module
+        text = render(results[0].program, fmt)
+    else:  # a robot: every bridge's, side by side
+        from ybg.compiler.names import sanitize_identifier
+        name = sanitize_identifier(robot_name(args.files or files))
+        text = render_robot(name, ", ".join(args.files or ["."]), [r.program for r in results], fmt)
+    output = args.output or (f"{name}.svg" if fmt == "svg" else "-")
     if output == "-":
         sys.stdout.write(text)
         return EXIT_OK
     try:
-        written = write_output(Path(output), text, force=args.force, inputs=(Path(result.path),),
+        written = write_output(Path(output), text, force=args.force, inputs=tuple(Path(r.path) for r in results),
                                elsewhere="write the graph to another file with -o FILE (-o - prints it)")
     except WriteError as e:
         return _write_error(e)
-    sys.stderr.write(f"ybgc: {fmt} graph of `{result.program.module}` in {output}"
-                     f"{'' if written else ' (unchanged)'}\n")
+    what = f"`{name}`" if len(results) == 1 else f"`{name}` ({len(results)} bridges)"
+    sys.stderr.write(f"ybgc: {fmt} graph of {what} in {output}{'' if written else ' (unchanged)'}\n")
     return EXIT_OK
 
 
@@ -538,7 +595,7 @@ def cmd_probe(args) -> int:
     except OverrideError as e:
         _usage_error(str(e), e.hint)
     options = _options(args)
-    files = args.files or folder_configs() or [folder_config("probe")]
+    files = expand_folders(args.files, "probe") or folder_configs() or [folder_config("probe")]
     results = [_compile(f, args, options) for f in files]
     checked = [(r.program, r.path) for r in results if r.program is not None and not r.errors]
     if args.prefix and len(results) > 1:

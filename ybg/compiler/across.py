@@ -24,6 +24,7 @@ naming the other's ``file:line:column``.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from dataclasses import dataclass
 from typing import Iterable
@@ -41,6 +42,7 @@ class _End:
     what: str  # how the message names it: "publishes", "reads", "opens", "serves", "calls"
     type: str | None = None
     qos: ir.QoS | None = None  # a ROS 2 topic's: offered (publishes) or requested (reads)
+    type_span: Span | None = None  # where ``type`` is written, when not at ``span``
 
 
 def _where(end: _End) -> str:
@@ -57,6 +59,18 @@ def _module_span(document: ast.Document | None) -> Span:
     return NOWHERE
 
 
+def _value_span(document: ast.Document | None, section: str, label: str | None, key: str,
+                fallback: Span | None) -> Span:
+    """Where the value of ``key`` in ``[section label]`` is written: a
+    name's span, without the `(type)` after it; else ``fallback``."""
+    sec = document.section(section, label) if document is not None else None
+    entry = sec.get(key) if sec is not None else None
+    if entry is None or not entry.items:
+        return fallback or NOWHERE
+    item = entry.items[0]
+    return item.func.span if isinstance(item, ast.Call) else item.span
+
+
 def _norm(name: str | None) -> str | None:
     return None if name is None else name.replace("/msg/", "/").replace("/srv/", "/")
 
@@ -66,14 +80,17 @@ def _ends(path: str, program: ir.Program | ir.Commands, document: ast.Document |
     yield "module", program.module, _End(path, _module_span(document), "is named")
     if isinstance(program, ir.Commands):
         for svc in program.services:
-            span = svc.span or NOWHERE
+            # the service's name and the port: the values of `serve` and `call`
+            ros_key, yarp_key = ("serve", "call") if svc.serves == "ros2" else ("call", "serve")
+            span = _value_span(document, "service", svc.name, ros_key, svc.span)
             if svc.serves == "ros2":
-                yield "service", svc.service, _End(path, span, "serves", svc.srv_type)
+                yield "service", svc.service, _End(path, span, "serves", svc.srv_type, type_span=svc.type_span)
             else:
-                yield "service_call", svc.service, _End(path, span, "calls", svc.srv_type)
+                yield "service_call", svc.service, _End(path, span, "calls", svc.srv_type, type_span=svc.type_span)
         for port in program.served_ports:
             first = program.on_port(port)[0]
-            yield "port", port, _End(path, first.span or NOWHERE, "serves")
+            yield "port", port, _End(path, _value_span(document, "service", first.name, "serve", first.span),
+                                     "serves")
         return
     out = program.output
     span = out.span or NOWHERE
@@ -83,7 +100,7 @@ def _ends(path: str, program: ir.Program | ir.Commands, document: ast.Document |
             yield "topic_ros2", out.camera_info.topic, _End(path, out.camera_info.span or span, "publishes",
                                                            "sensor_msgs/CameraInfo")
     else:
-        yield "port", out.name, _End(path, span, "writes")
+        yield "port", out.name, _End(path, _value_span(document, "output", None, "port", span), "writes")
     for m in program.muxes:
         for i in m.inputs:
             if i.kind in ("ros1", "ros2") and i.ros_type is not None:
@@ -118,8 +135,15 @@ def check_across(results: Iterable) -> list[Diagnostic]:
             seen[("service", name)] = seen[("service", name)] + ends
     out: list[Diagnostic] = []
 
-    def say(code: str, end: _End, other: _End, message: str, hint: str, severity=Severity.ERROR) -> None:
-        out.append(Diagnostic(severity, code, f"{message} ({_where(other)})", end.span, hint, end.file))
+    def say(code: str, end: _End, other: _End, message: str, hint: str, severity=Severity.ERROR,
+            at_type: bool = False) -> None:
+        """``end``'s problem with ``other``, at ``end``'s value (its type's,
+        ``at_type``), naming ``other``'s."""
+        span, there = end.span, other
+        if at_type:
+            span = end.type_span or end.span
+            there = dataclasses.replace(other, span=other.type_span or other.span)
+        out.append(Diagnostic(severity, code, f"{message} ({_where(there)})", span, hint, end.file))
 
     for (kind, name), ends in seen.items():
         if len(ends) < 2:
@@ -174,7 +198,7 @@ def check_across(results: Iterable) -> list[Diagnostic]:
                     if other is not None:
                         say("E363", a, other, f"the ROS 2 service {name}: this bridge {a.what} it as {a.type}, "
                                               f"another {other.what} it as {other.type}",
-                            "one service has one type: a call of the other type is never answered")
+                            "one service has one type: a call of the other type is never answered", at_type=True)
     return sorted(out, key=Diagnostic.sort_key)
 
 
