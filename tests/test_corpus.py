@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+from harness import examples
 from ybg.backends import LoweringError, RenderOptions, backend_names, check_result, get_backend
 from ybg.cli import _formatted
 from ybg.compiler import ir
@@ -25,7 +26,8 @@ INVALID = sorted((ROOT / "tests" / "invalid").glob("*.ini"))
 INVALID_FOLDERS = sorted(p for p in (ROOT / "tests" / "invalid").iterdir() if p.is_dir())
 LEGACY_DIR = ROOT.parent / "shared" / "legacy"
 LEGACY = sorted(LEGACY_DIR.glob("*.ini"))
-EXAMPLES = sorted((ROOT / "examples").glob("*.ini"))
+#: every example: the single configs, then each robot folder's (tests/harness/examples.py)
+EXAMPLES = examples.configs()
 #: the examples of a user's own messages and services find them in msgpkgs/
 EXAMPLE_OPTIONS = Options(msg_path=(str(ROOT / "msgpkgs"),))
 
@@ -188,7 +190,7 @@ def test_legacy_to_ros2_conversion_drops_seq():
     assert r.program.message.fields[0].source.fields[0].source.style == "ros2"
 
 
-@pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)
+@pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: str(p.relative_to(ROOT / "examples")))
 def test_example_checks_clean_and_is_canonical(path: Path):
     result = compile_path(path, EXAMPLE_OPTIONS)
     assert result.form == "named"
@@ -197,7 +199,33 @@ def test_example_checks_clean_and_is_canonical(path: Path):
     assert format_document(parse_text(text, Sink())) == text, "examples are in canonical form"
 
 
-@pytest.mark.parametrize("path", EXAMPLES + LEGACY, ids=lambda p: p.stem)
+def test_every_example_passes_its_own_check_command(ybgc, monkeypatch):
+    """The commands scripts/demo.sh runs (tests/harness/examples.py): each
+    single example by `ybgc check` or by the command its header gives, each
+    robot's folder together; clean, warnings failing too. An example that
+    needs an option its header does not give fails here."""
+    monkeypatch.chdir(ROOT)
+    commands = examples.check_commands()
+    named = [ROOT / a for args in commands for a in args if not a.startswith("-")]
+    checked = {c for n in named for c in (n.glob("*.ini") if n.is_dir() else [n])}
+    assert set(examples.configs()) <= checked  # every example, by some command
+    for args in commands:
+        status, err = ybgc(*args, "--strict")
+        assert (status, err) == (0, ""), ("ybgc " + " ".join(args), err)
+
+
+def test_an_example_without_its_options_fails_its_plain_check(ybgc, monkeypatch):
+    """The command of an example's own check is needed: without its
+    options, the plain `ybgc check` of that example fails."""
+    monkeypatch.chdir(ROOT)
+    own = [p for p in EXAMPLES if examples.own_check(p) is not None]
+    assert own, "some example documents a check of its own (gaze_look_at.ini: --msg-path msgpkgs)"
+    for path in own:
+        status, err = ybgc("check", str(path.relative_to(ROOT)))
+        assert status == 1 and " error " in err, err
+
+
+@pytest.mark.parametrize("path", EXAMPLES + LEGACY, ids=lambda p: str(p.relative_to(p.parents[1])))
 def test_ir_json_round_trip(path: Path):
     p = compile_path(path, EXAMPLE_OPTIONS).program
     assert ir.from_json(ir.to_json(p)) == p
