@@ -16,11 +16,12 @@ from __future__ import annotations
 import math
 import struct
 import subprocess
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
@@ -160,6 +161,7 @@ def test_quat_to_axis_angle(q):
 
 @SETTINGS
 @given(quaternion, st.tuples(*[st.floats(-10, 10)] * 3))
+@example((0.0, 1.0, -1.0, 0.0), (0.0, 0.0, 0.0))  # 180 degrees: w = 0, the sign from y
 def test_matrix_and_transform_to_quat(q, t):
     m = matrix_of(q)
     got = py("matrix_to_quat", m)
@@ -176,6 +178,109 @@ def test_quat_normalize(q):
     got = py("quat_normalize", q)
     assert close(got, geometry_reference.geometry("quat_normalize", q))
     assert all(math.copysign(1, a) == math.copysign(1, b) for a, b in zip(got, q) if b != 0)
+
+
+# --------------------------------------------------------------------------
+# rotations of 180 degrees: w = 0, the sign of the quaternion from x, y, z
+
+#: the axes of the rotations of 180 degrees tried: each axis, both ways, and oblique ones
+HALF_TURN_AXES = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1), (1, 1, 0), (1, -1, 0),
+                  (-1, 1, 0), (0, -1, 1), (-1, 0, -1), (1, 2, 3), (-3, 1, -2), (0, 0.6, -0.8)]
+
+
+def half_turn(a) -> list[float]:
+    """The canonical quaternion of the rotation of 180 degrees about ``a``
+    (docs/config.md): the unit axis, its first non-zero element positive, w 0."""
+    n = math.sqrt(sum(v * v for v in a))
+    unit_axis = [v / n for v in a]
+    sign = 1.0 if next(v for v in unit_axis if v != 0) > 0 else -1.0
+    return [sign * v for v in unit_axis] + [0.0]
+
+
+def half_turn_cases(a) -> list[tuple]:
+    """(converter, values, axes, degrees) of every converter that gives a
+    quaternion, each making the rotation of 180 degrees about ``a``: the
+    axis-angle both ways round, the exact matrix 2 a a^T - I and scipy's
+    (whose w rounds to some 1e-16), the transforms of both, and the Euler
+    angles of every axis order, in radians and in degrees."""
+    n = math.sqrt(sum(v * v for v in a))
+    u = np.array(a, dtype=float) / n
+    rotation = Rotation.from_rotvec(u * math.pi)
+    cases = [("axis_angle_to_quat", [*a, math.pi], None, False),
+             ("axis_angle_to_quat", [*a, -math.pi], None, False),
+             ("axis_angle_to_quat", [2 * v for v in a] + [3 * math.pi], None, False)]
+    for m in (2 * np.outer(u, u) - np.eye(3), rotation.as_matrix()):
+        flat = [float(v) for v in m.ravel()]
+        cases.append(("matrix_to_quat", flat, None, False))
+        cases.append(("transform_to_pose", flat[0:3] + [0.5] + flat[3:6] + [-1.0] + flat[6:9] + [2.0, 0, 0, 0, 1],
+                      None, False))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # scipy's gimbal-lock warning: the angles still make the rotation
+        for axes in ir.EULER_AXES:
+            for degrees in (False, True):
+                angles = [float(v) for v in rotation.as_euler(axes, degrees=degrees)]
+                cases.append(("euler_to_quat", angles, axes, degrees))
+    return cases
+
+
+@pytest.mark.parametrize("a", HALF_TURN_AXES, ids=str)
+def test_half_turns_give_the_canonical_quaternion(a):
+    """A rotation of 180 degrees through every converter that gives a
+    quaternion: w exactly 0 and the first non-zero of x, y, z positive,
+    whatever sign the arithmetic left on w; as the reference says."""
+    want = half_turn(a)
+    for name, values, axes, degrees in half_turn_cases(a):
+        got = py(name, values, axes, degrees) if axes else py(name, values)
+        q = got[3:] if name == "transform_to_pose" else got
+        assert close(q, want), (name, values, axes, degrees, got)
+        assert q[3] == 0.0 and math.copysign(1.0, q[3]) == 1.0, (name, values, got)
+        assert close(got, geometry_reference.geometry(name, values, axes, degrees)), (name, values, got)
+
+
+@pytest.mark.parametrize("axes", ir.EULER_AXES)
+def test_half_turns_about_each_euler_axis(axes):
+    """One Euler angle of +-pi (+-180 degrees), the others 0: the quaternion
+    of the axis it turns about, positive."""
+    for k, axis in enumerate(geometry.AXES[axes]):
+        for degrees, turn in ((False, math.pi), (True, 180.0)):
+            for sign in (1, -1):
+                angles = [0.0, 0.0, 0.0]
+                angles[k] = sign * turn
+                want = [0.0, 0.0, 0.0, 0.0]
+                want[axis] = 1.0
+                got = py("euler_to_quat", angles, axes, degrees)
+                assert close(got, want) and got[3] == 0.0, (angles, degrees, got)
+                assert close(got, geometry_reference.geometry("euler_to_quat", angles, axes, degrees))
+
+
+@pytest.mark.parametrize("a", HALF_TURN_AXES, ids=str)
+def test_quat_to_axis_angle_at_a_half_turn(a):
+    """A quaternion of w 0 (or within 1e-12 of it, of either sign) and its
+    opposite give one axis, the canonical quaternion's, and the angle pi."""
+    want = half_turn(a)
+    for sign in (1.0, -1.0):
+        for w in (0.0, -0.0, 1e-17, -1e-17, 5e-13, -5e-13):
+            q = [sign * v for v in a] + [w]
+            got = py("quat_to_axis_angle", q)
+            assert close(got[:3], want[:3]) and got[3] == math.pi, (q, got)
+            assert close(got, geometry_reference.geometry("quat_to_axis_angle", q)), (q, got)
+
+
+def test_zero_w_is_within_1e_12():
+    """|w| <= 1e-12 is w = 0 (the rounding of a half turn's); beyond it, the
+    sign of w decides, as the reference's does."""
+    for w in (5e-13, -5e-13, 1e-12, -1e-12):
+        got = py("quat_to_axis_angle", [-0.6, 0.8, 0.0, w])
+        assert got == [0.6, -0.8, -0.0, math.pi], (w, got)
+    for w in (5e-13, -5e-13):  # w = cos(pi / 2 - w), to 1e-16
+        assert py("axis_angle_to_quat", [-0.6, 0.8, 0.0, math.pi - 2 * w]) == [0.6, -0.8, -0.0, 0.0], w
+    for w, axis in ((2e-12, [-0.6, 0.8, 0.0]), (-2e-12, [0.6, -0.8, -0.0])):
+        got = py("quat_to_axis_angle", [-0.6, 0.8, 0.0, w])
+        assert close(got[:3], axis) and got[3] < math.pi, (w, got)
+        assert close(got, geometry_reference.geometry("quat_to_axis_angle", [-0.6, 0.8, 0.0, w])), (w, got)
+        q = py("axis_angle_to_quat", [-0.6, 0.8, 0.0, math.pi - 2 * w])
+        assert close(q, geometry_reference.geometry("axis_angle_to_quat", [-0.6, 0.8, 0.0, math.pi - 2 * w]))
+        assert math.copysign(1.0, q[3]) == 1.0 and q[3] > 1e-12, (w, q)
 
 
 def test_degenerate_inputs():
@@ -282,6 +387,21 @@ def test_cpp_matrix_and_transform_bit_for_bit(cpp, q, noisy, t, wild):
         transform = m[0:3] + [t[0]] + m[3:6] + [t[1]] + m[6:9] + [t[2], 0.0, 0.0, 0.0, 1.0]
         assert same_bits(cpp_geometry(cpp, "transform_to_pose", transform), py("transform_to_pose", transform))
     assert same_bits(cpp_geometry(cpp, "transform_to_pose", wild), py("transform_to_pose", wild))
+
+
+@pytest.mark.parametrize("a", HALF_TURN_AXES, ids=str)
+def test_cpp_half_turns_bit_for_bit(cpp, a):
+    """The rotations of 180 degrees of the Python tests above, and the
+    quaternions of w within 1e-12 of 0: C++ gives Python's bits."""
+    for name, values, axes, degrees in half_turn_cases(a):
+        assert same_bits(cpp_geometry(cpp, name, values, axes, degrees),
+                         py(name, values, axes, degrees) if axes else py(name, values)), (name, values)
+    for sign in (1.0, -1.0):
+        for w in (0.0, -0.0, 1e-17, -1e-17, 5e-13, -5e-13, 1e-12, -1e-12, 2e-12, -2e-12):
+            q = [sign * v for v in a] + [w]
+            assert same_bits(cpp_geometry(cpp, "quat_to_axis_angle", q), py("quat_to_axis_angle", q)), q
+            aa = [sign * v for v in a] + [math.pi - 2 * w]
+            assert same_bits(cpp_geometry(cpp, "axis_angle_to_quat", aa), py("axis_angle_to_quat", aa)), aa
 
 
 @SETTINGS

@@ -12,9 +12,20 @@ from scipy.spatial.transform import Rotation
 from ybg.compiler import ir
 
 
+#: |w| up to which w is 0 (docs/config.md, "Orientation and geometry converters")
+ZERO_W = 1e-12
+
+
 def _canonical(q) -> list[float]:
-    """x y z w with w >= 0, as the converters give a quaternion."""
+    """The one of q and -q the converters give (docs/config.md): w > 0; or,
+    for |w| <= ZERO_W, w = 0.0 and the first of x, y, z beyond ZERO_W
+    positive."""
     q = np.asarray(q, dtype=float)
+    if abs(q[3]) <= ZERO_W:
+        xyz = q[:3]
+        leading = xyz[np.abs(xyz) > ZERO_W]
+        sign = -1.0 if leading.size and leading[0] < 0 else 1.0
+        return [float(v) for v in sign * xyz] + [0.0]
     return [float(v) for v in (-q if q[3] < 0 else q)]
 
 
@@ -31,7 +42,9 @@ def geometry(name: str, values: list[float], axes: str | None = None, degrees: b
             return [0.0, 0.0, 0.0, 1.0]
         return _canonical(Rotation.from_rotvec(v[:3] / n * v[3]).as_quat())
     if name == "quat_to_axis_angle":
-        rotvec = Rotation.from_quat(v).as_rotvec()  # angle in [0, pi]
+        # the rotation vector of the canonical quaternion (angle in [0, pi]): at pi,
+        # of the two opposite axes (the same rotation), the one of the quaternion
+        rotvec = Rotation.from_quat(_canonical(Rotation.from_quat(v).as_quat())).as_rotvec()
         angle = float(np.linalg.norm(rotvec))
         if angle == 0.0:
             return [0.0, 0.0, 1.0, 0.0]

@@ -5,7 +5,9 @@ Each converter takes the elements of a range of a mux and gives the elements
 that replace them: Euler angles (3) <-> quaternion (4), axis-angle (4) <->
 quaternion, a 3x3 rotation matrix (9, row-major) -> quaternion, a 4x4
 homogeneous transform (16, row-major) -> translation and quaternion (7), a
-quaternion normalised. Quaternions are ``x y z w``, as ROS orders them.
+quaternion normalised. Quaternions are ``x y z w``, as ROS orders them; a
+converter that gives one gives the canonical one of q and -q (``_positive``:
+w > 0, or w = 0 and the first non-zero of x, y, z positive, with 1e-12 for 0).
 
 The C++ runtime (``ybgc_convert.cpp``) does the same operations in the same
 order with the same libm, so that both give the same bits; a result that is
@@ -23,6 +25,10 @@ RAD = 180.0 / math.pi
 
 #: |cos| of the middle Euler angle under which quat_to_euler takes it for +-pi/2
 GIMBAL_LOCK = 1e-8
+
+#: |w| up to which a quaternion's w is 0 (the rounding of a 180-degree
+#: rotation's, some 1e-16), for the sign of the quaternion a converter gives
+ZERO_W = 1e-12
 
 #: Euler axis orders: fixed (extrinsic) axes, the first rotation first.
 #: "xyz" is ROS's rpy: R = Rz(yaw) Ry(pitch) Rx(roll).
@@ -70,9 +76,20 @@ def _unit(x, y, z, w):
 
 
 def _positive(q):
-    """The one of q and -q (the same rotation) whose w is not negative."""
-    if q[3] < 0.0:
-        return -q[0], -q[1], -q[2], -q[3]
+    """The canonical one of q and -q (the same rotation): w > 0; or, when
+    |w| <= ZERO_W (a rotation of 180 degrees, whose w the arithmetic leaves
+    at some 1e-16 of either sign), w = 0.0 and the first of x, y, z beyond
+    ZERO_W positive. A NaN stays (the result is then all NaN)."""
+    x, y, z, w = q
+    if abs(w) <= ZERO_W:
+        for v in (x, y, z):
+            if abs(v) > ZERO_W:
+                if v < 0.0:
+                    return -x, -y, -z, 0.0
+                break
+        return x, y, z, 0.0
+    if w < 0.0:
+        return -x, -y, -z, -w
     return q
 
 
@@ -146,7 +163,7 @@ def quat_to_axis_angle(x, y, z, w):
 
 def matrix_to_quat(*m):
     """A 3x3 rotation matrix, row-major -> quaternion x y z w, normalised,
-    w >= 0 (Shepperd's method: the largest of w, x, y, z first)."""
+    canonical (_positive; Shepperd's method: the largest of w, x, y, z first)."""
     m00, m01, m02, m10, m11, m12, m20, m21, m22 = m
     tr = m00 + m11 + m22
     if tr > 0.0:

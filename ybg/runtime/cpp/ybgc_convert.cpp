@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <initializer_list>
 #include <limits>
 #include <string>
 #include <vector>
@@ -98,6 +99,9 @@ const double kDeg = 3.141592653589793 / 180.0;
 const double kRad = 180.0 / 3.141592653589793;
 /// |cos| of the middle Euler angle under which quatToEuler takes it for +-pi/2
 constexpr double kGimbalLock = 1e-8;
+/// |w| up to which a quaternion's w is 0 (the rounding of a 180-degree
+/// rotation's, some 1e-16), for the sign of the quaternion a converter gives
+constexpr double kZeroW = 1e-12;
 
 struct Quat
 {
@@ -121,9 +125,23 @@ Quat qmul(const Quat& p, const Quat& q)
             p.w * q.w - p.x * q.x - p.y * q.y - p.z * q.z};
 }
 
-/// The one of q and -q (the same rotation) whose w is not negative.
+/// The canonical one of q and -q (the same rotation): w > 0; or, when
+/// |w| <= kZeroW (a rotation of 180 degrees, whose w the arithmetic leaves at
+/// some 1e-16 of either sign), w = 0.0 and the first of x, y, z beyond kZeroW
+/// positive. A NaN stays (the result is then all NaN). geometry.py's _positive.
 Quat positive(const Quat& q)
 {
+    if (std::fabs(q.w) <= kZeroW) {
+        for (const double v : {q.x, q.y, q.z}) {
+            if (std::fabs(v) > kZeroW) {
+                if (v < 0.0) {
+                    return {-q.x, -q.y, -q.z, 0.0};
+                }
+                break;
+            }
+        }
+        return {q.x, q.y, q.z, 0.0};
+    }
     if (q.w < 0.0) {
         return {-q.x, -q.y, -q.z, -q.w};
     }
