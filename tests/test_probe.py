@@ -199,6 +199,33 @@ def test_a_clean_robot_and_the_override_that_mends_the_qos(robot):
                          "/ybg_test_qos_sub's subscription of sensor_msgs/msg/JointState", seen), seen
 
 
+def test_a_folder_is_probed_as_its_configs(robot, tmp_path):
+    """`ybgc probe DIR`: the folder's configs, as `ybgc probe` in it and as
+    the configs named; a folder and a file mixed; the exact report."""
+    env, tmp = robot
+    folder = tmp_path / "robot"
+    folder.mkdir()
+    for name in ("wrong", "clean"):
+        (folder / f"{name}.ini").write_text(CONFIGS[name], encoding="utf-8")
+    (tmp_path / "qos.ini").write_text(CONFIGS["qos"], encoding="utf-8")
+    expected = ["::error file=robot/wrong.ini,line=5,col=1,title=E372",
+                "::error file=robot/wrong.ini,line=9,col=9,title=E371",
+                "::error file=robot/wrong.ini,line=12,col=9,title=E370",
+                "::warning file=robot/wrong.ini,line=15,col=9,title=W570"]
+
+    def run(cwd: Path, *args) -> list[str]:
+        r = subprocess.run([str(YBGC), "probe", *map(str, args), "--format", "github", "--wait", str(WAIT)], cwd=cwd,
+                           env=env, capture_output=True, text=True, timeout=60)
+        assert r.returncode == 1 and r.stderr == "", r.stderr
+        return ["::" + line.split("::")[1] for line in r.stdout.splitlines()]
+
+    assert run(tmp_path, "robot") == expected
+    assert run(tmp_path, "robot/wrong.ini", "robot/clean.ini") == expected
+    assert run(folder) == [line.replace("robot/", "") for line in expected]
+    mixed = run(tmp_path, "robot", "qos.ini")
+    assert mixed[:4] == expected and mixed[4:] == ["::error file=qos.ini,line=7,col=1,title=E375"], mixed
+
+
 def test_no_name_server_is_a_usage_error(robot, tmp_path):
     env, tmp = robot
     conf = tmp_path / "yarp"
