@@ -1,6 +1,7 @@
 """Shared pytest setup: real middleware fixtures (the helpers are the
 harness's, tests/harness/), the YARP version matrix, the ``--update-goldens``
-option, the ``slow`` marker and a default timeout.
+option, the ``slow`` marker, a default timeout and hypothesis' profile
+(harness.properties: derandomized unless ``YBG_HYPOTHESIS_PROFILE=fuzz``).
 
 The YARP matrix: every test that uses the ``yarp`` fixture (directly, or
 through ``yarp_server``, or through a fixture of its own that asks for
@@ -37,11 +38,16 @@ import pytest
 # the harness's asserts say what they compared, as the tests' own do
 pytest.register_assert_rewrite("harness")
 
-from harness import env, procs  # noqa: E402
+from harness import env, procs, properties  # noqa: E402
 from harness.build import Builds, session_builds, use_ccache  # noqa: E402
 from harness.ros1 import YarpRosStack  # noqa: E402
 from harness.ros2 import Ros2Domain  # noqa: E402
 from harness.yarp import YarpServer, require_yarp  # noqa: E402
+
+# hypothesis' profile (harness.properties): ci, derandomized, unless
+# YBG_HYPOTHESIS_PROFILE says fuzz; loaded before any test module makes its
+# @settings, which inherit it
+properties.load()
 
 #: where a test's CPU count starts (pytest_runtest_setup)
 _CPU_AT_SETUP = pytest.StashKey[float]()
@@ -104,7 +110,17 @@ def pytest_configure(config):
 
 def pytest_collection_modifyitems(config, items):
     """A test that may build the session's modules has the build's time,
-    unless it sets its own."""
+    unless it sets its own. Under hypothesis' ci profile, a property test
+    that would draw other examples on another run is an error."""
+    from hypothesis import settings
+
+    if settings.get_current_profile_name() == "ci":
+        random = [item.nodeid for item in items
+                  if not properties.deterministic(getattr(getattr(item, "obj", None),
+                                                          "_hypothesis_internal_use_settings", settings.default))]
+        if random:
+            raise pytest.UsageError("property tests not derandomized, or with an example database, under the ci "
+                                    "profile (tests/harness/properties.py): " + ", ".join(random))
     for item in items:
         if BUILD_FIXTURES & set(getattr(item, "fixturenames", ())) and item.get_closest_marker("timeout") is None:
             item.add_marker(pytest.mark.timeout(BUILD_TIMEOUT))

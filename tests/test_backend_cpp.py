@@ -40,6 +40,7 @@ from harness.differential import Differential
 from harness.launchers import CppModules
 from harness.module import Module
 from harness.programs import DEG, build_programs, escape_program, relay_program, ros1_input_program
+from harness.properties import examples
 from harness.ros2 import Ros2Publisher, ros2_environment, subscriber_for
 from harness.yarp import YarpProducer
 from ybg.backends import get_backend
@@ -132,7 +133,7 @@ def parse_cpp_literal(text: str) -> bytes:
     return bytes(out)
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=examples(300), deadline=None)
 @given(st.text())
 def test_string_literal_round_trips(s):
     lit = cpp_string(s)
@@ -179,7 +180,7 @@ def test_identifiers():
     assert mangle("mux_", "x-y z") == "mux_x_y_z"
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=examples(300), deadline=None)
 @given(st.floats(allow_nan=False, allow_infinity=False))
 def test_float_literals_are_exact(x):
     text = cpp_float(x)

@@ -25,6 +25,7 @@ from hypothesis import strategies as st
 
 from harness.env import VENV_PYTHON
 from harness.procs import Proc
+from harness.properties import examples
 from harness.yarp import YarpProducer, YarpReader, YarpServer
 
 # on YARP 3.5 and 4.0.0: 3.12.3 is the version tests' (docs/yarp-versions.md)
@@ -194,7 +195,7 @@ def modules(tmp_path_factory, yarp):
 
 # each example drives two live modules for seconds: no shrinking (the failing
 # stream is printed whole), and a failure stops at the first bug
-@settings(max_examples=6, deadline=None, suppress_health_check=list(HealthCheck),
+@settings(max_examples=examples(6), deadline=None, suppress_health_check=list(HealthCheck),
           phases=[Phase.explicit, Phase.reuse, Phase.generate], report_multiple_bugs=False)
 @given(st.lists(STEP, min_size=5, max_size=25))
 def test_cpp_and_python_modules_give_identical_bottles(modules, steps):

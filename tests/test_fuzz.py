@@ -12,6 +12,7 @@ from hypothesis import HealthCheck, Phase, assume, find, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.lark import from_lark
 
+from harness.properties import examples
 from ybg.backends import backend_names, check_result
 from ybg.compiler import ir, legacy
 from ybg.compiler.diagnostics import Sink
@@ -93,7 +94,7 @@ def _no_traceback(text: str, backend: str | None = None) -> None:
         assert d.code and d.message and d.span.line >= 1 and d.span.column >= 1
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=examples(150), deadline=None, suppress_health_check=list(HealthCheck))
 @given(GRAMMAR_TEXT)
 def test_grammar_generated_configs_never_raise(text):
     _no_traceback(text)
@@ -106,7 +107,7 @@ def test_grammar_generation_covers_expressions():
     _no_traceback(text)
 
 
-@settings(max_examples=300, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=examples(300), deadline=None, suppress_health_check=list(HealthCheck))
 @given(st.text(alphabet=st.characters(blacklist_categories=("Cs",)), max_size=300))
 def test_arbitrary_text_never_raises(text):
     _no_traceback(text)
@@ -137,7 +138,7 @@ def ini_like(draw):
     return "\n".join(lines) + "\n"
 
 
-@settings(max_examples=400, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=examples(400), deadline=None, suppress_health_check=list(HealthCheck))
 @given(ini_like())
 def test_plausible_configs_never_raise(text):
     _no_traceback(text)
@@ -223,7 +224,7 @@ def converter_configs(draw):
     return "\n".join(lines) + "\n"
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=examples(150), deadline=None, suppress_health_check=list(HealthCheck))
 @given(converter_configs(), st.sampled_from(backend_names()))
 def test_converter_configs_never_raise(text, backend):
     _no_traceback(text, backend)
@@ -275,7 +276,7 @@ def mutated_configs(draw):
     return "\n".join(lines)
 
 
-@settings(max_examples=200, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=examples(200), deadline=None, suppress_health_check=list(HealthCheck))
 @given(mutated_configs(), st.sampled_from(backend_names()))
 def test_mutated_configs_never_raise(text, backend):
     _no_traceback(text, backend)
@@ -287,7 +288,7 @@ def _parse_clean(text: str):
     return doc, sink
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=examples(150), deadline=None, suppress_health_check=list(HealthCheck))
 @given(st.one_of(GRAMMAR_TEXT, ini_like()))
 def test_parse_fmt_parse_is_parse(text):
     doc, sink = _parse_clean(text)
@@ -300,7 +301,7 @@ def test_parse_fmt_parse_is_parse(text):
     assert format_document(doc2) == formatted
 
 
-@settings(max_examples=500, deadline=None)
+@settings(max_examples=examples(500), deadline=None)
 @given(st.text(alphabet=st.characters(blacklist_categories=("Cs",)), max_size=40))
 def test_string_quoting_round_trips(value):
     text = f"[message]\nx = {quote(value)}\n"

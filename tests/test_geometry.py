@@ -28,6 +28,7 @@ from scipy.spatial.transform import Rotation
 from harness import geometry_reference
 from harness.build import cmake_build
 from harness.env import yarp_install
+from harness.properties import TIMED_CHECKS, examples
 from ybg.backends.cpp.lower import cpp_expression
 from ybg.backends.runtime import CPP_SOURCES
 from ybg.lower.python import py_expression
@@ -41,7 +42,8 @@ from ybg.runtime import geometry
 RUNTIME = Path(__file__).resolve().parents[1] / "ybg" / "runtime" / "cpp"
 HELPER = Path(__file__).resolve().parent / "runtime" / "geometry_check.cpp"
 TOL = 1e-12
-SETTINGS = settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+SETTINGS = settings(max_examples=examples(300), deadline=None,
+                    suppress_health_check=[HealthCheck.function_scoped_fixture, *TIMED_CHECKS])
 
 angle = st.floats(-math.pi, math.pi)
 #: the middle Euler angle away from the gimbal lock (+-pi/2)
@@ -436,7 +438,7 @@ def _expressions(children):
             lambda t: f"{t[0]}({', '.join(t[1])})"))
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=examples(200), deadline=None)
 @given(st.recursive(_leaf, _expressions, max_leaves=12))
 def test_fmt_keeps_the_tree_with_fewest_parentheses(text):
     """fmt writes an expression with only the parentheses its tree needs;

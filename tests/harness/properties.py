@@ -1,0 +1,59 @@
+"""Hypothesis' profiles for the property tests.
+
+    ci      the default: derandomized (each test draws the examples it drew
+            on every run before, from a seed of its own source), no example
+            database, no deadline and no health check on time (wall-clock
+            limits that a busy machine trips). A run fails only on a bug,
+            and fails again on the same example.
+    fuzz    ``YBG_HYPOTHESIS_PROFILE=fuzz`` (scripts/fuzz.sh): random, and
+            FUZZ_FACTOR times the examples, for a run outside CI. What it
+            finds is kept in .hypothesis/ and printed with its
+            ``@reproduce_failure`` blob; the example then goes into an
+            explicit ``@example(...)`` of the test, which the ci profile runs
+            every time.
+
+A test that sets its own ``@settings`` inherits the loaded profile (a
+``settings`` object takes what it does not set from the profile loaded when
+it is made: tests/conftest.py loads it before any test module is imported),
+and gives its budget as ``max_examples=examples(n)``. conftest refuses, at
+collection, a property test that runs under the ci profile without
+derandomize or with a database.
+"""
+from __future__ import annotations
+
+import os
+
+from hypothesis import HealthCheck, settings
+
+#: the environment variable that chooses the profile
+PROFILE_VARIABLE = "YBG_HYPOTHESIS_PROFILE"
+#: how many times the ci profile's examples the fuzz profile draws
+FUZZ_FACTOR = 20
+#: the health checks that measure time
+TIMED_CHECKS = (HealthCheck.too_slow,)
+
+settings.register_profile("ci", derandomize=True, database=None, deadline=None,
+                          suppress_health_check=TIMED_CHECKS, print_blob=True)
+settings.register_profile("fuzz", derandomize=False, max_examples=100 * FUZZ_FACTOR, deadline=None,
+                          suppress_health_check=TIMED_CHECKS, print_blob=True)
+
+
+def load() -> str:
+    """Load the profile ``YBG_HYPOTHESIS_PROFILE`` names, default ci
+    (tests/conftest.py, before any test module; hypothesis'
+    ``--hypothesis-profile`` option, when given, wins)."""
+    name = os.environ.get(PROFILE_VARIABLE, "ci")
+    settings.load_profile(name)
+    return name
+
+
+def examples(n: int) -> int:
+    """A property test's ``max_examples``: ``n``, FUZZ_FACTOR times ``n`` in
+    the fuzz profile."""
+    return n * FUZZ_FACTOR if settings.get_current_profile_name() == "fuzz" else n
+
+
+def deterministic(test_settings: settings) -> bool:
+    """Whether a property test with these settings draws the same examples
+    on every run: derandomized, and no database to replay from."""
+    return test_settings.derandomize and test_settings.database is None
