@@ -501,10 +501,21 @@ class QoS:
     depth: int = 10
 
 
+#: The QoS of a ROS 2 output whose config gives none (each key given
+#: replaces its policy): reliable, volatile, the last 10 messages kept.
+OUTPUT_QOS = QoS("reliable", "volatile", 10)
+#: The same for an output of sensor data (a camera, a laser, a point cloud,
+#: an IMU: the output pass's SENSOR_DATA_TYPES), as ROS's sensor-data
+#: profile (rclpy's qos_profile_sensor_data): best effort, depth 5.
+SENSOR_DATA_QOS = QoS("best_effort", "volatile", 5)
+
 #: The QoS of a ROS 2 input whose mux gives none: best effort and volatile,
 #: the last message kept (a bridge publishes the latest values): it matches
 #: every publisher's QoS.
 INPUT_QOS = QoS("best_effort", "volatile", 1)
+#: The depth of a ROS 2 input whose mux asks `reliability = reliable` and
+#: gives no `depth` (as ROS's default profile keeps)
+RELIABLE_INPUT_DEPTH = 10
 
 
 @dataclass(frozen=True)
@@ -548,6 +559,12 @@ class Output:
 
 #: Bottles each input keeps that no message used yet, unless the config says
 DEFAULT_QUEUE = 64
+#: [output]'s policies when the config does not choose: publish once every
+#: input delivered (``trigger``), nothing while an input is stale
+#: (``on_stale``), NaN passed on (``on_nan``)
+DEFAULT_TRIGGER = "all"
+DEFAULT_ON_STALE = "skip"
+DEFAULT_ON_NAN = "pass"
 
 
 @dataclass(frozen=True)
@@ -562,7 +579,7 @@ class Timing:
     as event-driven (commands: a goal is sent once, not at the rate)."""
 
     rate: float | None = None
-    trigger: str = "all"
+    trigger: str = DEFAULT_TRIGGER
     queue: int = DEFAULT_QUEUE
     publish: str = "always"
 
@@ -576,8 +593,8 @@ class Policy:
     goes out as is; ``"drop"`` an input Bottle holding NaN is dropped and counted.
     """
 
-    on_stale: str = "skip"
-    on_nan: str = "pass"
+    on_stale: str = DEFAULT_ON_STALE
+    on_nan: str = DEFAULT_ON_NAN
 
 
 @dataclass(frozen=True)
@@ -672,7 +689,10 @@ class Fill:
 
 
 #: the words a reply element may say for true, when the config names none
+#: (compared as they are: case counts, `OK` is not `ok`)
 TRUE_WORDS = ("ok", "ack", "true", "yes", "done")
+#: the seconds a call of a service may take, when the config gives no `timeout`
+SERVICE_TIMEOUT = 1.0
 #: the words a YARP RPC port served by a module answers by itself
 RESERVED_COMMANDS = ("help",)
 
@@ -709,7 +729,7 @@ class Service:
     service: str
     srv_type: str
     port: str
-    timeout: float = 1.0
+    timeout: float = SERVICE_TIMEOUT
     layout: tuple[ElementGroup, ...] | None = None
     converters: tuple[Converter, ...] = ()
     bottle: tuple[BottleItem, ...] = ()
@@ -944,10 +964,11 @@ __all__ = [
     "ElementGroup", "Input", "Converter", "GeometryConverter", "ExprNode", "ExprConverter", "AnyConverter",
     "GeometryKind", "GEOMETRY", "GEOMETRY_WIDTHS", "QUATERNION_RESULTS", "EULER_AXES", "EXPR_FUNCTIONS", "Mux", "TypeRef", "Literal", "MuxRef",
     "Counter", "Timestamp", "Seconds", "Default", "Field", "Struct", "MessageArray", "QoS", "INPUT_QOS", "ImageFrame",
-    "RELIABILITIES", "DURABILITIES",
+    "RELIABILITIES", "DURABILITIES", "OUTPUT_QOS", "SENSOR_DATA_QOS", "RELIABLE_INPUT_DEPTH",
     "CameraInfo", "IMAGE_ENCODINGS", "PIXEL_NAMES", "ANY_ENCODING", "IMAGE_TYPE", "FRAME_FIELDS",
-    "DEFAULT_QUEUE", "Output", "Timing", "Policy", "Program", "to_dict", "to_json", "from_dict",
+    "DEFAULT_QUEUE", "DEFAULT_TRIGGER", "DEFAULT_ON_STALE", "DEFAULT_ON_NAN",
+    "Output", "Timing", "Policy", "Program", "to_dict", "to_json", "from_dict",
     "from_json", "IR_VERSION", "NUMERIC_TYPES", "INTEGER_TYPES", "FLOAT_TYPES",
     "ELEMENT_TYPES", "FieldRef", "BottleItem", "Fill", "Service", "Commands", "TRUE_WORDS",
-    "RESERVED_COMMANDS",
+    "SERVICE_TIMEOUT", "RESERVED_COMMANDS",
 ]

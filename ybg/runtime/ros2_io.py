@@ -590,6 +590,9 @@ class NodeBridge(YarpBridge):
 RATE_TOLERANCE = 0.1
 #: the number of periods the achieved rate is measured over
 RATE_WINDOW = 5
+#: the seconds between two /diagnostics messages, unless the parameter
+#: diagnostic_updater.period says (diagnostic_updater's own default)
+DIAGNOSTICS_PERIOD = 1.0
 
 
 def _key_values(pairs):
@@ -716,7 +719,7 @@ def node_options(node, default_prefix, default_rate, spec=None):
     diagnostics = declare("diagnostics", True, "publish the bridge's state on /diagnostics")
     if not isinstance(diagnostics, bool):
         raise ParameterError("parameter diagnostics must be true or false")
-    period = _parameter_number(declare("diagnostic_updater.period", 1.0,
+    period = _parameter_number(declare("diagnostic_updater.period", DIAGNOSTICS_PERIOD,
                                        "seconds between two /diagnostics messages"),
                                "diagnostic_updater.period")
     if period <= 0:

@@ -65,6 +65,9 @@ RPC_HELP = (
     "(service NAME calls N answered N failed N timed_out N no_server N unfit N)",
     "quit: stop the module (it closes its ports and exits 0, as on SIGINT)",
 )
+#: the seconds between two /diagnostics messages, unless the parameter
+#: diagnostic_updater.period says (as the stream bridges' ros2_io.DIAGNOSTICS_PERIOD)
+DIAGNOSTICS_PERIOD = 1.0
 #: the failure reasons counted as "timed out" (``stopped``: the node stopped
 #: before the call was answered)
 _TIMED_OUT = ("timed_out", "waited", "stopped")
@@ -1155,7 +1158,7 @@ def node_options(node, default_prefix):
     diagnostics = declare("diagnostics", True, "publish the services' counts on /diagnostics")
     if not isinstance(diagnostics, bool):
         raise ParameterError("parameter diagnostics must be true or false")
-    period = declare("diagnostic_updater.period", 1.0, "seconds between two /diagnostics messages")
+    period = declare("diagnostic_updater.period", DIAGNOSTICS_PERIOD, "seconds between two /diagnostics messages")
     if isinstance(period, bool) or not isinstance(period, (int, float)) or period <= 0:
         raise ParameterError("parameter diagnostic_updater.period must be a positive number")
     return argparse.Namespace(prefix=prefix, verbose=verbose,

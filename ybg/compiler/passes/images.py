@@ -32,6 +32,13 @@ from ybg.compiler.values import word
 INFO_KEYS = ("topic", "calibration")
 #: what a calibration group must give (YARP's camera calibration files: iCub's eyes)
 CALIBRATION_KEYS = ("w", "h", "fx", "fy", "cx", "cy")
+#: a calibration's distortion: the CameraInfo's `distortion_model`, and the
+#: group's keys its `d` holds, in order (each 0 when the group lacks it):
+#: `plumb_bob` unless the group says `projection fisheye`
+PLUMB_BOB = ("plumb_bob", ("k1", "k2", "p1", "p2", "k3"))
+EQUIDISTANT = ("equidistant", ("k1", "k2", "k3", "k4"))
+#: the CameraInfo's topic, beside the image's, unless [camera_info] names one
+CAMERA_INFO_TOPIC = "camera_info"
 
 
 def run(ctx: Context) -> None:
@@ -82,7 +89,7 @@ def _camera_info(ctx: Context, out: ir.Output, sec: ast.Section) -> None:
                 "an image mux", sec.span, "remove [camera_info], or publish the image (`data = <mux>`)")
         return
     keys = {e.key: e for e in sec.entries if e.key in INFO_KEYS}
-    topic = posixpath.join(posixpath.dirname(out.name), "camera_info")
+    topic = posixpath.join(posixpath.dirname(out.name), CAMERA_INFO_TOPIC)
     if "topic" in keys:
         topic = word(keys["topic"], s, "topic") or topic
         problem = topic_problem(topic)
@@ -168,10 +175,8 @@ def _calibration(ctx: Context, entry: ast.Entry) -> dict[str, ir.Source] | None:
                 f"a calibration group gives {' '.join(CALIBRATION_KEYS)} (and k1 k2 p1 p2)")
         return None
     fx, fy, cx, cy = nums["fx"], nums["fy"], nums["cx"], nums["cy"]
-    if values.get("projection") == "fisheye":
-        model, d = "equidistant", [nums.get(k, 0.0) for k in ("k1", "k2", "k3", "k4")]
-    else:
-        model, d = "plumb_bob", [nums.get(k, 0.0) for k in ("k1", "k2", "p1", "p2", "k3")]
+    model, coefficients = EQUIDISTANT if values.get("projection") == "fisheye" else PLUMB_BOB
+    d = [nums.get(k, 0.0) for k in coefficients]
 
     def floats(xs):
         return ir.Literal(tuple(float(x) for x in xs), "float64", True)

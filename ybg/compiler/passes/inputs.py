@@ -116,7 +116,7 @@ def _qos(ctx: Context, keys: dict[str, ast.Entry], via: str) -> ir.QoS | None:
     depth = whole(keys["depth"], s, 1) if "depth" in keys else None
     rel = rel or ir.INPUT_QOS.reliability
     return ir.QoS(rel, dur or ir.INPUT_QOS.durability,
-                  depth if depth else (10 if rel == "reliable" else ir.INPUT_QOS.depth))
+                  depth if depth else (ir.RELIABLE_INPUT_DEPTH if rel == "reliable" else ir.INPUT_QOS.depth))
 
 
 def _input(ctx: Context, item: ast.Item, is_topic: bool, via: str, timeout: float) -> ir.Input | None:

@@ -20,12 +20,15 @@ from ybg.compiler.passes.context import Context
 from ybg.compiler.passes.sections import CHOICES
 from ybg.compiler.values import choice, number, whole, word
 
-#: QoS by message kind: sensor streams are best effort, depth 5 (rclpy's qos_profile_sensor_data)
+#: the output types of sensor data, published with ir.SENSOR_DATA_QOS (best
+#: effort, depth 5: rclpy's qos_profile_sensor_data) unless the config says
 SENSOR_DATA_TYPES = frozenset({
     "sensor_msgs/Image", "sensor_msgs/CompressedImage", "sensor_msgs/PointCloud2",
     "sensor_msgs/LaserScan", "sensor_msgs/Imu", "sensor_msgs/PointCloud",
 })
 MAX_QUEUE = 100_000
+#: the ROS node of a ROS 1 output's port (`<topic>@<node>`), unless [output] names one
+ROS1_NODE = "/yarp/{module}"
 
 
 def run(ctx: Context) -> None:
@@ -81,7 +84,7 @@ def _output(ctx: Context):
                     keys["connect"].items[0].span)
     node = None
     if kind == "ros1":
-        node = f"/yarp/{ctx.module}"
+        node = ROS1_NODE.format(module=ctx.module)
         if "node" in keys:
             node = word(keys["node"], s)
             if node is not None and topic_problem(node):
@@ -97,8 +100,8 @@ def _output(ctx: Context):
         rel = choice(keys["reliability"], s, CHOICES["reliability"]) if "reliability" in keys else None
         dur = choice(keys["durability"], s, CHOICES["durability"]) if "durability" in keys else None
         depth = whole(keys["depth"], s, 1) if "depth" in keys else None
-        qos = ir.QoS(rel or ("best_effort" if sensor else "reliable"), dur or "volatile",
-                     depth if depth else (5 if sensor else 10))
+        default = ir.SENSOR_DATA_QOS if sensor else ir.OUTPUT_QOS
+        qos = ir.QoS(rel or default.reliability, dur or default.durability, depth if depth else default.depth)
     else:
         for k in ("reliability", "durability", "depth"):
             if k in keys:

@@ -31,13 +31,13 @@ def run(ctx: Context) -> None:
     rate = output_keys.rate(ctx)
     timing = ir.Timing(
         rate=rate,
-        trigger=output_keys.chosen(ctx, "trigger", "all"),
+        trigger=output_keys.chosen(ctx, "trigger", ir.DEFAULT_TRIGGER),
         queue=output_keys.queue(ctx),
         publish=_publish(ctx, output, rate),
     )
     policy = ir.Policy(
-        on_stale=output_keys.chosen(ctx, "on_stale", "skip"),
-        on_nan=output_keys.chosen(ctx, "on_nan", "pass"),
+        on_stale=output_keys.chosen(ctx, "on_stale", ir.DEFAULT_ON_STALE),
+        on_nan=output_keys.chosen(ctx, "on_nan", ir.DEFAULT_ON_NAN),
     )
     if s.has_errors:
         return

@@ -136,7 +136,7 @@ def _service(ctx: Context, label: str, sec: ast.Section) -> ir.Service | None:
         layout = _layout(ctx, yarp.decl, yarp.decl_span)
         if layout is None:
             return None
-    timeout = 1.0
+    timeout = ir.SERVICE_TIMEOUT
     if "timeout" in keys:
         t = number(keys["timeout"], s)
         timeout = t if t is not None else timeout
