@@ -24,11 +24,11 @@ from pathlib import Path
 import pytest
 
 from harness.env import VENV, yarp_install
+from harness.markdown import README, commands, fenced, section
 from harness.ros2 import require_ros2
 from harness.yarp import require_yarp
 
 ROOT = Path(__file__).resolve().parents[1]
-README = ROOT / "README.md"
 
 #: what the quick start must keep showing: a pattern of each command that
 #: the test runs (a command the README drops fails the test, not skips it)
@@ -45,35 +45,6 @@ REQUIRED = {
     "ros1 build": r"^cmake -S rviz -B rviz/build\b.*\bcmake --build rviz/build\b",
     "ir": r"^ybgc ir vizzy\.ini\b",
 }
-
-
-def section(text: str, title: str) -> str:
-    """The body of the ``## title`` section of a Markdown text."""
-    m = re.search(rf"^## {re.escape(title)}[ \t]*\n(.*?)(?=^## |\Z)", text, re.M | re.S)
-    assert m, f"README.md has no `## {title}` section"
-    return m.group(1)
-
-
-def fenced(text: str) -> list[tuple[str, str]]:
-    """The fenced code blocks of a Markdown text: (language, body)."""
-    return re.findall(r"^```([\w-]*)[ \t]*\n(.*?)^```[ \t]*$", text, re.M | re.S)
-
-
-def commands(sh: str) -> list[str]:
-    """The commands of a shell block: its lines, a line ending in a
-    backslash joined with the next, blank and comment lines left out."""
-    out, pending = [], ""
-    for line in sh.splitlines():
-        if pending:
-            line = pending + "\n" + line
-            pending = ""
-        if line.rstrip().endswith("\\"):
-            pending = line
-            continue
-        if line.strip() and not line.lstrip().startswith("#"):
-            out.append(line)
-    assert not pending, f"a shell line continues past its block: {pending!r}"
-    return out
 
 
 def quick_start() -> tuple[str, str, list[str]]:
