@@ -122,7 +122,7 @@ def build_parser() -> argparse.ArgumentParser:
     k.add_argument("files", nargs="*", metavar="CONFIG", help=_ROBOT_HELP)
     k.add_argument("--backend", "-b", required=True, choices=backend_names(), help="what to make (backends below)")
     k.add_argument("--name", help="the composed module's name: its executable, its RPC port /<name>/rpc:i "
-                                  "(default: the folder's name)")
+                                  "(default: the first folder named, else the folder of the first config)")
     k.add_argument("-o", "--output", metavar="DIR", help="output folder (default: ./<name>)")
     k.add_argument("--force", action="store_true",
                    help="replace files that ybgc did not generate (never a config)")
