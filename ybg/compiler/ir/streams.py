@@ -1,40 +1,15 @@
-"""The checked program: ybgc's intermediate representation.
-
-Frozen dataclasses, independent of the surface syntax (legacy or named form)
-and of every backend. The checker (``check.py``) builds a :class:`Program`;
-backends read nothing else. Every value here is already validated: names are
-legal YARP port / ROS topic names, literals carry their element type, widths
-and slices are resolved. ``to_json``/``from_json`` give the form printed by
-``ybgc ir``.
-
-Every element a backend may refuse or report on (an input, a mux, a
-converter, a field, a message, the output and its type) carries ``span``:
-where the config writes it, or, for what the config leaves to its
-defaults, the nearest line that decides it (``passes/spans.py``). Spans
-take no part in equality: two programs that build the same module are
-equal wherever they were written.
-
-The pipeline of one bridge::
+"""A stream bridge's checked program (:class:`Program`): YARP ports or ROS
+topics in, through muxes and converters, one message out (the README's
+pipeline of one bridge)::
 
     inputs (YARP ports or ROS topics) --> Mux (concatenate, in port order)
         --> converters (per element range) --> message tree --> Output
-
-Terms used throughout:
-
-element type
-    A ROS primitive name (``float64``, ``int32``, ``string``, ``bool`` ...):
-    the type of one element of a mux.
-width
-    Number of elements; ``None`` where it is only known at run time (legacy
-    ports carry no declaration).
 """
 
 from __future__ import annotations
 
-import dataclasses
-import json
 from dataclasses import dataclass, field
-from typing import Any, Union
+from typing import ClassVar, Union
 
 from ybg.compiler.diagnostics import Span
 
@@ -599,7 +574,10 @@ class Policy:
 
 @dataclass(frozen=True)
 class Program:
-    """A checked bridge, ready for any backend."""
+    """A checked stream bridge, ready for any backend."""
+
+    #: its kind of bridge (ybg.compiler.ir.BRIDGE_KINDS)
+    kind: ClassVar[str] = "stream"
 
     module: str
     source: str
@@ -618,357 +596,59 @@ class Program:
         raise KeyError(name)
 
 
-# --------------------------------------------------------------------------
-# Commands: YARP RPC and ROS 2 services
-
-
-@dataclass(frozen=True)
-class FieldRef:
-    """A field of a service's request or response, by ``path``
-    (``("target", "x")``): its ``type`` (:class:`TypeRef`, a primitive or an
-    array of one; ``time`` and ``duration`` are messages of two integers)."""
-
-    path: tuple[str, ...]
-    type: TypeRef
-    span: Span | None = field(default=None, compare=False, repr=False)
-
-    @property
-    def dotted(self) -> str:
-        return ".".join(self.path)
-
-
-@dataclass(frozen=True)
-class BottleItem:
-    """One item of a Bottle the module writes: the command it sends to a YARP
-    RPC port (from the request), or the reply it gives on its own RPC port
-    (from the response).
-
-    ``kind``:
-      ``"literal"``  ``value`` of ``type`` (``string``, ``int32``, ``int64``,
-                     ``float64``; a bool is written as the int32 0 or 1, as
-                     ybgc writes bools in every Bottle)
-      ``"field"``    the field ``ref`` of the message, converted by ``converter``
-                     (``y = x * scale + offset``; None: as it is); an array
-                     field gives one item per element
-      ``"list"``     a nested list of ``items``
-      ``"error"``    why the call failed, a string (only in a failure reply)
-    """
-
-    kind: str
-    value: Union[str, int, float, bool, None] = None
-    type: str | None = None
-    ref: FieldRef | None = None
-    converter: Converter | None = None
-    items: tuple["BottleItem", ...] = ()
-    span: Span | None = field(default=None, compare=False, repr=False)
-
-
-@dataclass(frozen=True)
-class Fill:
-    """The field ``ref`` of a request or response, filled by the module.
-
-    ``source``:
-      ``"element"``  element ``start`` of the Bottle (the reply, or the command's
-                     arguments after its word), after the service's converters;
-                     with ``stop`` (None: to the end) and ``slice``, the elements
-                     ``[start, stop)`` into an array field. Into a bool field a
-                     word is true when it is one of the service's ``true_words``
-                     and false otherwise; a number is true when it is not 0.
-      ``"text"``     the whole Bottle as text (``Bottle::toString``), into a string
-      ``"literal"``  ``value``
-      ``"error"``    why the call failed (only in a failure answer)
-    """
-
-    ref: FieldRef
-    source: str
-    start: int = 0
-    stop: int | None = None
-    slice: bool = False
-    value: Union[str, int, float, bool, tuple, None] = None
-    span: Span | None = field(default=None, compare=False, repr=False)
-
-
-#: the words a reply element may say for true, when the config names none
-#: (compared as they are: case counts, `OK` is not `ok`)
-TRUE_WORDS = ("ok", "ack", "true", "yes", "done")
-#: the seconds a call of a service may take, when the config gives no `timeout`
-SERVICE_TIMEOUT = 1.0
-#: the words a YARP RPC port served by a module answers by itself
-RESERVED_COMMANDS = ("help",)
-
-
-@dataclass(frozen=True)
-class Service:
-    """One command bridged between a YARP RPC port and a ROS 2 service.
-
-    ``serves``:
-      ``"ros2"``  the module serves the ROS 2 service ``service``; each request
-                  becomes the Bottle ``bottle`` (from the request's fields), sent
-                  to the YARP RPC port ``port``; the reply fills the response by
-                  ``fills``, its elements declared by ``layout`` (None: not
-                  declared, each element taken as it comes) and converted by
-                  ``converters``.
-      ``"yarp"``  the module serves the YARP RPC port ``port``; a command whose
-                  first word is ``name`` fills the request by ``fills`` from its
-                  arguments (the elements after the word, declared by ``layout``,
-                  converted by ``converters``), calls the ROS 2 service
-                  ``service``, and replies the Bottle ``bottle`` (from the
-                  response's fields).
-
-    A call that fails (no answer within ``timeout`` seconds, no server, a
-    reply or a command that does not fit) answers ``failure_fills`` (serves
-    ros2: the response's fields, the others at their defaults) or
-    ``failure_bottle`` (serves yarp: the reply), which the checker makes
-    from the config's ``failure.*`` / ``on_failure`` or, where the response
-    has a mapped ``success``, from it: the caller can always tell a failure
-    from a success.
-    """
-
-    name: str
-    serves: str
-    service: str
-    srv_type: str
-    port: str
-    timeout: float = SERVICE_TIMEOUT
-    layout: tuple[ElementGroup, ...] | None = None
-    converters: tuple[Converter, ...] = ()
-    bottle: tuple[BottleItem, ...] = ()
-    fills: tuple[Fill, ...] = ()
-    failure_fills: tuple[Fill, ...] = ()
-    failure_bottle: tuple[BottleItem, ...] = ()
-    true_words: tuple[str, ...] = TRUE_WORDS
-    span: Span | None = field(default=None, compare=False, repr=False)
-    type_span: Span | None = field(default=None, compare=False, repr=False)
-
-    @property
-    def width(self) -> int | None:
-        """The elements the reply (serves ros2) or the arguments (serves yarp)
-        are declared to hold; None: not declared."""
-        return None if self.layout is None else sum(g.count for g in self.layout)
-
-    @property
-    def element_types(self) -> tuple[str, ...] | None:
-        if self.layout is None:
-            return None
-        raw = [g.type for g in self.layout for _ in range(g.count)]
-        for c in self.converters:
-            stop = len(raw) if c.stop is None else c.stop
-            if c.to_float:
-                for k in range(c.start, min(stop, len(raw))):
-                    raw[k] = "float64"
-        return tuple(raw)
-
-
-@dataclass(frozen=True)
-class Commands:
-    """A checked config of commands: its services, ready for any backend."""
-
-    module: str
-    source: str
-    services: tuple[Service, ...]
-    distro: str | None = None
-    ros: str = "ros2"
-
-    @property
-    def served_ports(self) -> tuple[str, ...]:
-        """The YARP RPC ports the module serves, each once, in config order."""
-        out: list[str] = []
-        for s in self.services:
-            if s.serves == "yarp" and s.port not in out:
-                out.append(s.port)
-        return tuple(out)
-
-    def on_port(self, port: str) -> tuple[Service, ...]:
-        """The commands a served port answers, in config order."""
-        return tuple(s for s in self.services if s.serves == "yarp" and s.port == port)
-
-
-# --------------------------------------------------------------------------
-# JSON
-
-
-_SOURCE_KINDS = {
-    "literal": Literal,
-    "mux": MuxRef,
-    "counter": Counter,
-    "timestamp": Timestamp,
-    "seconds": Seconds,
-    "default": Default,
-    "struct": Struct,
-    "message_array": MessageArray,
-    "image": ImageFrame,
-}
-_KIND_OF = {cls: kind for kind, cls in _SOURCE_KINDS.items()}
-_CONVERTER_KINDS = {"geometry": GeometryConverter, "expr": ExprConverter}
-_KIND_OF.update({cls: kind for kind, cls in _CONVERTER_KINDS.items()})
-
-
-_SPAN_KEYS = ("span", "type_span")
-
-
-def _span(d: dict[str, Any], key: str = "span") -> Span | None:
-    v = d.get(key)
-    return None if v is None else Span(*v)
-
-
-def _encode(obj: Any) -> Any:
-    if isinstance(obj, Span):
-        return [obj.line, obj.column, obj.end_line, obj.end_column]
-    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-        out: dict[str, Any] = {}
-        kind = _KIND_OF.get(type(obj))
-        if kind is not None:
-            out["kind"] = kind
-        for f in dataclasses.fields(obj):
-            value = getattr(obj, f.name)
-            if f.name in _SPAN_KEYS and value is None:
-                continue  # no position: a program built by hand, not from a config
-            out[f.name] = _encode(value)
-        return out
-    if isinstance(obj, tuple):
-        return [_encode(x) for x in obj]
-    if isinstance(obj, float) and (obj != obj or obj in (float("inf"), float("-inf"))):
-        return repr(obj)
-    return obj
-
-
-def to_dict(program: "Program | Commands") -> dict[str, Any]:
-    d = _encode(program)
-    if isinstance(program, Commands):
-        return {"ir_version": IR_VERSION, "bridge": "commands", **d}
-    return {"ir_version": IR_VERSION, **d}
-
-
-def to_json(program: "Program | Commands") -> str:
-    return json.dumps(to_dict(program), indent=2, ensure_ascii=False) + "\n"
-
-
-def _tuple(xs, f):
-    return tuple(f(x) for x in xs)
-
-
-def _source(d: dict[str, Any]) -> Any:
-    kind = d["kind"]
-    if kind == "struct":
-        return _struct(d)
-    if kind == "message_array":
-        return MessageArray(_tuple(d["elements"], _source), d["msg_type"])
-    if kind == "literal":
-        return Literal(tuple(d["values"]), d["element_type"], d["is_list"])
-    if kind == "mux":
-        args = dict(d)
-        args.pop("kind")
-        for k in ("into_fields", "into_types"):
-            if args[k] is not None:
-                args[k] = tuple(args[k])
-        return MuxRef(**args)
-    if kind == "default":
-        v = d.get("value")
-        return Default(tuple(v) if isinstance(v, list) else v)
-    cls = _SOURCE_KINDS[kind]
-    return cls(**{k: v for k, v in d.items() if k != "kind"})
-
-
-def _typeref(d):
-    return None if d is None else TypeRef(**d)
-
-
-def _struct(d: dict[str, Any]) -> Struct:
-    return Struct(
-        _tuple(d["fields"], lambda f: Field(f["name"], _source(f["source"]), _typeref(f["type"]), _span(f))),
-        d["msg_type"], _span(d),
-    )
-
-
-def _commands(d: dict[str, Any]) -> Commands:
-    def ref(x):
-        return FieldRef(tuple(x["path"]), _typeref(x["type"]), _span(x))
-
-    def item(x):
-        return BottleItem(x["kind"], x["value"], x["type"], None if x["ref"] is None else ref(x["ref"]),
-                          None if x["converter"] is None else Converter(**{**x["converter"],
-                                                                           "span": _span(x["converter"])}),
-                          _tuple(x["items"], item), _span(x))
-
-    def fill(x):
-        v = x["value"]
-        return Fill(ref(x["ref"]), x["source"], x["start"], x["stop"], x["slice"],
-                    tuple(v) if isinstance(v, list) else v, _span(x))
-
-    def service(x):
-        layout = None if x["layout"] is None else _tuple(x["layout"], lambda g: ElementGroup(**g))
-        return Service(x["name"], x["serves"], x["service"], x["srv_type"], x["port"], x["timeout"], layout,
-                       _tuple(x["converters"], lambda c: Converter(**{**c, "span": _span(c)})),
-                       _tuple(x["bottle"], item), _tuple(x["fills"], fill), _tuple(x["failure_fills"], fill),
-                       _tuple(x["failure_bottle"], item), tuple(x["true_words"]), _span(x),
-                       _span(x, "type_span"))
-
-    return Commands(d["module"], d["source"], _tuple(d["services"], service), d["distro"], d["ros"])
-
-
-def from_dict(d: dict[str, Any]) -> "Program | Commands":
-    """Inverse of :func:`to_dict`."""
-    if d.get("ir_version") != IR_VERSION:
-        raise ValueError(f"unsupported ir_version {d.get('ir_version')!r}")
-    if d.get("bridge") == "commands":
-        return _commands(d)
-
-    def inp(x):
-        layout = None if x["layout"] is None else _tuple(x["layout"], lambda g: ElementGroup(**g))
-        fields_ = None if x["fields"] is None else tuple(x["fields"])
-        positions = None if x.get("positions") is None else tuple(tuple(p) for p in x["positions"])
-        return Input(x["name"], x["kind"], layout, x["ros_type"], fields_, x["timeout"], positions,
-                     x.get("reads"), x.get("each"), tuple(x.get("accepts") or ()), x.get("image"),
-                     None if x.get("qos") is None else QoS(**x["qos"]), _span(x))
-
-    def node(x):
-        return ExprNode(x["op"], _tuple(x["args"], node), x["value"])
-
-    def converter(c):
-        args = dict(c)
-        kind = args.pop("kind", None)
-        args["span"] = _span(args)
-        if kind == "expr":
-            args["body"] = node(args["body"])
-        return _CONVERTER_KINDS.get(kind, Converter)(**args)
-
-    muxes = _tuple(
-        d["muxes"],
-        lambda m: Mux(m["name"], _tuple(m["inputs"], inp), _tuple(m["converters"], converter), m["verbose"],
-                      _span(m)),
-    )
-    o = d["output"]
-    output = Output(o["kind"], o["name"], o["msg_type"], o["node"],
-                    None if o["qos"] is None else QoS(**o["qos"]), o["connect_to"], o.get("image"),
-                    None if o.get("camera_info") is None else CameraInfo(
-                        o["camera_info"]["topic"], _struct(o["camera_info"]["message"]), _span(o["camera_info"])),
-                    _span(o), _span(o, "type_span"))
-    return Program(
-        module=d["module"],
-        source=d["source"],
-        muxes=muxes,
-        message=_struct(d["message"]),
-        output=output,
-        timing=Timing(**d["timing"]),
-        policy=Policy(**d["policy"]),
-        ros=d["ros"],
-        distro=d["distro"],
-    )
-
-
-def from_json(text: str) -> "Program | Commands":
-    return from_dict(json.loads(text))
-
-
 __all__ = [
-    "ElementGroup", "Input", "Converter", "GeometryConverter", "ExprNode", "ExprConverter", "AnyConverter",
-    "GeometryKind", "GEOMETRY", "GEOMETRY_WIDTHS", "QUATERNION_RESULTS", "EULER_AXES", "EXPR_FUNCTIONS", "Mux", "TypeRef", "Literal", "MuxRef",
-    "Counter", "Timestamp", "Seconds", "Default", "Field", "Struct", "MessageArray", "QoS", "INPUT_QOS", "ImageFrame",
-    "RELIABILITIES", "DURABILITIES", "OUTPUT_QOS", "SENSOR_DATA_QOS", "RELIABLE_INPUT_DEPTH",
-    "CameraInfo", "IMAGE_ENCODINGS", "PIXEL_NAMES", "ANY_ENCODING", "IMAGE_TYPE", "FRAME_FIELDS",
-    "DEFAULT_QUEUE", "DEFAULT_TRIGGER", "DEFAULT_ON_STALE", "DEFAULT_ON_NAN",
-    "Output", "Timing", "Policy", "Program", "to_dict", "to_json", "from_dict",
-    "from_json", "IR_VERSION", "NUMERIC_TYPES", "INTEGER_TYPES", "FLOAT_TYPES",
-    "ELEMENT_TYPES", "FieldRef", "BottleItem", "Fill", "Service", "Commands", "TRUE_WORDS",
-    "SERVICE_TIMEOUT", "RESERVED_COMMANDS",
+    "IR_VERSION",
+    "NUMERIC_TYPES",
+    "INTEGER_TYPES",
+    "FLOAT_TYPES",
+    "ELEMENT_TYPES",
+    "IMAGE_ENCODINGS",
+    "PIXEL_NAMES",
+    "ANY_ENCODING",
+    "IMAGE_TYPE",
+    "FRAME_FIELDS",
+    "NUMBER",
+    "BOTTLE_ELEMENT_TYPES",
+    "ElementGroup",
+    "Input",
+    "Converter",
+    "GeometryKind",
+    "GEOMETRY",
+    "GEOMETRY_WIDTHS",
+    "QUATERNION_RESULTS",
+    "EULER_AXES",
+    "GeometryConverter",
+    "ExprNode",
+    "EXPR_FUNCTIONS",
+    "ExprConverter",
+    "AnyConverter",
+    "Mux",
+    "TypeRef",
+    "Literal",
+    "MuxRef",
+    "Counter",
+    "Timestamp",
+    "Seconds",
+    "Default",
+    "MessageArray",
+    "ImageFrame",
+    "Source",
+    "Field",
+    "Struct",
+    "RELIABILITIES",
+    "DURABILITIES",
+    "QoS",
+    "OUTPUT_QOS",
+    "SENSOR_DATA_QOS",
+    "INPUT_QOS",
+    "RELIABLE_INPUT_DEPTH",
+    "CameraInfo",
+    "Output",
+    "DEFAULT_QUEUE",
+    "DEFAULT_TRIGGER",
+    "DEFAULT_ON_STALE",
+    "DEFAULT_ON_NAN",
+    "Timing",
+    "Policy",
+    "Program",
 ]
