@@ -432,18 +432,7 @@ def cmd_ir(args) -> int:
     if result.program is None:
         return EXIT_USAGE if _io_error(result) else EXIT_PROBLEMS
     # the IR, and the type hash of each ROS topic and service (ybg/compiler/typehash.py)
-    if isinstance(result.program, ir.Commands):
-        from ybg.compiler.typehash import service_hash
-
-        d = ir.to_dict(result.program)
-        store = program_store(result.program, options)
-        for svc in d["services"]:
-            try:
-                svc["type_hash"] = service_hash(store, svc["srv_type"]) if store is not None else None
-            except LookupError:
-                svc["type_hash"] = None
-    else:
-        d = with_type_hashes(ir.to_dict(result.program), program_store(result.program, options))
+    d = with_type_hashes(ir.to_dict(result.program), program_store(result.program, options))
     sys.stdout.write(json.dumps(d, indent=2, ensure_ascii=False) + "\n")
     return EXIT_OK
 

@@ -281,7 +281,11 @@ def build_robot(name: str, source: str, programs) -> Graph:
 
 
 def _graph_of(program: ir.Program | ir.Commands) -> Graph:
-    return build_commands(program) if isinstance(program, ir.Commands) else build(program)
+    return _BUILDERS[program.kind](program)
+
+
+#: kind of bridge -> its graph
+_BUILDERS = {"stream": build, "commands": build_commands}
 
 
 # --------------------------------------------------------------------------

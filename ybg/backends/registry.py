@@ -42,7 +42,10 @@ REGISTRY: dict[str, BackendInfo] = {
                       "ros2": frozenset({"fixed_array", "message_array", "image"})},
             why={("ros2", "rows"): "a ROS 2 message is not filled from rows",
                  ("ros1", "image"): "camera images are bridged to and from ROS 2"},
-            commands=True,
+            kinds=frozenset({"stream", "commands"}),
+            composes=frozenset({"stream"}),
+            why_not_composed={"commands": "its module runs on a loop of its own; run it as a module of its own "
+                                          "(ybgc generate)"},
         )),
     "py": BackendInfo(
         "ybg.backends.py:PyBackend",
@@ -58,8 +61,9 @@ REGISTRY: dict[str, BackendInfo] = {
                                             "messages, and " + _PY_TO_ROS1,
                  ("yarp", "image"): "a camera image goes to or comes from ROS 2, which the py module does not "
                                     "speak"},
-            why_not_commands="a command goes between a YARP RPC port and a ROS 2 service, and the py module "
-                             "speaks no ROS 2",
+            why_not={"commands": "a command goes between a YARP RPC port and a ROS 2 service, and the py module "
+                                 "speaks no ROS 2"},
+            composes=frozenset({"stream"}),
         )),
     "ros2": BackendInfo(
         "ybg.backends.ros2:Ros2Backend",
@@ -70,7 +74,8 @@ REGISTRY: dict[str, BackendInfo] = {
             features={"yarp": frozenset({"fixed_array", "message_array", "rows", "image"}),
                       "ros2": frozenset({"fixed_array", "message_array", "image"})},
             why={("ros2", "rows"): "a ROS 2 message is not filled from rows"},
-            commands=True,
+            kinds=frozenset({"stream", "commands"}),
+            composes=frozenset({"stream", "commands"}),
         )),
 }
 

@@ -18,7 +18,6 @@ from ybg.backends import features
 from ybg.backends.base import Backend
 from ybg.backends.registry import REGISTRY, backend_names, get_backend
 from ybg.compiler.diagnostics import Diagnostic, Sink
-from ybg.compiler.ir import Commands
 from ybg.compiler.names import converted_name
 from ybg.lower.errors import LoweringError
 
@@ -54,13 +53,20 @@ def check(program: "Program", backend: str, sink: Sink, legacy: bool = False) ->
     cannot, E321 when a ROS 2 output has no message definition; ``legacy``:
     the config is in the legacy form, and the hints say how to convert it."""
     builds = REGISTRY[backend].builds
-    if isinstance(program, Commands):
-        if not builds.commands:
-            others = [n for n in backend_names() if REGISTRY[n].builds.commands]
-            first = program.services[0] if program.services else None
-            sink.error("E318", f"the {backend} backend cannot build commands: {builds.why_not_commands}",
-                       first.span if first is not None else None, f"use {_options(others)}")
+    if program.kind not in builds.kinds:
+        others = [n for n in backend_names() if program.kind in REGISTRY[n].builds.kinds]
+        sink.error("E318", f"the {backend} backend cannot build {_KINDS[program.kind]}: "
+                   f"{builds.why_not[program.kind]}", program.span, f"use {_options(others)}")
         return
+    if program.kind == "stream":
+        _check_stream(program, backend, builds, sink, legacy)
+
+
+#: how a refusal names a kind of bridge
+_KINDS = {"stream": "streams", "commands": "commands"}
+
+
+def _check_stream(program: "Program", backend: str, builds, sink: Sink, legacy: bool) -> None:
     out = program.output
     span = out.span
     if out.kind not in builds.outputs:
@@ -156,8 +162,7 @@ def lowering_diagnostic(error: LoweringError, backend: str, result: "Result") ->
     program = result.program
     span = error.span
     if span is None and program is not None:
-        span = (program.services[0].span if program.services else None) if isinstance(program, Commands) \
-            else program.output.span
+        span = program.span
     others = [n for n in backend_names() if n != backend and program is not None and _builds(n, program)]
     hint = f"a limit of the {backend} backend: change this part of the config"
     if others:

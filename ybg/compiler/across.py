@@ -78,20 +78,29 @@ def _norm(name: str | None) -> str | None:
 def _ends(path: str, program: ir.Program | ir.Commands, document: ast.Document | None):
     """(kind, name, end) of everything ``program`` opens or uses."""
     yield "module", program.module, _End(path, _module_span(document), "is named")
-    if isinstance(program, ir.Commands):
-        for svc in program.services:
-            # the service's name and the port: the values of `serve` and `call`
-            ros_key, yarp_key = ("serve", "call") if svc.serves == "ros2" else ("call", "serve")
-            span = _value_span(document, "service", svc.name, ros_key, svc.span)
-            if svc.serves == "ros2":
-                yield "service", svc.service, _End(path, span, "serves", svc.srv_type, type_span=svc.type_span)
-            else:
-                yield "service_call", svc.service, _End(path, span, "calls", svc.srv_type, type_span=svc.type_span)
-        for port in program.served_ports:
-            first = program.on_port(port)[0]
-            yield "port", port, _End(path, _value_span(document, "service", first.name, "serve", first.span),
-                                     "serves")
-        return
+    yield from _ENDS[program.kind](path, program, document)
+
+
+def _commands_ends(path: str, program: ir.Commands, document: ast.Document | None):
+    """A config of commands': its services, served and called, and the RPC
+    ports it serves."""
+    for svc in program.services:
+        # the service's name and the port: the values of `serve` and `call`
+        ros_key = "serve" if svc.serves == "ros2" else "call"
+        span = _value_span(document, "service", svc.name, ros_key, svc.span)
+        if svc.serves == "ros2":
+            yield "service", svc.service, _End(path, span, "serves", svc.srv_type, type_span=svc.type_span)
+        else:
+            yield "service_call", svc.service, _End(path, span, "calls", svc.srv_type, type_span=svc.type_span)
+    for port in program.served_ports:
+        first = program.on_port(port)[0]
+        yield "port", port, _End(path, _value_span(document, "service", first.name, "serve", first.span),
+                                 "serves")
+
+
+def _stream_ends(path: str, program: ir.Program, document: ast.Document | None):
+    """A stream's: its output (a topic or a port, a camera's info topic), and
+    the topics it reads."""
     out = program.output
     span = out.span or NOWHERE
     if out.kind in ("ros1", "ros2"):
@@ -106,6 +115,10 @@ def _ends(path: str, program: ir.Program | ir.Commands, document: ast.Document |
             if i.kind in ("ros1", "ros2") and i.ros_type is not None:
                 yield f"topic_{i.kind}", i.name, _End(path, i.span or NOWHERE, "reads", i.ros_type,
                                                       i.subscription_qos if i.kind == "ros2" else None)
+
+
+#: kind of bridge -> what a bridge of it opens or uses on the robot's graph
+_ENDS = {"stream": _stream_ends, "commands": _commands_ends}
 
 
 def qos_mismatch(offered: ir.QoS, requested: ir.QoS) -> tuple[str, str, str] | None:

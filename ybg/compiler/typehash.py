@@ -288,10 +288,16 @@ def program_store(program: Program, options: Options) -> TypeStore | None:
 
 def with_type_hashes(ir_dict: dict[str, Any], store: TypeStore | None) -> dict[str, Any]:
     """The IR as ``ybgc ir`` prints it: the dict of :func:`ybg.compiler.ir.to_dict`
-    whose output and each input, when a ROS topic, also carry ``type_hash``,
-    the RIHS01 hash of its type from ``store`` (:func:`program_store`);
-    ``None`` for a ROS 1 topic, for Humble, and for a type whose definition
-    (or one it references) is missing. Changes ``ir_dict`` and returns it."""
+    whose ROS ends also carry ``type_hash``, the RIHS01 hash of their type
+    from ``store`` (:func:`program_store`), by the bridge's kind (a stream's
+    topics, a config of commands' services). Changes ``ir_dict`` and returns it."""
+    return _WITH_TYPE_HASHES[ir_dict.get("bridge", "stream")](ir_dict, store)
+
+
+def _stream_type_hashes(ir_dict: dict[str, Any], store: TypeStore | None) -> dict[str, Any]:
+    """The output and each input, when a ROS topic: ``None`` for a ROS 1
+    topic, for Humble, and for a type whose definition (or one it
+    references) is missing."""
     descriptions = _Descriptions(store) if store is not None and has_type_hashes(store) else None
     ends = [(ir_dict["output"], ir_dict["output"].get("msg_type"))]
     ends += [(i, i.get("ros_type")) for m in ir_dict["muxes"] for i in m["inputs"]]
@@ -305,6 +311,20 @@ def with_type_hashes(ir_dict: dict[str, Any], store: TypeStore | None) -> dict[s
             except LookupError:
                 pass
     return ir_dict
+
+
+def _commands_type_hashes(ir_dict: dict[str, Any], store: TypeStore | None) -> dict[str, Any]:
+    """Each service: ``None`` where its definition cannot be read."""
+    for svc in ir_dict["services"]:
+        try:
+            svc["type_hash"] = service_hash(store, svc["srv_type"]) if store is not None else None
+        except LookupError:
+            svc["type_hash"] = None
+    return ir_dict
+
+
+#: kind of bridge (the IR dict's ``bridge``) -> its ends' type hashes
+_WITH_TYPE_HASHES = {"stream": _stream_type_hashes, "commands": _commands_type_hashes}
 
 
 __all__ = [

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import os
 
-from ybg.compiler import ir
 from ybg.lower.errors import LoweringError
 
 #: the folder of the bridges' modules, beside the composed module
@@ -21,10 +20,7 @@ def config_file(program) -> str:
 def config_at(program) -> str:
     """Where the config writes the bridge's output (a config of commands: its
     first service): ``file:line:column``, or the file alone."""
-    if isinstance(program, ir.Commands):
-        span = program.services[0].span if program.services else None
-    else:
-        span = program.output.span
+    span = program.span
     name = config_file(program)
     return f"{name}:{span.line}:{span.column}" if span is not None else name
 

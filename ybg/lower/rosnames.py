@@ -23,15 +23,28 @@ def identifier(name: str, what: str) -> str:
     return name
 
 
-def split_type(msg_type: str) -> tuple[str, str]:
-    """``pkg/Name`` or ``pkg/msg/Name`` -> (pkg, Name), both checked."""
+def split_type(msg_type: str, interface: str = "msg") -> tuple[str, str]:
+    """``pkg/Name`` or ``pkg/msg/Name`` -> (pkg, Name), both checked; of a
+    service (``interface`` ``"srv"``), ``pkg/srv/Name``."""
     parts = msg_type.split("/")
-    if len(parts) == 3 and parts[1] == "msg":
+    if len(parts) == 3 and parts[1] == interface:
         parts = [parts[0], parts[2]]
     if len(parts) != 2 or not _PKG.match(parts[0]) or not _MSG_NAME.match(parts[1]) \
             or keyword.iskeyword(parts[0]):
-        raise LoweringError(f"{msg_type!r} is not a ROS message type name (pkg/Name)")
+        what = "service" if interface == "srv" else "message"
+        raise LoweringError(f"{msg_type!r} is not a ROS {what} type name (pkg/Name)")
     return parts[0], parts[1]
+
+
+def split_srv(srv_type: str) -> tuple[str, str]:
+    """``pkg/Name`` or ``pkg/srv/Name`` -> (pkg, Name), both checked."""
+    return split_type(srv_type, "srv")
+
+
+def srv_type_name(srv_type: str) -> str:
+    """``pkg/Name`` -> ``pkg/srv/Name``."""
+    pkg, name = split_srv(srv_type)
+    return f"{pkg}/srv/{name}"
 
 
 def ros2_type_name(msg_type: str) -> str:
@@ -54,16 +67,30 @@ def package_name(module: str) -> str:
     return name
 
 
-def node_name(program: ir.Program) -> str:
-    """The ROS 2 node's name: the output's `node`, else the module's name."""
+def node_name(bridge: ir.Bridge) -> str:
+    """The ROS 2 node's name: a stream's output `node`, else the module's
+    name (of commands, made a ROS name)."""
+    return _NODE_NAME[bridge.kind](bridge)
+
+
+def _stream_node_name(program: ir.Program) -> str:
     node = (program.output.node or "").strip("/") if program.output.kind == "ros2" else ""
     if node and re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", node):
         return node
     return identifier(program.module, "module name")
 
 
-def used_packages(program: ir.Program) -> tuple[str, ...]:
-    """The ROS packages whose messages the node uses, sorted."""
+def _commands_node_name(commands: ir.Commands) -> str:
+    name = re.sub(r"\W", "_", commands.module, flags=re.ASCII)
+    return name if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name) else "ybgc_" + name
+
+
+def used_packages(bridge: ir.Bridge) -> tuple[str, ...]:
+    """The ROS packages whose messages or services the node uses, sorted."""
+    return _USED_PACKAGES[bridge.kind](bridge)
+
+
+def _stream_packages(program: ir.Program) -> tuple[str, ...]:
     types: set[str] = set()
     if program.output.kind == "ros2":
         if program.output.msg_type:
@@ -76,9 +103,17 @@ def used_packages(program: ir.Program) -> tuple[str, ...]:
     return tuple(sorted({split_type(t)[0] for t in types if t not in ("time", "duration")}))
 
 
-def node_parameters(program: ir.Program) -> tuple[tuple[str, object], ...]:
+def _commands_packages(commands: ir.Commands) -> tuple[str, ...]:
+    return tuple(sorted({split_srv(s.srv_type)[0] for s in commands.services}))
+
+
+def node_parameters(bridge: ir.Bridge) -> tuple[tuple[str, object], ...]:
     """The node's parameters a launch file gives, with their defaults from the
     config (the rclpy node's and the native C++ module's alike)."""
+    return _NODE_PARAMETERS[bridge.kind](bridge)
+
+
+def _stream_parameters(program: ir.Program) -> tuple[tuple[str, object], ...]:
     rate = program.timing.rate
     return (
         ("rate", 0.0 if rate is None else float(rate)),
@@ -89,5 +124,15 @@ def node_parameters(program: ir.Program) -> tuple[tuple[str, object], ...]:
     )
 
 
-__all__ = ["identifier", "split_type", "ros2_type_name", "snake_case", "package_name", "node_name",
+def _commands_parameters(commands: ir.Commands) -> tuple[tuple[str, object], ...]:
+    return (("prefix", "/" + commands.module), ("verbose", False), ("diagnostics", True))
+
+
+#: kind of bridge -> each of the above
+_NODE_NAME = {"stream": _stream_node_name, "commands": _commands_node_name}
+_USED_PACKAGES = {"stream": _stream_packages, "commands": _commands_packages}
+_NODE_PARAMETERS = {"stream": _stream_parameters, "commands": _commands_parameters}
+
+
+__all__ = ["identifier", "split_type", "split_srv", "srv_type_name", "ros2_type_name", "snake_case", "package_name", "node_name",
            "used_packages", "node_parameters"]

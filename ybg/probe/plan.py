@@ -92,11 +92,12 @@ class Plan:
 def plan_of(program: ir.Program | ir.Commands, prefix: str | None = None) -> Plan:
     """What ``program`` would meet; ``prefix``: its ports' prefix (the
     module's ``--prefix``/``--name``; default ``/<module>``)."""
-    prefix = prefix or "/" + program.module
-    if isinstance(program, ir.Commands):
-        return _commands(program, prefix)
+    return _PLANS[program.kind](program, prefix or "/" + program.module)
+
+
+def _stream(program: ir.Program, prefix: str) -> Plan:
     reads, topics = [], []
-    opens = [PortOpen(f"{prefix}/rpc:i", "the module's RPC port", program.output.span)]
+    opens = [PortOpen(f"{prefix}/rpc:i", "the module's RPC port", program.span)]
     for mux in program.muxes:
         for k, inp in enumerate(mux.inputs):
             what = f"input {k} of mux `{mux.name}`"
@@ -123,7 +124,7 @@ def plan_of(program: ir.Program | ir.Commands, prefix: str | None = None) -> Pla
 
 def _commands(program: ir.Commands, prefix: str) -> Plan:
     reads, services = [], []
-    opens = [PortOpen(f"{prefix}/rpc:i", "the module's RPC port", program.services[0].span if program.services else None)]
+    opens = [PortOpen(f"{prefix}/rpc:i", "the module's RPC port", program.span)]
     for port in program.served_ports:
         first = program.on_port(port)[0]
         if port == opens[0].name:  # its own RPC port answers the commands too
@@ -138,3 +139,7 @@ def _commands(program: ir.Commands, prefix: str) -> Plan:
         else:
             services.append(ServiceUse(s.service, s.srv_type, "client", s.span, s.type_span or s.span))
     return Plan(tuple(reads), tuple(opens), (), tuple(services))
+
+
+#: kind of bridge -> what a bridge of it would meet
+_PLANS = {"stream": _stream, "commands": _commands}

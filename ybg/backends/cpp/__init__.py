@@ -30,12 +30,11 @@ from pathlib import Path
 
 import jinja2
 
-from ybg.backends.base import Backend, RenderOptions
+from ybg.backends.base import Backend, BridgeKind, RenderOptions
 from ybg.backends.cpp.lower import lower
 from ybg.backends.cpp.package import lower_launch, lower_package
 from ybg.backends.runtime import (CPP_IMAGES_SOURCES, CPP_ROS2_SOURCES, CPP_SERVICES_SOURCES, CPP_SOURCES, cpp_files,
                                   runtime_text_filter, runtime_view)
-from ybg.compiler import ir
 from ybg.lower import yarpmanager
 from ybg.lower.errors import LoweringError
 from ybg.lower.package import launch_file
@@ -63,13 +62,13 @@ def runtime_library() -> str:
     return "ybgc_runtime_" + re.sub(r"[^0-9A-Za-z]", "_", VERSION)
 
 
-class CppBackend(Backend):
-    name = "cpp"
+class StreamModule(BridgeKind):
+    """A stream bridge's module: ``module.cpp.j2`` on the runtime library,
+    its CMakeLists.txt, its yarpmanager application; with ``package``, an
+    ament_cmake package around it."""
 
-    def render(self, program, options: RenderOptions = RenderOptions()) -> dict[str, str]:
-        if isinstance(program, ir.Commands):
-            return self._render_commands(program, options)
-        view = self._lower(program)
+    def render(self, program, options: RenderOptions) -> dict[str, str]:
+        view = self.lower(program)
         ros2 = view.uses_ros2
         env = environment()
         rt = runtime_view("cpp", options.single_file, ros2=ros2, images=view.images)
@@ -99,23 +98,20 @@ class CppBackend(Backend):
             program, f"build/{view.executable}" if workdir else view.executable, "", workdir)
         return files
 
-    def compose(self, programs, name: str, options: RenderOptions = RenderOptions()) -> dict[str, str]:
-        """One native executable running every program's bridge (.compose, docs/compose.md)."""
-        from ybg.backends.cpp.compose import compose
-
-        return compose(programs, name, options)
-
-    def lower(self, program) -> None:
-        if isinstance(program, ir.Commands):
-            from ybg.backends.cpp import services
-            services.lower(program)  # the module's lowering, without the templates
-            return
-        self._lower(program)  # the module's lowering, without the templates
-
     @staticmethod
-    def _render_commands(commands: ir.Commands, options: RenderOptions) -> dict[str, str]:
-        """A module of commands (.services): the module, its CMakeLists.txt, and the
-        runtime with its ROS 2 side and commands beside it (or inlined)."""
+    def lower(program):
+        """ybg.backends.cpp.lower; for a ROS 2 output, with its message builder (.ros2)."""
+        if program.output.kind == "ros2":
+            from ybg.backends.cpp import ros2
+            return ros2.lower(program)
+        return lower(program)
+
+
+class CommandsModule(BridgeKind):
+    """A module of commands (.services): the module, its CMakeLists.txt, and
+    the runtime with its ROS 2 side and commands beside it (or inlined)."""
+
+    def render(self, commands, options: RenderOptions) -> dict[str, str]:
         from ybg.backends.cpp import services
 
         view = services.lower(commands)
@@ -141,13 +137,25 @@ class CppBackend(Backend):
             files.update(cpp_files(ros2=True, services=True))
         return files
 
+    def lower(self, commands) -> None:
+        from ybg.backends.cpp import services
+        services.lower(commands)  # the module's lowering, without the templates
+
+
+class CppBackend(Backend):
+    name = "cpp"
+    bridge_kinds = {"stream": StreamModule(), "commands": CommandsModule()}
+
+    def compose(self, programs, name: str, options: RenderOptions = RenderOptions()) -> dict[str, str]:
+        """One native executable running every program's bridge (.compose, docs/compose.md)."""
+        from ybg.backends.cpp.compose import compose
+
+        return compose(programs, name, options)
+
     @staticmethod
     def _lower(program):
-        """ybg.backends.cpp.lower; for a ROS 2 output, with its message builder (.ros2)."""
-        if program.output.kind == "ros2":
-            from ybg.backends.cpp import ros2
-            return ros2.lower(program)
-        return lower(program)
+        """A stream's view (:class:`StreamModule`), for the composed module."""
+        return StreamModule.lower(program)
 
 
 __all__ = ["CppBackend", "LoweringError", "TEMPLATE_DIR", "environment"]

@@ -143,12 +143,8 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
     env = environment()
     views = []
     nodes: dict[str, str] = {}
+    CppBackend().check_composed(programs)
     for program in programs:
-        if isinstance(program, ir.Commands):
-            first = program.services[0] if program.services else None
-            raise refusal(program, "a config of commands is not composed by the cpp backend (yet): its module "
-                                    "runs on a loop of its own; run it as a module of its own (ybgc generate)",
-                           first.span if first is not None else None)
         try:
             view = CppBackend._lower(program)
         except LoweringError as e:

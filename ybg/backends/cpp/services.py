@@ -26,7 +26,6 @@ node's (:mod:`ybg.runtime.services`), so that both answer alike.
 from __future__ import annotations
 
 import os
-import re
 from dataclasses import dataclass
 
 from ybg.backends.cpp.escape import (comment, cpp_float, cpp_identifier, cpp_int, cpp_std_string, cpp_string,
@@ -38,7 +37,7 @@ from ybg.compiler import ir
 from ybg.lower import services as texts
 from ybg.lower.errors import Line, LoweringError
 from ybg.lower.package import PackageView as LaunchView
-from ybg.lower.rosnames import package_name, snake_case
+from ybg.lower.rosnames import node_name, node_parameters, package_name, snake_case, split_srv, srv_type_name
 from ybg.lower.wire import WIRE_YARP
 
 _FLOAT = ("float32", "float64")
@@ -113,23 +112,6 @@ class CommandsView:
 # names
 
 
-def split_srv(srv_type: str) -> tuple[str, str]:
-    """``pkg/Name`` or ``pkg/srv/Name`` -> (pkg, Name), both checked."""
-    parts = srv_type.split("/")
-    if len(parts) == 3 and parts[1] == "srv":
-        parts = [parts[0], parts[2]]
-    if len(parts) != 2 or not re.fullmatch(r"[a-z][a-z0-9_]*", parts[0]) \
-            or not re.fullmatch(r"[A-Za-z][A-Za-z0-9]*", parts[1]):
-        raise LoweringError(f"{srv_type!r} is not a ROS service type name (pkg/Name)")
-    return parts[0], parts[1]
-
-
-def srv_type_name(srv_type: str) -> str:
-    """``pkg/Name`` -> ``pkg/srv/Name``."""
-    pkg, name = split_srv(srv_type)
-    return f"{pkg}/srv/{name}"
-
-
 def c_struct(srv_type: str, part: str) -> str:
     """The C struct of a request or response (``std_srvs__srv__Trigger_Request``)."""
     pkg, name = split_srv(srv_type)
@@ -140,17 +122,6 @@ def c_header(srv_type: str) -> str:
     """The header that declares a service's C structs, functions and type support."""
     pkg, name = split_srv(srv_type)
     return f"{pkg}/srv/{snake_case(name)}.h"
-
-
-def node_name(commands: ir.Commands) -> str:
-    """The ROS 2 node's name: the module's, made a ROS name (as the rclpy node's)."""
-    name = re.sub(r"\W", "_", commands.module, flags=re.ASCII)
-    return name if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name) else "ybgc_" + name
-
-
-def node_parameters(commands: ir.Commands) -> tuple[tuple[str, object], ...]:
-    """The node's parameters a launch file gives, with their defaults (the rclpy node's)."""
-    return (("prefix", "/" + commands.module), ("verbose", False), ("diagnostics", True))
 
 
 def describe(service: ir.Service) -> str:
@@ -649,4 +620,4 @@ def lower_launch(commands: ir.Commands, package: PackageView, executable: str) -
 
 
 __all__ = ["CommandsView", "PortView", "ServiceView", "c_header", "c_struct", "describe", "lower", "lower_launch",
-           "lower_package", "node_name", "node_parameters", "split_srv", "srv_type_name"]
+           "lower_package"]

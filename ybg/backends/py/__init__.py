@@ -18,7 +18,7 @@ from pathlib import Path
 
 import jinja2
 
-from ybg.backends.base import Backend, RenderOptions
+from ybg.backends.base import Backend, BridgeKind, RenderOptions
 from ybg.backends.py.lower import lower
 from ybg.backends.runtime import python_files, runtime_text_filter, runtime_view
 from ybg.lower import yarpmanager
@@ -38,10 +38,11 @@ def environment() -> jinja2.Environment:
     return template_environment([TEMPLATE_DIR], FILTERS)
 
 
-class PyBackend(Backend):
-    name = "py"
+class StreamModule(BridgeKind):
+    """A stream bridge's Python module on the runtime library, and its
+    yarpmanager application."""
 
-    def render(self, program, options: RenderOptions = RenderOptions()) -> dict[str, str]:
+    def render(self, program, options: RenderOptions) -> dict[str, str]:
         view = lower(program)
         rt = runtime_view("py", options.single_file, ("geometry", "core", "yarp_io"))
         files = {view.filename: environment().get_template("module.py.j2").render(m=view, rt=rt)}
@@ -51,14 +52,19 @@ class PyBackend(Backend):
             program, "python3", view.filename, options.extra.get("workdir"))
         return files
 
+    def lower(self, program) -> None:
+        lower(program)  # the module's lowering (ybg.backends.py.lower), without the templates
+
+
+class PyBackend(Backend):
+    name = "py"
+    bridge_kinds = {"stream": StreamModule()}
+
     def compose(self, programs, name: str, options: RenderOptions = RenderOptions()) -> dict[str, str]:
         """One process of the programs' bridges (.compose, docs/compose.md)."""
         from ybg.backends.py.compose import compose
 
         return compose(programs, name, options)
-
-    def lower(self, program) -> None:
-        lower(program)  # the module's lowering (ybg.backends.py.lower), without the templates
 
 
 __all__ = ["PyBackend", "LoweringError", "TEMPLATE_DIR", "FILTERS", "environment"]

@@ -58,12 +58,13 @@ def composed_environment() -> jinja2.Environment:
 
 def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> dict[str, str]:
     """The files of the composed module ``name`` of ``programs``."""
-    from ybg.backends.py import environment
+    from ybg.backends.py import PyBackend, environment
 
     if options.package:
         e = LoweringError("the py backend makes no package (--package is the ros2 and cpp backends')")
         e.module = programs[0].module
         raise e
+    PyBackend().check_composed(programs)
     env = environment()
     rt = runtime_view("py", False, ("geometry", "core", "yarp_io"))
     files: dict[str, str] = {}

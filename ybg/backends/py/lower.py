@@ -43,12 +43,6 @@ class ModuleView:
 
 def lower(program: ir.Program) -> ModuleView:
     """The view-model of the module generated for ``program``."""
-    if isinstance(program, ir.Commands):
-        # the declaration refuses commands first (ybg.backends.registry); this
-        # holds for a caller that renders without asking it
-        first = program.services[0] if program.services else None
-        raise LoweringError("a command goes between a YARP RPC port and a ROS 2 service, and the py module "
-                            "speaks no ROS 2", first.span if first is not None else None)
     output = bottle_output(program, "py")
     muxes = []
     used: set[str] = set()

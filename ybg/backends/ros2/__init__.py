@@ -22,14 +22,14 @@ from pathlib import Path
 
 import jinja2
 
-from ybg.backends.base import Backend, RenderOptions
+from ybg.backends.base import Backend, BridgeKind, RenderOptions
 from ybg.backends.ros2 import services
 from ybg.backends.ros2.lower import lower, lower_package
 from ybg.backends.runtime import PY_MODULES, PY_PACKAGE, python_files, runtime_text_filter, runtime_view
-from ybg.compiler import ir
 from ybg.lower.errors import LoweringError
 from ybg.lower.package import launch_file
 from ybg.lower.python import PYTHON_FILTERS
+from ybg.lower.rosnames import ros2_type_name
 from ybg.lower.templates import py_comment_filter, template_environment, xml_comment_filter, xml_filter
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
@@ -59,57 +59,98 @@ def environment() -> jinja2.Environment:
     })
 
 
+def _render(view, pkg, template: str, modules: tuple[str, ...], options: RenderOptions) -> dict[str, str]:
+    """The node ``view`` printed by ``template``, on the runtime's ``modules``:
+    a script with the runtime beside it, or (``pkg``) an ament_python
+    package around it."""
+    env = environment()
+    rt = runtime_view("py", options.single_file, modules)
+    node = env.get_template(template)
+    if not options.package:
+        # a script: the runtime package beside it, on its sys.path
+        files = {view.filename: node.render(m=view, rt=rt, rt_import=f"import {PY_PACKAGE}",
+                                            rt_package=PY_PACKAGE)}
+        if not options.single_file:
+            files.update(python_files())
+        return files
+    files = {
+        # a module of the package: the runtime a subpackage of it
+        f"{pkg.package}/{view.filename}": node.render(m=view, rt=rt, rt_import=f"from . import {PY_PACKAGE}",
+                                                      rt_package=f".{PY_PACKAGE}"),
+        f"{pkg.package}/__init__.py": env.get_template("package_init.py.j2").render(p=pkg),
+        "package.xml": env.get_template("package.xml.j2").render(p=pkg),
+        "setup.py": env.get_template("setup.py.j2").render(
+            p=pkg, runtime_package=None if options.single_file else PY_PACKAGE),
+        "setup.cfg": env.get_template("setup.cfg.j2").render(p=pkg),
+        f"resource/{pkg.package}": env.get_template("resource_marker.j2").render(p=pkg),
+        f"launch/{pkg.launch_file}": launch_file(pkg),
+    }
+    if not options.single_file:
+        files.update(python_files(f"{pkg.package}/{PY_PACKAGE}"))
+    return files
+
+
+class StreamNode(BridgeKind):
+    """A stream bridge's node (``node.py.j2``, :mod:`.lower`)."""
+
+    template = "node.py.j2"
+    modules = STREAM_MODULES
+
+    @staticmethod
+    def view(program):
+        return lower(program)
+
+    @staticmethod
+    def package(program, view):
+        return lower_package(program, view)
+
+    @staticmethod
+    def describe(program) -> str:
+        """What it publishes, for a comment."""
+        out = program.output
+        if out.kind == "ros2":
+            return f"{ros2_type_name(out.msg_type or program.message.msg_type or '')} on {out.name}"
+        return f"the YARP port {out.name}"
+
+    def render(self, bridge, options: RenderOptions) -> dict[str, str]:
+        view = self.view(bridge)
+        return _render(view, self.package(bridge, view) if options.package else None, self.template, self.modules,
+                       options)
+
+    def lower(self, bridge) -> None:
+        self.package(bridge, self.view(bridge))  # the node's and the package's lowering, without the templates
+
+
+class CommandsNode(StreamNode):
+    """A node of commands (``services_node.py.j2``, :mod:`.services`)."""
+
+    template = "services_node.py.j2"
+    modules = COMMANDS_MODULES
+
+    @staticmethod
+    def view(commands):
+        return services.lower(commands)
+
+    @staticmethod
+    def package(commands, view):
+        return services.lower_package(commands, view)
+
+    @staticmethod
+    def describe(commands) -> str:
+        """What it serves, for a comment."""
+        return "commands: " + ", ".join(s.service if s.serves == "ros2" else f"{s.name} on {s.port}"
+                                        for s in commands.services)
+
+
 class Ros2Backend(Backend):
     name = "ros2"
-
-    def render(self, program, options: RenderOptions = RenderOptions()) -> dict[str, str]:
-        if isinstance(program, ir.Commands):
-            view = services.lower(program)
-            return self._render(view, services.lower_package(program, view) if options.package else None,
-                                "services_node.py.j2", COMMANDS_MODULES, options)
-        view = lower(program)
-        return self._render(view, lower_package(program, view) if options.package else None, "node.py.j2",
-                            STREAM_MODULES, options)
-
-    def _render(self, view, pkg, template: str, modules: tuple[str, ...], options: RenderOptions) -> dict[str, str]:
-        env = environment()
-        rt = runtime_view("py", options.single_file, modules)
-        node = env.get_template(template)
-        if not options.package:
-            # a script: the runtime package beside it, on its sys.path
-            files = {view.filename: node.render(m=view, rt=rt, rt_import=f"import {PY_PACKAGE}",
-                                                rt_package=PY_PACKAGE)}
-            if not options.single_file:
-                files.update(python_files())
-            return files
-        files = {
-            # a module of the package: the runtime a subpackage of it
-            f"{pkg.package}/{view.filename}": node.render(m=view, rt=rt, rt_import=f"from . import {PY_PACKAGE}",
-                                                          rt_package=f".{PY_PACKAGE}"),
-            f"{pkg.package}/__init__.py": env.get_template("package_init.py.j2").render(p=pkg),
-            "package.xml": env.get_template("package.xml.j2").render(p=pkg),
-            "setup.py": env.get_template("setup.py.j2").render(
-                p=pkg, runtime_package=None if options.single_file else PY_PACKAGE),
-            "setup.cfg": env.get_template("setup.cfg.j2").render(p=pkg),
-            f"resource/{pkg.package}": env.get_template("resource_marker.j2").render(p=pkg),
-            f"launch/{pkg.launch_file}": launch_file(pkg),
-        }
-        if not options.single_file:
-            files.update(python_files(f"{pkg.package}/{PY_PACKAGE}"))
-        return files
+    bridge_kinds = {"stream": StreamNode(), "commands": CommandsNode()}
 
     def compose(self, programs, name: str, options: RenderOptions = RenderOptions()) -> dict[str, str]:
         """One process of the programs' nodes (.compose, docs/compose.md)."""
         from ybg.backends.ros2.compose import compose
 
         return compose(programs, name, options)
-
-    def lower(self, program) -> None:
-        # the node's and the package's lowering, without the templates
-        if isinstance(program, ir.Commands):
-            services.lower_package(program, services.lower(program))
-        else:
-            lower_package(program, lower(program))
 
 
 __all__ = ["Ros2Backend", "LoweringError", "TEMPLATE_DIR", "environment"]

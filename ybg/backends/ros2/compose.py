@@ -22,16 +22,13 @@ import jinja2
 
 from ybg.backends.base import RenderOptions
 from ybg.backends.runtime import PY_PACKAGE, python_files, runtime_text_filter, runtime_view
-from ybg.compiler import ir
 from ybg.lower.compose import BRIDGES, config_at, config_file, refusal
 from ybg.lower.errors import LoweringError
 from ybg.lower.package import YAML_FILTERS, NodeParameters
 from ybg.lower.python import PYTHON_FILTERS, py_literal
-from ybg.lower.rosnames import node_name, node_parameters, package_name, ros2_type_name, used_packages
+from ybg.lower.rosnames import node_name, node_parameters, package_name, used_packages
 from ybg.lower.templates import py_comment_filter, template_environment, xml_comment_filter, xml_filter
 
-from . import services
-from .lower import lower
 
 
 @dataclass(frozen=True)
@@ -93,20 +90,20 @@ def environment() -> jinja2.Environment:
 
 def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> dict[str, str]:
     """The files of the composed module ``name`` of ``programs`` (docs/compose.md)."""
-    from ybg.backends.ros2 import environment as node_environment
+    from ybg.backends.ros2 import Ros2Backend, environment as node_environment
 
     views = []
     nodes: dict[str, str] = {}
     for program in programs:
         try:
-            view = services.lower(program) if isinstance(program, ir.Commands) else lower(program)
+            view = Ros2Backend().kind(program).view(program)
         except LoweringError as e:
             if getattr(e, "module", None) is None:
                 e.module = program.module
             raise
-        node = _node_name(program)
+        node = node_name(program)
         if node in nodes:
-            span = program.services[0].span if isinstance(program, ir.Commands) else program.output.span
+            span = program.span
             raise refusal(program, f"its node name {node} is also that of the bridge {nodes[node]}: two nodes "
                                     "of one name in one process (set `node` in its [output])", span)
         nodes[node] = program.module
@@ -128,7 +125,7 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
     files: dict[str, str] = {}
     members = []
     for program, view in views:
-        template = env.get_template("services_node.py.j2" if isinstance(program, ir.Commands) else "node.py.j2")
+        template = env.get_template(Ros2Backend().kind(program).template)
         files[f"{folder}{BRIDGES}/{view.filename}"] = template.render(
             m=view, rt=rt, rt_import=bridge_import, rt_package=bridge_package)
         stem = view.filename[: -len(".py")]
@@ -136,8 +133,8 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
         config = config_file(program)
         members.append(MemberView(
             module=py_literal(program.module), config=py_literal(config), at=py_literal(config_at(program)),
-            where=py_literal(where), node_name=_node_name(program),
-            summary=_describe(program)))
+            where=py_literal(where), node_name=node_name(program),
+            summary=Ros2Backend().kind(program).describe(program)))
     filename = f"{name}_node.py"
     composed = ComposedView(filename=filename, name=py_literal(name), name_text=name,
                             config_count=len(programs), bridge_count=len(programs), bridges_folder=BRIDGES,
@@ -151,7 +148,7 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
     configs = ", ".join(config_file(p) for p in programs)
     depends: list[str] = ["rclpy", "diagnostic_msgs"]
     for program in programs:
-        used = services.used_packages(program) if isinstance(program, ir.Commands) else used_packages(program)
+        used = used_packages(program)
         depends.extend(p for p in used if p not in depends)
     pkg = ComposedPackageView(
         config=f"{len(programs)} configs ({configs})",
@@ -163,8 +160,8 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
         depends=tuple(depends),
         launch_file=f"{name}.launch.py",
         params_file=f"{name}.yaml",
-        nodes=tuple(_node_name(program) for program, _ in views),
-        node_parameters=tuple(NodeParameters(_node_name(program), _node_parameters(program)) for program, _ in views),
+        nodes=tuple(node_name(program) for program, _ in views),
+        node_parameters=tuple(NodeParameters(node_name(program), node_parameters(program)) for program, _ in views),
     )
     files.update({
         f"{package}/__init__.py": env.get_template("package_init.py.j2").render(p=pkg),
@@ -178,25 +175,6 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
     })
     files.update(python_files(f"{package}/{PY_PACKAGE}"))
     return files
-
-
-def _node_name(program) -> str:
-    return services.node_name(program) if isinstance(program, ir.Commands) else node_name(program)
-
-
-def _node_parameters(program):
-    return services.node_parameters(program) if isinstance(program, ir.Commands) else node_parameters(program)
-
-
-def _describe(program) -> str:
-    """What a bridge publishes (a node of commands: what it serves), for a comment."""
-    if isinstance(program, ir.Commands):
-        return "commands: " + ", ".join(s.service if s.serves == "ros2" else f"{s.name} on {s.port}"
-                                        for s in program.services)
-    out = program.output
-    if out.kind == "ros2":
-        return f"{ros2_type_name(out.msg_type or program.message.msg_type or '')} on {out.name}"
-    return f"the YARP port {out.name}"
 
 
 __all__ = ["compose", "environment"]

@@ -31,7 +31,7 @@ from ybg.lower import services as texts
 from ybg.lower.errors import Line, LoweringError
 from ybg.lower.package import PackageView
 from ybg.lower.python import py_literal, py_types
-from ybg.lower.rosnames import identifier, package_name
+from ybg.lower.rosnames import identifier, node_name, node_parameters, package_name, split_srv, srv_type_name, used_packages
 from ybg.lower.wire import WIRE_YARP
 
 #: the runtime's names the node imports (none of them is a name the node
@@ -103,23 +103,6 @@ class CommandsView:
 
 # --------------------------------------------------------------------------
 # names
-
-
-def _split_srv(srv_type: str) -> tuple[str, str]:
-    """``pkg/Name`` or ``pkg/srv/Name`` -> (pkg, Name), both checked."""
-    parts = srv_type.split("/")
-    if len(parts) == 3 and parts[1] == "srv":
-        parts = [parts[0], parts[2]]
-    if len(parts) != 2 or not re.fullmatch(r"[a-z][a-z0-9_]*", parts[0]) or keyword.iskeyword(parts[0]) \
-            or not re.fullmatch(r"[A-Za-z][A-Za-z0-9]*", parts[1]):
-        raise LoweringError(f"{srv_type!r} is not a ROS service type name (pkg/Name)")
-    return parts[0], parts[1]
-
-
-def srv_type_name(srv_type: str) -> str:
-    """``pkg/Name`` -> ``pkg/srv/Name``."""
-    pkg, name = _split_srv(srv_type)
-    return f"{pkg}/srv/{name}"
 
 
 def _python_name(text: str) -> str:
@@ -499,7 +482,7 @@ def _imports(commands: ir.Commands) -> tuple[dict[str, str], tuple[SrvImport, ..
     types = {}
     for s in commands.services:
         try:
-            types[s.srv_type] = _split_srv(s.srv_type)
+            types[s.srv_type] = split_srv(s.srv_type)
         except LoweringError as e:
             raise e.at(s.type_span or s.span)
     counts: dict[str, int] = {}
@@ -579,21 +562,6 @@ def lower(commands: ir.Commands) -> CommandsView:
     )
 
 
-def node_name(commands: ir.Commands) -> str:
-    """The ROS 2 node's name: the module's (made a ROS name)."""
-    name = re.sub(r"\W", "_", commands.module, flags=re.ASCII)
-    return name if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name) else "ybgc_" + name
-
-
-def used_packages(commands: ir.Commands) -> tuple[str, ...]:
-    return tuple(sorted({_split_srv(s.srv_type)[0] for s in commands.services}))
-
-
-def node_parameters(commands: ir.Commands) -> tuple[tuple[str, object], ...]:
-    """The node's parameters a launch file gives, with their defaults."""
-    return (("prefix", "/" + commands.module), ("verbose", False), ("diagnostics", True))
-
-
 def lower_package(commands: ir.Commands, view: CommandsView) -> PackageView:
     """The view-model of the ament_python package around the node."""
     config_name = os.path.basename(commands.source) if commands.source else commands.module
@@ -614,4 +582,4 @@ def lower_package(commands: ir.Commands, view: CommandsView) -> PackageView:
 
 
 __all__ = ["CommandsView", "ServiceView", "PortView", "SrvImport", "lower", "lower_package", "describe",
-           "node_name", "used_packages", "node_parameters", "srv_type_name", "RUNTIME_NAMES"]
+           "RUNTIME_NAMES"]

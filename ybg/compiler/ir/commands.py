@@ -169,6 +169,12 @@ class Commands:
                 out.append(s.port)
         return tuple(out)
 
+    @property
+    def span(self) -> Span | None:
+        """Where the config writes the bridge, for what is said of it as a
+        whole (its module, its RPC port): its first command."""
+        return self.services[0].span if self.services else None
+
     def on_port(self, port: str) -> tuple[Service, ...]:
         """The commands a served port answers, in config order."""
         return tuple(s for s in self.services if s.serves == "yarp" and s.port == port)

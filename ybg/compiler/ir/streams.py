@@ -595,6 +595,12 @@ class Program:
                 return m
         raise KeyError(name)
 
+    @property
+    def span(self) -> Span | None:
+        """Where the config writes the bridge, for what is said of it as a
+        whole (its module, its RPC port): its output."""
+        return self.output.span
+
 
 __all__ = [
     "IR_VERSION",
