@@ -29,6 +29,7 @@ Exit totals, one line per service after the module's ``totals:`` line::
 from __future__ import annotations
 
 from ybg.compiler import ir
+from ybg.lower.rosnames import srv_type_name
 
 NO_YARP_SERVER = "{target}: no server (is the module that serves it running?)"
 NO_ROS2_SERVER = "{target}: no server"
@@ -43,6 +44,23 @@ TOTALS_LINE = ("service {name}: calls {calls}, answered {answered}, failed {fail
                "(timed out {timed_out}, no server {no_server}, did not fit {unfit})")
 #: the keys of one service's `stats` list, after ``service NAME``
 STATS_KEYS = ("calls", "answered", "failed", "timed_out", "no_server", "unfit")
+
+
+def describe(service: ir.Service) -> str:
+    """The start-up line of a service: what it serves and what it calls (the
+    native module's and the rclpy node's words)."""
+    kind = srv_type_name(service.srv_type)
+    timeout = timeout_text(service.timeout)
+    if service.serves == "ros2":
+        return (f"service {service.name}: serves the ROS 2 service {service.service} ({kind}) and calls the "
+                f"YARP RPC port {service.port} (timeout {timeout} s)")
+    return (f"service {service.name}: serves `{usage(service)}` on the YARP RPC port {service.port} and "
+            f"calls the ROS 2 service {service.service} ({kind}) (timeout {timeout} s)")
+
+
+def summary(commands: ir.Commands) -> str:
+    """What a package of ``commands`` is, for its description."""
+    return f"Commands between YARP RPC ports and ROS 2 services ({', '.join(s.service for s in commands.services)})"
 
 
 def timeout_text(seconds: float) -> str:

@@ -25,7 +25,6 @@ node's (:mod:`ybg.runtime.services`), so that both answer alike.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 
 from ybg.backends.cpp.escape import (comment, cpp_float, cpp_identifier, cpp_int, cpp_std_string, cpp_string,
@@ -35,15 +34,12 @@ from ybg.backends.cpp.package import PackageView
 from ybg.backends.cpp.rcl import RUNTIME_PACKAGES
 from ybg.compiler import ir
 from ybg.lower import services as texts
+from ybg.lower.compose import config_file
 from ybg.lower.errors import Line, LoweringError
+from ybg.lower.fills import FILLED, FLOATS, BottleWriter, ItemPlan, plan_fill
 from ybg.lower.package import PackageView as LaunchView
 from ybg.lower.rosnames import node_name, node_parameters, package_name, snake_case, split_srv, srv_type_name
-from ybg.lower.wire import WIRE_YARP
 
-_FLOAT = ("float32", "float64")
-_INTS = ("int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64", "char", "byte")
-#: the element types an element of a Bottle fills (a field of another type is refused)
-_FILLED = _FLOAT + _INTS + ("bool", "string")
 #: the runtime's Wire of each Bottle tag
 _WIRE = {"int32": "ybgc::Wire::Int32", "int64": "ybgc::Wire::Int64", "float64": "ybgc::Wire::Float64",
          "string": "ybgc::Wire::String"}
@@ -52,7 +48,7 @@ _TAKEN = frozenset({"commands", "ybgc", "yarp", "std", "rosidl_runtime_c", "Requ
                     "kCommands", "buildCommand", "fillResponse", "fillFailure", "fillRequest", "buildReply",
                     "buildFailure", "main"})
 #: the element types a Bottle item of a declaration may have
-_DECLARED = _FILLED
+_DECLARED = FILLED
 
 
 # --------------------------------------------------------------------------
@@ -124,17 +120,6 @@ def c_header(srv_type: str) -> str:
     return f"{pkg}/srv/{snake_case(name)}.h"
 
 
-def describe(service: ir.Service) -> str:
-    """The start-up line of a service: what it serves and what it calls (the rclpy node's words)."""
-    kind = srv_type_name(service.srv_type)
-    timeout = texts.timeout_text(service.timeout)
-    if service.serves == "ros2":
-        return (f"service {service.name}: serves the ROS 2 service {service.service} ({kind}) and calls the "
-                f"YARP RPC port {service.port} (timeout {timeout} s)")
-    return (f"service {service.name}: serves `{texts.usage(service)}` on the YARP RPC port {service.port} and "
-            f"calls the ROS 2 service {service.service} ({kind}) (timeout {timeout} s)")
-
-
 def _member(ref: ir.FieldRef) -> str:
     """A field of a request or response, as members of its C struct (``target.x``)."""
     try:
@@ -170,109 +155,53 @@ def _namespaces(commands: ir.Commands) -> dict[str, str]:
 # constants
 
 
-def _coerce(value, base: str):
-    if base in _FLOAT:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise LoweringError(f"{value!r} is not a number, for a {base} field")
-        return float(value)
-    if base == "bool":
-        return bool(value)
-    if base == "string":
-        return str(value)
-    if base in _INTS:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) \
-                or (isinstance(value, float) and not value.is_integer()):
-            raise LoweringError(f"{value!r} is not an integer, for a {base} field")
-        return int(value)
-    raise LoweringError(f"no constant of type {base!r}")
-
-
-def _c_literal(value, base: str) -> str:
-    v = _coerce(value, base)
-    if base in _FLOAT:
+def _c_literal(v, base: str) -> str:
+    """A constant already coerced to its field's element type (fills.coerce)."""
+    if base in FLOATS:
         return cpp_float(v)
     if base == "bool":
         return "true" if v else "false"
-    if base == "byte" and not 0 <= v <= 255:
-        raise LoweringError(f"{v} is not a byte")
     return cpp_int(v, 64)
 
 
 def _constant(target: str, value, typ: ir.TypeRef) -> str:
-    """The statement that sets a field to a constant of the config."""
+    """The statement that sets a field to a constant of the config (coerced:
+    fills.constant)."""
     if typ.array is None:
-        if isinstance(value, tuple):
-            raise LoweringError(f"a list for the scalar field of type {typ}")
         if typ.base == "string":
-            return f"ybgc::ros2::setString({target}, {cpp_std_string(str(value))});"
+            return f"ybgc::ros2::setString({target}, {cpp_std_string(value)});"
         return f"ybgc::ros2::assign({target}, {_c_literal(value, typ.base)});"
-    values = value if isinstance(value, tuple) else (value,)
-    if typ.array == "fixed" and typ.size is not None and len(values) != typ.size:
-        raise LoweringError(f"{len(values)} values for a field of type {typ}")
-    if typ.array == "sequence" and typ.size is not None and len(values) > typ.size:
-        raise LoweringError(f"{len(values)} values for a field of type {typ}")
     if typ.base == "string":
-        return f"ybgc::ros2::setStrings({target}, {{{', '.join(cpp_std_string(str(v)) for v in values)}}});"
-    if not values:
+        return f"ybgc::ros2::setStrings({target}, {{{', '.join(cpp_std_string(v) for v in value)}}});"
+    if not value:
         return f"ybgc::ros2::resize({target}, 0);"
-    kind = "double" if typ.base in _FLOAT else "bool" if typ.base == "bool" else "std::int64_t"
-    return f"ybgc::ros2::setValues<{kind}>({target}, {{{', '.join(_c_literal(v, typ.base) for v in values)}}});"
+    kind = "double" if typ.base in FLOATS else "bool" if typ.base == "bool" else "std::int64_t"
+    return f"ybgc::ros2::setValues<{kind}>({target}, {{{', '.join(_c_literal(v, typ.base) for v in value)}}});"
 
 
 # --------------------------------------------------------------------------
 # fields filled by the module
 
 
-def _check_filled(ref: ir.FieldRef) -> ir.TypeRef:
-    typ = ref.type
-    if typ is None:
-        raise LoweringError(f"the field {ref.dotted} needs its type")
-    if typ.is_message or typ.base in ("time", "duration"):
-        raise LoweringError(f"the field {ref.dotted} is a {typ}: fill its fields")
-    return typ
-
-
 def _fill(fill: ir.Fill, msg: str, elements: str, failure: bool) -> list[str]:
-    """The statements that fill one field: ``msg`` the request or response,
-    ``elements`` the Elements of the Bottle (none in a failure answer)."""
-    ref = fill.ref
-    typ = _check_filled(ref)
+    """The statements that fill one field (its plan: fills.plan_fill):
+    ``msg`` the request or response, ``elements`` the Elements of the Bottle
+    (none in a failure answer)."""
+    plan = plan_fill(fill, failure)
+    ref, typ = plan.ref, plan.type
     target = f"{msg}.{_member(ref)}"
-    if fill.source == "literal":
-        return [_constant(target, fill.value, typ)]
-    if fill.source == "error":
-        if not failure:
-            raise LoweringError("`error` is the reason of a failed call: only in a failure answer")
-        if typ.base != "string" or typ.array is not None:
-            raise LoweringError(f"the reason of a failed call is a string, not a {typ} ({ref.dotted})")
+    if plan.op == "constant":
+        return [_constant(target, plan.value, typ)]
+    if plan.op == "reason":
         return [f"ybgc::ros2::setString({target}, reason);"]
-    if failure:
-        raise LoweringError(f"a failure answer is constants and `error`, not {fill.source} ({ref.dotted})")
-    if fill.source == "text":
-        if typ.base != "string" or typ.array is not None:
-            raise LoweringError(f"a Bottle's text is a string, not a {typ} ({ref.dotted})")
+    if plan.op == "text":
         return [f"ybgc::ros2::setString({target}, {elements}.text());"]
-    if fill.source != "element":
-        raise LoweringError(f"unknown source {fill.source!r} of the field {ref.dotted}")
-    if typ.base not in _FILLED:
-        raise LoweringError(f"no element fills the {typ.base} field {ref.dotted}")
-    if fill.start < 0 or (fill.stop is not None and fill.stop < fill.start):
-        raise LoweringError(f"the elements [{fill.start}:{fill.stop}] of the field {ref.dotted}")
-    if not fill.slice:
-        if typ.array is not None:
-            raise LoweringError(f"one element for the array field {ref.dotted} ({typ})")
-        call = f"{elements}.set({target}, {fill.start:d}, why)"
+    if plan.op == "element":
+        call = f"{elements}.set({target}, {plan.start:d}, why)"
     else:
-        if typ.array is None:
-            raise LoweringError(f"elements [{fill.start}:{'' if fill.stop is None else fill.stop}] for the "
-                                f"scalar field {ref.dotted}")
-        if typ.size is not None and fill.stop is not None:
-            n = fill.stop - fill.start
-            if (typ.array == "fixed" and n != typ.size) or n > typ.size:
-                raise LoweringError(f"{n} elements for the field {ref.dotted} ({typ})")
-        stop = "ybgc::kToEnd" if fill.stop is None else f"{fill.stop:d}"
+        stop = "ybgc::kToEnd" if plan.stop is None else f"{plan.stop:d}"
         bound = typ.size if typ.array == "sequence" and typ.size is not None else 0
-        call = (f"{elements}.setRange({target}, {fill.start:d}, {stop}, {bound:d}, "
+        call = (f"{elements}.setRange({target}, {plan.start:d}, {stop}, {bound:d}, "
                 f"{cpp_string(ref.dotted)}, why)")
     return [f"if (!{call}) {{", "    return false;", "}"]
 
@@ -310,92 +239,38 @@ def _fills(fills, msg: str, elements: str, failure: bool, bottle: str) -> list[L
 # Bottles written by the module
 
 
-class _BottleWriter:
-    """The statements that add ``items`` to a Bottle: constants, a message's
+class _BottleWriter(BottleWriter):
+    """The statements that add a Bottle's items: constants, a message's
     fields (``msg``: the request or response), nested lists (a block each),
     the reason of a failure (``reason``)."""
 
-    def __init__(self, msg: str, failure: bool):
-        self.msg = msg
-        self.failure = failure
-        self.lines: list[Line] = []
-        self.lists = 0
+    def literal(self, bottle: str, plan: ItemPlan) -> list[str]:
+        if plan.wire == "string":
+            return [f"{bottle}.addString({cpp_std_string(plan.value)});"]
+        if plan.wire == "float64":
+            return [f"{bottle}.addFloat64({cpp_float(plan.value)});"]
+        bits = 32 if plan.wire == "int32" else 64
+        return [f"{bottle}.add{'Int32' if bits == 32 else 'Int64'}({cpp_int(plan.value, bits)});"]
 
-    def items(self, bottle: str, items, indent: int = 1) -> None:
-        for item in items:
-            try:
-                self.item(bottle, item, indent)
-            except LoweringError as e:
-                raise e.at(item.span)
+    def field(self, bottle: str, plan: ItemPlan) -> list[str]:
+        said = (f"// {comment(plan.ref.dotted)} ({comment(str(plan.ref.type))})"
+                + (f", {comment(plan.converter)}" if plan.conversion is not None else ""))
+        expr = f"{self.msg}.{_member(plan.ref)}"
+        each = "Each" if plan.ref.type.array is not None else ""
+        if plan.conversion is not None:
+            scale, offset = plan.conversion
+            return [said, f"ybgc::services::put{each}Converted({bottle}, {expr}, {cpp_float(scale)}, "
+                          f"{cpp_float(offset)});"]
+        return [said, f"ybgc::services::put{each}({bottle}, {expr}, {_WIRE[plan.wire]});"]
 
-    def item(self, bottle: str, item: ir.BottleItem, indent: int) -> None:
-        emit = lambda text, k=indent: self.lines.append(Line(k, text))  # noqa: E731
-        if item.kind == "literal":
-            emit(self.literal(bottle, item))
-        elif item.kind == "field":
-            if item.ref is None:
-                raise LoweringError("a field item names its field")
-            emit(f"// {comment(item.ref.dotted)} ({comment(str(item.ref.type))})"
-                 + (f", {comment(item.converter.name)}" if self._converted(item) else ""))
-            emit(self.field(bottle, item))
-        elif item.kind == "list":
-            self.lists += 1
-            name = f"items{self.lists}" if self.lists > 1 else "items"
-            emit("{")
-            emit(f"yarp::os::Bottle& {name} = {bottle}.addList();", indent + 1)
-            self.items(name, item.items, indent + 1)
-            emit("}")
-        elif item.kind == "error":
-            if not self.failure:
-                raise LoweringError("`error` is the reason of a failed call: only in the failure reply")
-            emit(f"{bottle}.addString(reason);  // why the call failed")
-        else:
-            raise LoweringError(f"unknown Bottle item {item.kind!r}")
+    def reason(self, bottle: str, plan: ItemPlan) -> list[str]:
+        return [f"{bottle}.addString(reason);  // why the call failed"]
 
-    @staticmethod
-    def literal(bottle: str, item: ir.BottleItem) -> str:
-        v, t = item.value, item.type
-        if isinstance(v, bool) or t == "bool":
-            return f"{bottle}.addInt32({1 if v else 0:d});"
-        if t == "string" or (t is None and isinstance(v, str)):
-            return f"{bottle}.addString({cpp_std_string(str(v))});"
-        if t == "float64" or (t is None and isinstance(v, float)):
-            return f"{bottle}.addFloat64({cpp_float(float(v))});"
-        if t in ("int32", "int64", None) and isinstance(v, int):
-            if t == "int32" and not -2**31 <= v < 2**31:
-                raise LoweringError(f"{v} is beyond an int32")
-            if t is None:
-                t = "int32" if -2**31 <= v < 2**31 else "int64"
-            if not -2**63 <= v < 2**63:
-                raise LoweringError(f"{v} is beyond an int64")
-            return f"{bottle}.add{'Int32' if t == 'int32' else 'Int64'}({cpp_int(v, 32 if t == 'int32' else 64)});"
-        raise LoweringError(f"a constant {v!r} of type {t!r} in a Bottle")
-
-    @staticmethod
-    def _converted(item: ir.BottleItem) -> bool:
-        return item.converter is not None and not item.converter.is_identity
-
-    def field(self, bottle: str, item: ir.BottleItem) -> str:
-        ref = item.ref
-        typ = ref.type
-        if typ is None:
-            raise LoweringError(f"the field {ref.dotted} needs its type")
-        if typ.is_message or typ.base in ("time", "duration"):
-            raise LoweringError(f"the field {ref.dotted} is a {typ}: a Bottle item is a number, a string "
-                                f"or a bool (name its fields)")
-        expr = f"{self.msg}.{_member(ref)}"
-        if self._converted(item):
-            conv = item.converter
-            if typ.base not in _FLOAT + _INTS:
-                raise LoweringError(f"the converter {conv.name} of the {typ.base} field {ref.dotted}")
-            each = "Each" if typ.array is not None else ""
-            return (f"ybgc::services::put{each}Converted({bottle}, {expr}, {cpp_float(float(conv.scale))}, "
-                    f"{cpp_float(float(conv.offset))});")
-        wire = WIRE_YARP.get(typ.base)
-        if wire not in _WIRE:
-            raise LoweringError(f"no Bottle item for the {typ.base} field {ref.dotted}")
-        each = "Each" if typ.array is not None else ""
-        return f"ybgc::services::put{each}({bottle}, {expr}, {_WIRE[wire]});"
+    def nested(self, bottle: str, name: str, items, indent: int) -> None:
+        self.lines.append(Line(indent, "{"))
+        self.lines.append(Line(indent + 1, f"yarp::os::Bottle& {name} = {bottle}.addList();"))
+        self.items(name, items, indent + 1)
+        self.lines.append(Line(indent, "}"))
 
 
 # --------------------------------------------------------------------------
@@ -525,7 +400,7 @@ def _service(service: ir.Service, namespace: str) -> ServiceView:
         Line(2, "{"),
         *(Line(3, f"{cpp_string(text)},  // {why}") for text, why in reason_items),
         Line(2, "},"),
-        Line(2, f"{cpp_string(describe(service))},"),
+        Line(2, f"{cpp_string(texts.describe(service))},"),
         Line(1, "},"),
         Line(1, f"ybgc::services::srvType<Request, &{request}__create, &{request}__destroy,"),
         Line(1, f"                        Response, &{response}__create, &{response}__destroy>("),
@@ -565,11 +440,11 @@ def lower(commands: ir.Commands) -> CommandsView:
             raise e.at(s.span)
     ports = tuple(PortView(cpp_string(p), comment(p), tuple(cpp_string(line) for line in texts.help_lines(commands, p)))
                   for p in commands.served_ports)
-    config_name = os.path.basename(commands.source) if commands.source else commands.module
+    config_name = config_file(commands)
     n_ros2 = sum(1 for s in commands.services if s.serves == "ros2")
     n_yarp = len(commands.services) - n_ros2
     description = [f"module {commands.module}: {len(commands.services)} command(s) between YARP RPC ports and "
-                   f"ROS 2 services"] + [describe(s) for s in commands.services]
+                   f"ROS 2 services"] + [texts.describe(s) for s in commands.services]
     header = (f"Module {comment(commands.module)}: {len(commands.services)} command(s) between YARP RPC ports and "
               f"ROS 2 services ({n_ros2} ROS 2 service(s) served, {n_yarp} YARP command(s) served):",)
     for s in commands.services:
@@ -600,13 +475,11 @@ def lower(commands: ir.Commands) -> CommandsView:
 
 def lower_package(commands: ir.Commands, view: CommandsView) -> PackageView:
     """The view-model of package.xml: the module's interface packages."""
-    config_name = os.path.basename(commands.source) if commands.source else commands.module
-    what = ", ".join(s.service for s in commands.services)
+    config_name = config_file(commands)
     return PackageView(
         config=config_name,
         package=package_name(commands.module),
-        description=(f"Commands between YARP RPC ports and ROS 2 services ({what}), a native module through "
-                     f"rcl, generated by ybgc from {config_name}."),
+        description=f"{texts.summary(commands)}, a native module through rcl, generated by ybgc from {config_name}.",
         depends=("rcl", "rosidl_runtime_c") + view.ros2_packages,
     )
 
@@ -619,5 +492,5 @@ def lower_launch(commands: ir.Commands, package: PackageView, executable: str) -
                       parameters=node_parameters(commands))
 
 
-__all__ = ["CommandsView", "PortView", "ServiceView", "c_header", "c_struct", "describe", "lower", "lower_launch",
+__all__ = ["CommandsView", "PortView", "ServiceView", "c_header", "c_struct", "lower", "lower_launch",
            "lower_package"]

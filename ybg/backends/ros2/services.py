@@ -22,17 +22,18 @@ name made from a config name is checked or made an identifier.
 from __future__ import annotations
 
 import keyword
-import os
 import re
 from dataclasses import dataclass
 
 from ybg.compiler import ir
 from ybg.lower import services as texts
+from ybg.lower.compose import config_file
 from ybg.lower.errors import Line, LoweringError
+from ybg.lower.fills import FLOATS, INTEGERS, BottleWriter, ItemPlan, plan_fill
 from ybg.lower.package import PackageView
 from ybg.lower.python import py_literal, py_types
-from ybg.lower.rosnames import identifier, node_name, node_parameters, package_name, split_srv, srv_type_name, used_packages
-from ybg.lower.wire import WIRE_YARP
+from ybg.lower.rosnames import (identifier, node_name, node_parameters, package_name, split_srv, srv_type_name,
+                                used_packages)
 
 #: the runtime's names the node imports (none of them is a name the node
 #: gives a service class or a function)
@@ -43,8 +44,6 @@ _TAKEN = frozenset(RUNTIME_NAMES) | {
     "os", "signal", "sys", "yarp", "RUNTIME", "SPEC", "SERVICES", "PORTS", "NODE_NAME", "DEFAULT_PREFIX",
     "UNKNOWN_COMMAND", "main", "ybgc_runtime"}
 
-_FLOAT = ("float32", "float64")
-_INTS = ("int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64", "char")
 
 
 # --------------------------------------------------------------------------
@@ -146,80 +145,36 @@ def _doc(text: str) -> str:
 # Bottles written by the node
 
 
-class _BottleWriter:
-    """The lines that add ``items`` to a Bottle: constants, a message's
-    fields (``msg``: the variable of the request or response), nested lists,
-    the reason of a failure (``reason``)."""
+class _BottleWriter(BottleWriter):
+    """The lines that add a Bottle's items: constants, a message's fields
+    (``msg``: the variable of the request or response), nested lists, the
+    reason of a failure (``reason``); ``runtime``: the runtime's helpers
+    they call."""
 
     def __init__(self, msg: str, failure: bool):
-        self.msg = msg
-        self.failure = failure
-        self.lines: list[Line] = []
-        self.lists = 0
+        super().__init__(msg, failure)
         self.runtime: set[str] = set()
 
-    def items(self, bottle: str, items, indent: int = 1) -> None:
-        for item in items:
-            try:
-                self.item(bottle, item, indent)
-            except LoweringError as e:
-                raise e.at(item.span)
+    def literal(self, bottle: str, plan: ItemPlan) -> list[str]:
+        if plan.wire == "string":
+            return [f"{bottle}.addString({py_literal(plan.value)})"]
+        if plan.wire == "float64":
+            return [f"{bottle}.addFloat64({py_literal(plan.value)})"]
+        return [f"{bottle}.add{'Int32' if plan.wire == 'int32' else 'Int64'}({plan.value:d})"]
 
-    def item(self, bottle: str, item: ir.BottleItem, indent: int) -> None:
-        emit = lambda text: self.lines.append(Line(indent, text))  # noqa: E731
-        if item.kind == "literal":
-            emit(self.literal(bottle, item))
-        elif item.kind == "field":
-            if item.ref is None:
-                raise LoweringError("a field item names its field")
-            emit(self.field(bottle, item))
-        elif item.kind == "list":
-            self.lists += 1
-            name = f"items{self.lists}" if self.lists > 1 else "items"
-            emit(f"{name} = {bottle}.addList()")
-            self.items(name, item.items, indent)
-        elif item.kind == "error":
-            if not self.failure:
-                raise LoweringError("`error` is the reason of a failed call: only in the failure reply")
-            emit(f"{bottle}.addString(reason)")
-        else:
-            raise LoweringError(f"unknown Bottle item {item.kind!r}")
+    def field(self, bottle: str, plan: ItemPlan) -> list[str]:
+        return [self._field(bottle, plan)]
 
-    @staticmethod
-    def literal(bottle: str, item: ir.BottleItem) -> str:
-        v, t = item.value, item.type
-        if isinstance(v, bool) or t == "bool":
-            return f"{bottle}.addInt32({1 if v else 0:d})"
-        if t == "string" or (t is None and isinstance(v, str)):
-            return f"{bottle}.addString({py_literal(str(v))})"
-        if t == "float64" or (t is None and isinstance(v, float)):
-            return f"{bottle}.addFloat64({py_literal(float(v))})"
-        if t in ("int32", "int64", None) and isinstance(v, int):
-            if t == "int32" and not -2**31 <= v < 2**31:
-                raise LoweringError(f"{v} is beyond an int32")
-            if t is None:
-                t = "int32" if -2**31 <= v < 2**31 else "int64"
-            if not -2**63 <= v < 2**63:
-                raise LoweringError(f"{v} is beyond an int64")
-            return f"{bottle}.add{'Int32' if t == 'int32' else 'Int64'}({v:d})"
-        raise LoweringError(f"a constant {v!r} of type {t!r} in a Bottle")
-
-    def field(self, bottle: str, item: ir.BottleItem) -> str:
-        ref = item.ref
+    def _field(self, bottle: str, plan: ItemPlan) -> str:
+        ref = plan.ref
         typ = ref.type
         expr = _get(self.msg, ref)
-        if typ.is_message or typ.base in ("time", "duration"):
-            raise LoweringError(f"the field {ref.dotted} is a {typ}: a Bottle item is a number, a string "
-                                f"or a bool (name its fields)")
-        conv = item.converter
-        if conv is not None and not conv.is_identity:
-            if typ.base not in _FLOAT + _INTS + ("byte",):
-                raise LoweringError(f"the converter {conv.name} of the {typ.base} field {ref.dotted}")
-            scale, offset = float(conv.scale), float(conv.offset)
+        if plan.conversion is not None:
+            scale, offset = plan.conversion
             if typ.array is not None or typ.base == "byte":
                 self.runtime.add("add_converted")
                 return (f"add_converted({bottle}, {expr}, {py_literal(scale)}, {py_literal(offset)})"
-                        f"  # {conv.name}")
+                        f"  # {plan.converter}")
             value = expr
             if scale != 1.0:
                 value = f"{value} * {py_literal(scale)}"
@@ -227,10 +182,8 @@ class _BottleWriter:
                 value = f"{value} + {py_literal(offset)}"
             if scale == 1.0 and offset == 0.0:
                 value = f"float({expr})"
-            return f"{bottle}.addFloat64({value})  # {conv.name}"
-        wire = WIRE_YARP.get(typ.base)
-        if wire is None:
-            raise LoweringError(f"no Bottle item for the {typ.base} field {ref.dotted}")
+            return f"{bottle}.addFloat64({value})  # {plan.converter}"
+        wire = plan.wire
         if typ.array is not None:
             self.runtime.add("add_values")
             return f"add_values({bottle}, {py_literal(wire)}, {expr})"
@@ -238,114 +191,64 @@ class _BottleWriter:
             return f"{bottle}.addInt32(1 if {expr} else 0)"
         if typ.base == "string":
             return f"{bottle}.addString({expr})"
-        if typ.base in _FLOAT:
+        if typ.base in FLOATS:
             return f"{bottle}.addFloat64({expr})"
         if typ.base in ("byte", "uint64"):
             self.runtime.add("add_value")
             return f"add_value({bottle}, {py_literal(wire)}, {expr})"
         return f"{bottle}.add{'Int32' if wire == 'int32' else 'Int64'}({expr})"
 
+    def reason(self, bottle: str, plan: ItemPlan) -> list[str]:
+        return [f"{bottle}.addString(reason)"]
+
+    def nested(self, bottle: str, name: str, items, indent: int) -> None:
+        self.lines.append(Line(indent, f"{name} = {bottle}.addList()"))
+        self.items(name, items, indent)
+
 
 # --------------------------------------------------------------------------
 # fields filled by the node
 
 
-def _coerce(value, base: str):
-    if base in _FLOAT:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise LoweringError(f"{value!r} is not a number, for a {base} field")
-        return float(value)
-    if base == "bool":
-        return bool(value)
-    if base == "string":
-        return str(value)
-    if base in _INTS or base == "byte":
-        if isinstance(value, bool) or not isinstance(value, (int, float)) \
-                or (isinstance(value, float) and not value.is_integer()):
-            raise LoweringError(f"{value!r} is not an integer, for a {base} field")
-        return int(value)
-    raise LoweringError(f"no constant of type {base!r}")
-
-
 def _constant(value, typ: ir.TypeRef) -> str:
-    def one(v) -> str:
-        c = _coerce(v, typ.base)
+    """A constant already coerced to its field's type (fills.constant)."""
+    def one(c) -> str:
         if typ.base == "byte":
-            if not 0 <= c <= 255:
-                raise LoweringError(f"{c} is not a byte")
             return f"bytes(({c:d},))"
         return py_literal(c)
 
     if typ.array is None:
-        if isinstance(value, tuple):
-            raise LoweringError(f"a list for the scalar field of type {typ}")
         return one(value)
-    values = value if isinstance(value, tuple) else (value,)
-    if typ.array == "fixed" and typ.size is not None and len(values) != typ.size:
-        raise LoweringError(f"{len(values)} values for a field of type {typ}")
-    if typ.array == "sequence" and typ.size is not None and len(values) > typ.size:
-        raise LoweringError(f"{len(values)} values for a field of type {typ}")
-    return "[" + ", ".join(one(v) for v in values) + "]"
+    return "[" + ", ".join(one(v) for v in value) + "]"
 
 
 _ONE = {"float32": "float", "float64": "float", "bool": "bool", "string": "str", "byte": "byte",
-        **{t: "int" for t in _INTS}}
+        **{t: "int" for t in INTEGERS if t != "byte"}}
 _MANY = {"float32": "floats", "float64": "floats", "bool": "bools", "string": "strs", "byte": "bytes",
-         **{t: "ints" for t in _INTS}}
+         **{t: "ints" for t in INTEGERS if t != "byte"}}
 
 
 def _fill(fill: ir.Fill, msg: str, elements: str, text: str, failure: bool) -> str:
-    """The assignment of one field: ``msg`` the request or response,
-    ``elements`` the Elements variable, ``text`` the whole Bottle's text."""
-    ref = fill.ref
-    typ = ref.type
-    if typ is None:
-        raise LoweringError(f"the field {ref.dotted} needs its type")
-    if typ.is_message or typ.base in ("time", "duration"):
-        raise LoweringError(f"the field {ref.dotted} is a {typ}: fill its fields")
-    if fill.source == "literal":
-        return _set(msg, ref, _constant(fill.value, typ))
-    if fill.source == "error":
-        if not failure:
-            raise LoweringError("`error` is the reason of a failed call: only in a failure answer")
-        if typ.base != "string" or typ.array is not None:
-            raise LoweringError(f"the reason of a failed call is a string, not a {typ} ({ref.dotted})")
+    """The assignment of one field (its plan: fills.plan_fill): ``msg`` the
+    request or response, ``elements`` the Elements variable, ``text`` the
+    whole Bottle's text."""
+    plan = plan_fill(fill, failure)
+    ref, typ = plan.ref, plan.type
+    if plan.op == "constant":
+        return _set(msg, ref, _constant(plan.value, typ))
+    if plan.op == "reason":
         return _set(msg, ref, "reason")
-    if failure:
-        raise LoweringError(f"a failure answer is constants and `error`, not {fill.source} ({ref.dotted})")
-    if fill.source == "text":
-        if typ.base != "string" or typ.array is not None:
-            raise LoweringError(f"a Bottle's text is a string, not a {typ} ({ref.dotted})")
+    if plan.op == "text":
         return _set(msg, ref, text)
-    if fill.source != "element":
-        raise LoweringError(f"unknown source {fill.source!r} of the field {ref.dotted}")
-    if fill.start < 0 or (fill.stop is not None and fill.stop < fill.start):
-        raise LoweringError(f"the elements [{fill.start}:{fill.stop}] of the field {ref.dotted}")
-    if not fill.slice:
-        if typ.array is not None:
-            raise LoweringError(f"one element for the array field {ref.dotted} ({typ})")
-        method = _ONE.get(typ.base)
-        if method is None:
-            raise LoweringError(f"no element fills the {typ.base} field {ref.dotted}")
-        return _set(msg, ref, f"{elements}.{method}({fill.start:d})")
-    if typ.array is None:
-        raise LoweringError(f"elements [{fill.start}:{'' if fill.stop is None else fill.stop}] for the "
-                            f"scalar field {ref.dotted}")
-    method = _MANY.get(typ.base)
-    if method is None:
-        raise LoweringError(f"no element fills the {typ.base} field {ref.dotted}")
-    args = [f"{fill.start:d}"]
-    if fill.stop is not None:
-        args.append(f"{fill.stop:d}")
-    if typ.size is not None:
-        if fill.stop is not None:
-            n = fill.stop - fill.start
-            if (typ.array == "fixed" and n != typ.size) or n > typ.size:
-                raise LoweringError(f"{n} elements for the field {ref.dotted} ({typ})")
-        else:
-            args.append(f"{'fixed' if typ.array == 'fixed' else 'bound'}={typ.size:d}")
-            args.append(f"field={py_literal(ref.dotted)}")
-    return _set(msg, ref, f"{elements}.{method}({', '.join(args)})")
+    if plan.op == "element":
+        return _set(msg, ref, f"{elements}.{_ONE[typ.base]}({plan.start:d})")
+    args = [f"{plan.start:d}"]
+    if plan.stop is not None:
+        args.append(f"{plan.stop:d}")
+    elif typ.size is not None:
+        args.append(f"{'fixed' if typ.array == 'fixed' else 'bound'}={typ.size:d}")
+        args.append(f"field={py_literal(ref.dotted)}")
+    return _set(msg, ref, f"{elements}.{_MANY[typ.base]}({', '.join(args)})")
 
 
 def _fills(fills, msg: str, elements: str, text: str, failure: bool) -> list[Line]:
@@ -377,17 +280,6 @@ def _converters(service: ir.Service) -> tuple[str, ...]:
                    f"offset={py_literal(float(c.offset))}, to_float={py_literal(bool(c.to_float))}, "
                    f"start={c.start:d}, stop={py_literal(c.stop)})")
     return tuple(out)
-
-
-def describe(service: ir.Service) -> str:
-    """The start-up line of a service: what it serves and what it calls."""
-    kind = srv_type_name(service.srv_type)
-    timeout = texts.timeout_text(service.timeout)
-    if service.serves == "ros2":
-        return (f"service {service.name}: serves the ROS 2 service {service.service} ({kind}) and calls the "
-                f"YARP RPC port {service.port} (timeout {timeout} s)")
-    return (f"service {service.name}: serves `{texts.usage(service)}` on the YARP RPC port {service.port} and "
-            f"calls the ROS 2 service {service.service} ({kind}) (timeout {timeout} s)")
 
 
 def _function(signature: str, doc: str, body: list[Line], result: str) -> tuple[Line, ...]:
@@ -468,8 +360,8 @@ def _service(service: ir.Service, fn: str, srv_class: str, runtime: set[str]) ->
         ]
         functions = (request, reply, failure)
         kind = "ServeYarp"
-    return ServiceView(comment=describe(service), functions=functions, kind=kind, fields=tuple(fields),
-                       converters=_converters(service), reasons=reasons, description=py_literal(describe(service)))
+    return ServiceView(comment=texts.describe(service), functions=functions, kind=kind, fields=tuple(fields),
+                       converters=_converters(service), reasons=reasons, description=py_literal(texts.describe(service)))
 
 
 # --------------------------------------------------------------------------
@@ -533,7 +425,7 @@ def lower(commands: ir.Commands) -> CommandsView:
     n_yarp = len(commands.services) - n_ros2
     summary = [f"ROS 2 node {commands.module}: {len(commands.services)} command(s) between YARP RPC ports "
                f"and ROS 2 services"]
-    summary += [describe(s) for s in commands.services]
+    summary += [texts.describe(s) for s in commands.services]
     uses = []
     for s in commands.services:
         if s.serves == "ros2":
@@ -542,7 +434,7 @@ def lower(commands: ir.Commands) -> CommandsView:
         else:
             uses.append(f"`{s.name} ...` on the YARP RPC port {s.port}: a call of {s.service} "
                         f"({srv_type_name(s.srv_type)})")
-    config_name = os.path.basename(commands.source) if commands.source else commands.module
+    config_name = config_file(commands)
     names = sorted({"CommandsSpec", "PortSpec", "run_commands"}
                    | {"ServeRos2" if n_ros2 else "ServeYarp"} | ({"ServeYarp"} if n_ros2 and n_yarp else set())
                    | ({"Conv"} if any(s.converters for s in commands.services) else set()) | runtime)
@@ -564,16 +456,14 @@ def lower(commands: ir.Commands) -> CommandsView:
 
 def lower_package(commands: ir.Commands, view: CommandsView) -> PackageView:
     """The view-model of the ament_python package around the node."""
-    config_name = os.path.basename(commands.source) if commands.source else commands.module
-    what = ", ".join(s.service for s in commands.services)
+    config_name = config_file(commands)
     return PackageView(
         config=config_name,
         package=package_name(commands.module),
         node_module=view.filename[: -len(".py")],
         executable=view.filename[: -len(".py")],
         node_name=node_name(commands),
-        description=f"Commands between YARP RPC ports and ROS 2 services ({what}), generated by ybgc from "
-                    f"{config_name}.",
+        description=f"{texts.summary(commands)}, generated by ybgc from {config_name}.",
         depends=("rclpy", "diagnostic_msgs") + tuple(p for p in used_packages(commands)
                                                      if p not in ("rclpy", "diagnostic_msgs")),
         launch_file=f"{commands.module}.launch.py",
@@ -581,5 +471,5 @@ def lower_package(commands: ir.Commands, view: CommandsView) -> PackageView:
     )
 
 
-__all__ = ["CommandsView", "ServiceView", "PortView", "SrvImport", "lower", "lower_package", "describe",
+__all__ = ["CommandsView", "ServiceView", "PortView", "SrvImport", "lower", "lower_package",
            "RUNTIME_NAMES"]
