@@ -38,7 +38,7 @@ from ybg.lower.compose import config_file
 from ybg.lower.errors import Line, LoweringError
 from ybg.lower.fills import FILLED, FLOATS, BottleWriter, ItemPlan, plan_fill
 from ybg.lower.package import PackageView as LaunchView
-from ybg.lower.rosnames import node_name, node_parameters, package_name, snake_case, split_srv, srv_type_name
+from ybg.lower.rosnames import node_name, node_parameters, package_name, snake_case, split_srv
 
 #: the runtime's Wire of each Bottle tag
 _WIRE = {"int32": "ybgc::Wire::Int32", "int64": "ybgc::Wire::Int64", "float64": "ybgc::Wire::Float64",
