@@ -6,6 +6,7 @@ the totals (docs/runtime.md). ``yarp_io`` and ``ros2_io`` add the ports."""
 
 import argparse
 import collections
+import functools
 import math
 import os
 import sys
@@ -227,7 +228,10 @@ class Bridge:
         self.rate = spec.rate if options.rate is None else (options.rate or None)
         self.timeout = options.timeout
         self.verbose = options.verbose
-        self.cond = threading.Condition(threading.RLock())
+        # the bridge's lock; ``lock`` and ``cond`` are the same lock (``with
+        # self.lock`` takes it in C, ``with self.cond`` through Python calls)
+        self.lock = threading.RLock()
+        self.cond = threading.Condition(self.lock)
         self.stopping = False
         self.quit_asked = False  # `quit` on the RPC port: the port closes once its reply is sent
         self.publishing = False  # event-driven, once the output is open
@@ -256,6 +260,9 @@ class Bridge:
         # rate, those not needed when event-driven
         self.sampled = [i for i in self.inputs if self.rate is not None or i not in self.needed]
         self.watcher = None
+        count = call_count()
+        if count is not None:  # the cost guard's count (tests/test_cost.py): a cycle at a fixed rate
+            self._publish = count.counted(self._publish)
 
     def make_input(self, mux, spec, local, timeout):
         """The object that reads one input: a subclass opens ports."""
@@ -271,7 +278,7 @@ class Bridge:
 
     # -- called by the input threads
     def on_bottle(self, inp, values, reason, now, envelope):
-        with self.cond:
+        with self.lock:
             inp.received += 1
             if reason is not None:
                 inp.dropped += 1
@@ -376,19 +383,25 @@ class Bridge:
         return deadline
 
     def _ready(self, event_driven):
+        # (loops, not any() or all() of a generator: this runs for every Bottle)
         needed = self.needed
-        if self.spec.on_stale == "hold":
-            if any(i.state == "waiting" for i in needed):  # one has not delivered yet
-                return False
-        elif not all(i.state == "fresh" for i in needed):
-            return False
+        hold = self.spec.on_stale == "hold"
+        for i in needed:
+            if (i.state == "waiting") if hold else (i.state != "fresh"):
+                return False  # hold: one has not delivered yet; else one is not fresh
         if event_driven or self.spec.publish == "new":
             # new data, by the trigger (at a fixed rate with publish = new too)
             if not needed:
                 return False  # nothing arrives to publish for
             if self.spec.trigger == "all":
-                return all(i.queue for i in needed)
-            return any(i.queue for i in needed)
+                for i in needed:
+                    if not i.queue:
+                        return False
+                return True
+            for i in needed:
+                if i.queue:
+                    return True
+            return False
         return True
 
     @staticmethod
@@ -419,9 +432,17 @@ class Bridge:
         if event_driven and self.spec.trigger == "all":
             # one Bottle of every needed input, matched in time to the newest
             # of the oldest ones: by envelope stamps when all of them have one
-            by_envelope = all(e[2] is not None for i in needed for e in i.queue)
-            key = 2 if by_envelope else 1
-            reference = max(i.queue[0][key] for i in needed)
+            key = 2
+            for i in needed:
+                for e in i.queue:
+                    if e[2] is None:
+                        key = 1
+                        break
+            reference = None
+            for i in needed:
+                t = i.queue[0][key]
+                if reference is None or t > reference:
+                    reference = t
             for inp in needed:
                 self._use(inp, self._nearest(inp, reference, key))
         elif event_driven:
@@ -670,6 +691,69 @@ def convert(values, converters):
             part = [int(x * scale + offset) if isinstance(x, int) else x * scale + offset for x in part]
         values[c.start:stop] = part
     return values
+
+
+#: the environment variable that makes a module count, from its start, the
+#: Python calls on the path of its Bottles and messages (CallCount)
+COUNT_CALLS = "YBGC_COUNT_CALLS"
+
+
+class CallCount:
+    """The Python calls made on the message path, counted for the cost guard
+    (tests/test_cost.py): each entry of that path (an input's Bottle or
+    message read in a middleware's thread, its handling, a cycle of the
+    fixed-rate loop) is run with a profile hook in its thread, which counts
+    every Python function called and every C function called from Python,
+    and of these the calls into YARP's bindings (each lets the interpreter
+    lock go, and another thread may take it). The totals (calls, YARP calls,
+    entries run) are kept as three int64 in a file, which a test reads while
+    the module runs. Only when COUNT_CALLS names that file at start
+    (``call_count``); otherwise nothing is wrapped and nothing is counted."""
+
+    def __init__(self, path):
+        self.fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o644)
+        self.lock = threading.Lock()
+        self.totals = [0, 0, 0]
+        self._save()
+
+    def _save(self):
+        os.pwrite(self.fd, b"".join(n.to_bytes(8, "little") for n in self.totals), 0)
+
+    def counted(self, function):
+        """``function``, its calls counted; within another counted function
+        (the same thread), it is counted as part of that one."""
+        def run(*args):
+            if sys.getprofile() is not None:
+                return function(*args)
+            tally = [0, 0]
+
+            def hook(frame, event, arg):
+                if event == "call":
+                    tally[0] += 1
+                elif event == "c_call":
+                    tally[0] += 1
+                    if "yarp" in (getattr(arg, "__module__", None) or ""):
+                        tally[1] += 1
+
+            sys.setprofile(hook)
+            try:
+                return function(*args)
+            finally:
+                sys.setprofile(None)
+                with self.lock:
+                    self.totals[0] += tally[0]
+                    self.totals[1] += tally[1]
+                    self.totals[2] += 1
+                    self._save()
+        return run
+
+
+@functools.lru_cache(maxsize=1)
+def call_count():
+    """The process's CallCount when the environment asked for one at start
+    (COUNT_CALLS, read once), else None."""
+    path = os.environ.get(COUNT_CALLS)
+    return CallCount(path) if path else None
 
 
 class RateMeter:

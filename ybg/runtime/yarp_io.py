@@ -2,8 +2,8 @@
 ports opened and watched, the output message tree written as a Bottle on a
 YARP port or a ROS 1 topic, and the shutdown within 2 s (docs/runtime.md)."""
 
-import collections
 import os
+import queue
 import signal
 import sys
 import threading
@@ -14,7 +14,7 @@ import yarp
 
 from .core import _FLOAT_TYPES, _INT_TYPES, BACKLOG, Bridge, InputState  # ybgc:runtime-import
 from .core import DEFAULT_CONFIG_FILE, Array, Msg, RateMeter, Rows, Scalar, Splice, parse_options  # ybgc:runtime-import
-from .core import truthy  # ybgc:runtime-import
+from .core import call_count, truthy  # ybgc:runtime-import
 
 # --- reading and checking input Bottles --------------------------------------
 
@@ -113,19 +113,18 @@ def parse_bottle(bottle, types, flatten, drop_nan, positions=None, floats=False)
         # one binding call for the whole Bottle, not two per element: each
         # call lets the GIL go, and input threads reading at once would take
         # turns at it for every element. YARP prints a float64 with 21
-        # significant digits (exact), "nan" and "inf" as float() reads them.
-        n = bottle.size()
-        if types is None or n == len(types):
-            try:
-                out = list(map(float, bottle.toString().split()))
-            except ValueError:
-                out = None
-            if out is not None and len(out) == n:
-                if drop_nan:
-                    for k, x in enumerate(out):
-                        if x != x:
-                            return None, "element %d is NaN" % k
-                return out, None
+        # significant digits (exact), "nan" and "inf" as float() reads them,
+        # each one word: as many words as elements.
+        try:
+            out = list(map(float, bottle.toString().split()))
+        except ValueError:
+            out = None
+        if out is not None and (types is None or len(out) == len(types)):
+            if drop_nan:
+                for k, x in enumerate(out):
+                    if x != x:
+                        return None, "element %d is NaN" % k
+            return out, None
     if positions is not None:
         items = _picked(bottle, positions)
         if items is None:
@@ -181,19 +180,15 @@ _NO_ENVELOPE = yarp.Bottle()
 
 class _SourceReader(yarp.PortReader):
     """What YARP calls for each Bottle that reaches an input's port, in the
-    thread of its connection: the input reads it there with the name of the
-    port that sent it."""
+    thread of its connection (one connection at a time: the port's callback
+    lock): the input reads it there with the name of the port that sent it."""
 
     def __init__(self, inp):
         yarp.PortReader.__init__(self)
         self.inp = inp
 
     def read(self, connection):
-        try:
-            return self.inp.arrive(connection)
-        except Exception as e:  # an exception into YARP's thread would abort the process
-            self.inp.fail(e)
-            return False
+        return self.inp.arrive(connection)
 
 
 class Input(InputState):
@@ -205,12 +200,19 @@ class Input(InputState):
     Bottle of any port the input does not accept is refused, never used.
 
     YARP's thread for each connection reads the Bottle (the port's reader,
-    ``_SourceReader``) and queues it; the input's own thread checks and
-    hands it to the bridge, so that a connection waits for no more than the
-    copy. No thread ever blocks in a binding call: from YARP 3.12.1 the
-    bindings' BufferedPortBottle keeps the interpreter lock in read(), so a
-    thread blocked there stops every other; the input's thread waits on a
-    Python condition, and ``yarp.Port`` lets the lock go in its calls."""
+    ``_SourceReader``), one connection at a time (the port's callback
+    lock), into the input's one Bottle, checks it against the input's
+    layout and the name of its sender against the ports the input takes (a
+    set), and queues what it read with its arrival and envelope for the
+    input's own thread, which hands it to the bridge: a connection waits
+    for no more than the read, never for a message to be built or written,
+    and a reader held up falls behind in its queue (BACKLOG), not in the
+    network. The queue is the interpreter's own (``queue.SimpleQueue``: a
+    put, and a get that waits with the interpreter lock let go), so the
+    hand-over costs two calls. No thread ever blocks in a binding call: from
+    YARP 3.12.1 the bindings' BufferedPortBottle keeps the interpreter lock
+    in read(), so a thread blocked there stops every other; ``yarp.Port``
+    lets the lock go in its calls."""
 
     def __init__(self, bridge, spec, local, timeout):
         self.init_state(bridge, spec, timeout)
@@ -219,19 +221,31 @@ class Input(InputState):
         self.reader = None
         self.contact = None  # its port's own address, for admin commands
         self.floats = spec.types is None or all(t in _FLOAT_TYPES for t in spec.types)
+        self.drop_nan = bridge.spec.on_nan == "drop"
         self.strict = bridge.spec.queue > 1
-        self.pending = collections.deque()  # (bottle, arrival, envelope), oldest first
-        self.wake = threading.Condition(threading.Lock())
-        self.reading = 0    # YARP threads inside arrive()
-        self.busy = False   # the input's thread handles a Bottle
-        self.closing = False
+        # what the connection threads use, one at a time (the callback lock)
+        self.bottle = yarp.Bottle()
+        self.stamp = yarp.Stamp()
+        self.reading = False  # a connection thread is in arrive()
+        # (item, arrival, envelope), oldest first; None: the input closes
+        self.pending = queue.SimpleQueue()
+        self.queued = 0       # put in pending
+        self.handled = 0      # taken from pending by the input's thread
+        self.done = False     # the input's thread has ended
         self.failed = False
         self.thread = None
         self.checked = None  # (connections, refused) when the watcher last listed them
 
     def open(self):
+        count = call_count()
+        if count is not None:  # the cost guard's count (tests/test_cost.py)
+            self.arrive = count.counted(self.arrive)
+            self._handle = count.counted(self._handle)
         self.reader = _SourceReader(self)
         self.port.setReader(self.reader)
+        # one connection's Bottle at a time in arrive(): the input's Bottle
+        # and stamp are read by one thread, and its counters are exact
+        self.port.setCallbackLock()
         self.port.setInputMode(True)
         self.port.setOutputMode(False)
         if not self.port.open(self.local):
@@ -243,16 +257,13 @@ class Input(InputState):
         return True
 
     def arrive(self, connection):
-        """In the connection's thread: the Bottle, where it came from, when
+        """In the connection's thread: the Bottle, when it came, where from
         and its envelope stamp; queued, or refused if another port sent it."""
-        with self.wake:
-            self.reading += 1
-            self.calls += 1
+        self.reading = True
+        self.calls += 1
         try:
-            if not connection.isValid():
-                return False
-            bottle = self.read_item(connection)
-            if bottle is None:
+            item = self.read_item(connection)
+            if item is None:
                 return False
             now = time.monotonic()
             source = connection.getRemoteContact().getName()
@@ -267,25 +278,27 @@ class Input(InputState):
                 if self.bridge.watcher is not None:
                     self.bridge.watcher.poke()  # closes the connection now, in its own thread
                 return True
-            envelope = self.read_envelope()
-            with self.wake:
-                if not self.strict:
-                    self.pending.clear()  # the newest only, as YARP reads by default
-                self.pending.append((bottle, now, envelope))
-                self.wake.notify()
+            self.queued += 1
+            self.pending.put((item, now, self.read_envelope()))
             return True
+        except Exception as e:  # an exception into YARP's thread would abort the process
+            self.fail(e)
+            return False
         finally:
-            with self.wake:
-                self.reading -= 1
+            self.reading = False
 
     def read_item(self, connection):
-        """What the connection brings (a Bottle), or None if it cannot be read."""
-        bottle = yarp.Bottle()
-        return bottle if bottle.read(connection) else None
+        """What the connection brings, as the input's thread takes it: the
+        Bottle's (values, None), or (None, why it is dropped); None if it
+        cannot be read."""
+        bottle = self.bottle
+        if not bottle.read(connection):
+            return None
+        return parse_bottle(bottle, self.spec.types, False, self.drop_nan, None, self.floats)
 
     def read_envelope(self):
         """The envelope stamp of what was just read (seconds), or None."""
-        stamp = yarp.Stamp()
+        stamp = self.stamp
         if self.port.getEnvelope(stamp) and stamp.isValid():
             return stamp.getTime()
         return None
@@ -296,23 +309,27 @@ class Input(InputState):
             self.bridge.log("input %s: %s: %s" % (self.source, type(e).__name__, e))
 
     def _run(self):
-        while True:
-            with self.wake:
-                while not self.pending and not self.closing:
-                    self.wake.wait()
-                if self.closing:
-                    self.pending.clear()
+        pending = self.pending
+        handle = self._handle
+        try:
+            while True:
+                item = pending.get()
+                if item is None:
                     return
-                bottle, now, envelope = self.pending.popleft()
-                behind = len(self.pending)
-                self.busy = True
-            try:
-                self._handle(bottle, now, envelope, behind)
-            finally:
-                with self.wake:
-                    self.busy = False
+                if not self.strict:
+                    while not pending.empty():  # the newest only, as YARP reads by default
+                        newer = pending.get()
+                        if newer is None:
+                            return
+                        self.handled += 1  # the older one, never handled
+                        item = newer
+                handle(item[0], item[1], item[2], self.queued - self.handled - 1)
+                self.handled += 1
+        finally:
+            self.done = True
 
-    def _handle(self, bottle, now, envelope, behind):
+    def _handle(self, item, now, envelope, behind):
+        """In the input's thread: what a connection read, to the bridge."""
         if self.bridge.stopping:
             return
         try:
@@ -320,9 +337,7 @@ class Input(InputState):
                 # far behind: skipped unread, so that the reader catches up
                 self.bridge.on_skipped(self)
                 return
-            values, reason = parse_bottle(bottle, self.spec.types, False,
-                                          self.bridge.spec.on_nan == "drop", None, self.floats)
-            self.bridge.on_bottle(self, values, reason, now, envelope)
+            self.bridge.on_bottle(self, item[0], item[1], now, envelope)
         except Exception as e:  # never a traceback out of the input's thread
             self.fail(e)
 
@@ -346,14 +361,11 @@ class Input(InputState):
 
     def interrupt(self):
         self.port.interrupt()
-        with self.wake:
-            self.closing = True
-            self.wake.notify_all()
+        self.pending.put(None)
 
     def settled(self):
         """No Bottle waits to be handled and none is being read or handled."""
-        with self.wake:
-            return not self.busy and self.reading == 0 and not self.pending
+        return not self.reading and (self.done or self.handled == self.queued)
 
     def close(self):
         self.port.close()
@@ -394,6 +406,9 @@ class TopicInput(InputState):
         # newest only, as YARP reads by default
         self.port.setStrict(self.bridge.spec.queue > 1)
         self.port.setReadOnly()
+        count = call_count()
+        if count is not None:  # the cost guard's count (tests/test_cost.py)
+            self.on_read = count.counted(self.on_read)
         self.reader = _Reader(self)
         self.port.useCallback(self.reader)
         return self.port.open(self.local)
@@ -803,6 +818,12 @@ def _add_values(bottle, types, values, wire):
     if isinstance(types, tuple):
         for t, x in zip(types, values):
             _ADD[wire[t]](bottle, x)
+    elif wire[types] == "float64":
+        # the binding's method itself, one call a value (it takes an int or
+        # a float as float() does)
+        add = bottle.addFloat64
+        for x in values:
+            add(x)
     else:
         add = _ADD[wire[types]]
         for x in values:
