@@ -38,7 +38,7 @@ from harness.behaviour import BridgeBehaviour, ModuleCommandLine, NeverStartsAtA
 from harness.behaviour_ros1 import Ros1Behaviour
 from harness.differential import Differential
 from harness.launchers import CppModules
-from harness.module import Module
+from harness.module import EXIT_BOUND, Module
 from harness.programs import DEG, build_programs, escape_program, relay_program, ros1_input_program
 from harness.properties import examples
 from harness.ros2 import Ros2Publisher, ros2_environment, subscriber_for
@@ -413,7 +413,7 @@ def test_ros2_output_use_sim_time_stamps_with_the_clock_topic(builds, yarp_serve
         assert set(map(str, stamps[:k])) <= {str({"sec": 0, "nanosec": 0})} and stamps[k:] == [sim] * len(stamps[k:])
         assert first.msg["position"][0] == 10.0 * DEG
         rc, elapsed = module.interrupt(signal.SIGINT)
-        assert rc == 0 and elapsed < 2.0, module.log_text()[-2000:]
+        assert rc == 0 and elapsed < EXIT_BOUND, module.log_text()[-2000:]
     finally:
         for p in reversed(procs):
             p.stop()

@@ -31,7 +31,7 @@ import pytest
 from harness.build import Builds, run_folder
 from harness.env import DEFAULT_YARP
 from harness.images import SIZE, ImagePeer, frame, image_data, sha_of
-from harness.module import Module, totals, wait_stats
+from harness.module import EXIT_BOUND, Module, totals, wait_stats
 from harness.ros2 import Ros2Publisher, ros2_environment
 from harness.yarp import YarpServer
 from ybg.backends import check_result
@@ -237,7 +237,7 @@ def stop_module(module: Module) -> dict:
     periods are not what these tests count.)"""
     rc, seconds = module.interrupt()
     log = module.log_text()
-    assert rc == 0 and seconds < 2.0, log[-3000:]
+    assert rc == 0 and seconds < EXIT_BOUND, log[-3000:]
     counts = totals(log)
     counts["refused"] = dict(re.findall(r"input (\S+): received .*?, refused (.*)$", log, re.M))
     return counts

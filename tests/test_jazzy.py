@@ -42,7 +42,7 @@ from harness.env import VENV, VENV_PYTHON, clean_environ
 from harness.jazzy import (JAZZY_PYTHON, JAZZY_VENV, NODE_YARP, JazzyPublisher, JazzySubscriber,
                            jazzy_env, kilted_inherited, require_jazzy)
 from harness.launchers import write_node
-from harness.module import Module
+from harness.module import EXIT_BOUND, Module
 from harness.programs import DIFF_TF, QOS_READER, diff_tf_program, text_program
 from harness.ros2 import Ros2Domain, Ros2Subscriber, ros2_environment
 from harness.yarp import YarpProducer, YarpReader, YarpServer
@@ -272,5 +272,5 @@ def test_each_native_module_stops_on_sigint(graph):
     # with 0 within 2 s, whichever ROS 2 it was built for
     for module in graph.native.values():
         rc, elapsed = module.interrupt(signal.SIGINT)
-        assert rc == 0 and elapsed < 2.0, module.log_text()[-2000:]
+        assert rc == 0 and elapsed < EXIT_BOUND, module.log_text()[-2000:]
         assert "Traceback" not in module.log_text()

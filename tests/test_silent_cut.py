@@ -13,7 +13,7 @@ import pytest
 
 from harness.env import LEGACY_DIR
 from harness.generated import generate, module_proc
-from harness.module import stop_within, wait_log
+from harness.module import EXIT_BOUND, stop_within, wait_log
 from harness.yarp import YarpProducer, YarpReader
 from ybg.compiler.pipeline import compile_path, compile_text
 
@@ -126,4 +126,4 @@ def test_the_module_says_the_first_wider_bottle_once(yarp, yarp_server, tmp_path
     assert said == [f"{name}: input /cut/data:o: a Bottle of 7 values, of which the message reads the first 3; "
                     "the other 4 are dropped (declare the port's elements in the config to check its width); "
                     "said once"], module.log_text()[-3000:]
-    assert rc == 0 and took < 2.0, module.log_text()[-3000:]
+    assert rc == 0 and took < EXIT_BOUND, module.log_text()[-3000:]

@@ -22,7 +22,7 @@ import pytest
 from harness.build import build_cpp, configure
 from harness.env import DEFAULT_YARP, VENV_PYTHON, base_env, use_yarp, yarp_install
 from harness.generated import generate, module_proc, ybgc
-from harness.module import stop_within, wait_log
+from harness.module import EXIT_BOUND, stop_within, wait_log
 from harness.procs import Proc
 from harness.yarp import YarpProducer, YarpReader, YarpServer
 
@@ -111,7 +111,7 @@ def test_module_relays_and_stops_on_signal(yarp, yarp_server, tmp_path, backend,
         rc, took = stop_within(module)
     log = module.log_text()
     assert rc == 0, log[-3000:]
-    assert took < 2.0, f"{took:.2f} s to exit"
+    assert took < EXIT_BOUND, f"{took:.2f} s to exit"
     assert "Traceback" not in log
     assert re.search(r"input /vv/src:o: received 5, dropped 0", log), log[-2000:]
 

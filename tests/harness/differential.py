@@ -11,7 +11,7 @@ from pathlib import Path
 
 from harness.env import VENV
 from harness.launchers import write_node
-from harness.module import Module
+from harness.module import EXIT_BOUND, Module
 from harness.ros2 import subscriber_for
 from harness.yarp import YarpProducer
 
@@ -82,7 +82,7 @@ class Differential:
         assert len(native_msgs) == len(node_msgs) == rounds
         assert native_msgs == node_msgs
         rc, elapsed = self.native.interrupt(signal.SIGINT)
-        assert rc == 0 and elapsed < 2.0, self.native.log_text()[-2000:]
+        assert rc == 0 and elapsed < EXIT_BOUND, self.native.log_text()[-2000:]
         log = self.native.log_text()
         assert f"published {rounds} messages" in log and "Traceback" not in log, log[-2000:]
         return native_msgs
