@@ -36,10 +36,10 @@ from harness.compose import (ICUB, IMAGE_TOPIC, DIAGNOSTICS_PERIOD, bridge_stats
                              check_one_process, check_stats_and_quit, check_values, composed_stats, start_peers)
 from harness.env import EXAMPLES, yarp_install
 from harness.generated import ybgc
-from harness.module import Module
+from harness.module import EXIT_BOUND, Module, quit_over_rpc
 from harness.procs import wait_until
 from harness.ros2 import Ros2Domain, ros2_environment
-from harness.yarp import YarpProducer, YarpServer, rpc
+from harness.yarp import YarpProducer, YarpServer
 from ybg.compiler.pipeline import compile_path
 
 CONFIGS = sorted(ICUB.glob("*.ini"))
@@ -146,7 +146,8 @@ class TestComposedIcub:
     def test_stats_and_quit_on_the_rpc_port(self, icub):
         """`help`, `stats` (a list per bridge) and `quit` on /icub/rpc:i:
         every bridge stops and prints its totals under its name, the process
-        exits 0 within 2 s; no bridge's own RPC port is open."""
+        exits 0 (EXIT_BOUND after its `[bye]`); no bridge's own RPC port is
+        open. It feeds every bridge itself (it stands alone)."""
         check_stats_and_quit(icub)
 
     def test_a_bridge_that_cannot_start_and_parameters_by_node_name(self, icub, tmp_path):
@@ -154,10 +155,11 @@ class TestComposedIcub:
         port taken and a parameter file keyed by node name: the bridge is
         said with its config and the others run; `stats` lists it as not
         running; each node takes its own parameters (the head at 25 Hz, the
-        torso's ports under another prefix); `quit`: exit 1 within 2 s."""
+        torso's ports under another prefix); `quit`: exit 1 (EXIT_BOUND after its `[bye]`)."""
         import yaml
 
-        assert not icub.node.alive
+        if icub.node.alive:  # run alone: the composed process of the fixture goes first (its name is taken)
+            assert quit_over_rpc(icub.env, icub.node, f"/{NAME}/rpc:i")[0] == 0, icub.node.log_text()[-3000:]
         taken = YarpProducer(icub.env, "/icub_left_arm_trajectory/plan:o")
         params = tmp_path / "params.yaml"
         params.write_text(yaml.safe_dump({
@@ -178,12 +180,12 @@ class TestComposedIcub:
             assert bridge_stats(stats["icub_left_arm"])["rate"][1] == "100.0", stats
             wait_until(lambda: icub.server.exists("/torso_elsewhere/joints/in0:i"), 10, "the torso's port")
             assert not icub.server.exists("/icub_torso/joints/in0:i")
-            t0 = time.monotonic()
-            assert "[bye]" in rpc(icub.server, f"/{NAME}/rpc:i", "quit")
-            rc = again.popen.wait(10)
-            took = time.monotonic() - t0
+            # the head's producer connected again by the new process, and its messages counted
+            wait_until(lambda: (bridge_stats(composed_stats(icub.server, f"/{NAME}/rpc:i")["icub_head"])
+                                ["published"][0] > 0), 60, "the head's messages", again)
+            rc, took = quit_over_rpc(icub.env, again, f"/{NAME}/rpc:i")
             log = again.log_text()
-            assert rc == 1 and took < 2.0, (rc, took, log[-3000:])
+            assert rc == 1 and took < EXIT_BOUND, (rc, took, log[-3000:])
             assert "icub_left_arm_trajectory: not started (cannot open the output " \
                    "/icub_left_arm_trajectory/plan:o)" in log
             assert bridge_totals(log, "icub_head").get("published", 0) > 0
