@@ -44,7 +44,7 @@ from harness.behaviour import BridgeBehaviour, NeverStartsAtAFixedRateOnTodayYar
 from harness.env import EXAMPLES, LEGACY_DIR, ROOT, VENV_PYTHON
 from harness.generated import load_module, module_file, write_generated
 from harness.launchers import Ros2Modules, require_message_packages, write_node
-from harness.module import Node, stop_clean, totals
+from harness.module import EXIT_BOUND, Node, stop_clean, totals
 from harness.procs import wait_until
 from harness.programs import (DEG, ros2_compiled, ros2_example, ros2_examples, ros2_to_yarp_examples,
                               yarp_to_ros2_examples)
@@ -817,7 +817,7 @@ def test_signal_while_starting(mw, tmp_path):
             log = node.log_text()
         finally:
             node.stop()
-        assert rc == 0 and took < 2.0, (delay, rc, took, log)
+        assert rc == 0 and took < EXIT_BOUND, (delay, rc, took, log)
         assert "Traceback" not in log, log
 
 
@@ -846,11 +846,12 @@ def test_parameters(mw, tmp_path):
         wait_matched(node, sub, program)
         node.wait_log("connected /pf3dTracker/data:o -> /custom/tracker/in0:i")
         got = sub.wait_for(20, timeout=60)
-        # 20 Hz, though the input comes at 100 Hz: the gaps between the
-        # stamps the node puts in (its clock at each publish)
+        # 20 Hz, though the input comes at 100 Hz: the stamps the node puts in
+        # (its clock as it builds each message) of 20 messages span 19 cycles
+        # at least (a cycle is built at most a period after it is due, later
+        # ones skipped: 2 periods of room), as no reader's arrival times can say
         stamps = [stamp_seconds(m.msg["header"]["stamp"]) for m in got]
-        gaps = sorted(b - a for a, b in zip(stamps, stamps[1:]))
-        assert 0.04 <= gaps[len(gaps) // 2] <= 0.06, gaps
+        assert stamps[-1] - stamps[0] >= (len(stamps) - 3) / 20.0, stamps
         producer.stop()
         node.wait_log("input /pf3dTracker/data:o is stale", timeout=60)
         log = stop_clean(node)

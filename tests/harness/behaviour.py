@@ -31,7 +31,8 @@ from pathlib import Path
 import pytest
 
 from harness.env import EXAMPLES, base_env, free_port
-from harness.module import assert_clean_exit, assert_delivered, hold_the_reader, rate_from_counters, totals
+from harness.module import (EXIT_BOUND, assert_clean_exit, assert_delivered, assert_fixed_rate, hold_the_reader,
+                            rate_from_counters, stats, totals)
 from harness.programs import DEG, EVIL_LIST, FIXED_STRINGS, hypothesis_strings, needs_ros1, bottle_configs
 from harness.reference import (COUNTER, Envelope, assert_matches, exactly, expected, mux_values, sent_values,
                                topic_message)
@@ -88,9 +89,11 @@ class BridgeBehaviour:
             rad = [x * DEG + 0.0 for x in arm]
             assert d[0] == "hello"
             assert d[1] == 0  # counter
-            assert abs(d[2] - t_write) < 1.0 and abs(d[2] - got.t) < 1.0  # seconds
+            # the module's clock when it built the message: after the write that
+            # completed it, before the reader had it (one machine, one clock)
+            assert t_write <= d[2] <= got.t, (t_write, d[2], got.t)  # seconds
             sec, nsec = d[3]
-            assert abs(sec + nsec / 1e9 - got.t) < 1.0 and 0 <= nsec < 1_000_000_000
+            assert t_write <= sec + nsec / 1e9 <= got.t and 0 <= nsec < 1_000_000_000, (t_write, d[3], got.t)
             assert d[4] == [1234, 567800000]  # the envelope stamp of sens
             assert exactly(d[5], rad)
             assert all(abs(a - math.radians(b)) <= 1e-12 for a, b in zip(d[5], arm))
@@ -263,7 +266,7 @@ class BridgeBehaviour:
             assert {"/relay_bridge/data/in0:i", "/relay_bridge/out:o"} <= yarp_ports(yarp_server)
             rc, elapsed = module.interrupt(sig)
             assert rc == 0, module.log_text()[-2000:]
-            assert elapsed < 2.0
+            assert elapsed < EXIT_BOUND
             assert not any(p.startswith("/relay_bridge") for p in yarp_ports(yarp_server))
         log = module.log_text()
         assert "totals:" in log and "Traceback" not in log
@@ -283,10 +286,13 @@ class BridgeBehaviour:
                 reader.wait_for(5)
                 producer.kill()
                 module.wait_match(r"input /t/src:o is stale \(no data for 0\.\d s\)", timeout=60)
-                n = len(reader.bottles)
+                # nothing published while stale: the module's own count, a second apart
+                # (not the reader's, which a loaded machine may leave behind)
+                published = stats(yarp_server, "/relay2/rpc:i")["published"][0]
                 time.sleep(1.0)
-                assert len(reader.bottles) <= n + 1
+                assert stats(yarp_server, "/relay2/rpc:i")["published"][0] == published
                 assert module.count(r"is stale") == 1  # said once, not once per cycle
+                n = len(reader.bottles)
                 producer.start()
                 reader.wait_for(n + 5, timeout=60)
                 module.wait_log("input /t/src:o is fresh again")
@@ -338,12 +344,11 @@ class BridgeBehaviour:
         env = base_env(tmp_path)
         env.update(yarp_env(tmp_path / "yarp", free_port()))
         env = modules.environment(env)
-        t0 = time.monotonic()
+        # (a module that waited for good would be stopped by the timeout: the test fails)
         r = subprocess.run(modules.module("relay_bridge", env).argv, capture_output=True, text=True,
                            env=env, timeout=30)
         assert r.returncode == 1
         assert "cannot reach the YARP name server" in r.stdout
-        assert time.monotonic() - t0 < 10
 
     # -- timing
 
@@ -374,15 +379,19 @@ class BridgeBehaviour:
         """A module held up for a second at 50 Hz skips the cycles it missed and
         counts them; it does not catch up with a burst, and goes on afterwards.
         Forced: the module is stopped (SIGSTOP, as a machine under load would)
-        for a time the test measures, d. The cycles missed (50 d, less the one
-        it may publish late) must be counted as skipped, and published + skipped
-        can never exceed the cycles of its life: a catch-up burst fails one or
-        the other, whatever the machine's speed (other overruns only add skips)."""
+        for at least a time the test measures, d. The cycles missed (50 d, less
+        the one it may publish late) must be counted as skipped, and published
+        + skipped can never exceed the cycles of its life, which the module
+        tells itself: its first `stats` gives its counts and the rate since it
+        started, both at one instant, so its own clock gives the seconds it
+        has run (no wall clock of the test's, which a loaded machine would
+        make say more or less than the module's). A catch-up burst fails one
+        or the other, whatever the machine's speed (other overruns only add
+        skips)."""
         with modules.module("relay_bridge", env, "--rate", "50") as module, \
                 YarpReader(env, "/test/skip:i", source="/relay_bridge/out:o") as reader, \
-                YarpProducer(env, "/t/src:o", bottles=[[1.0]], rate=100, wait_connected=True) as producer:
+                YarpProducer(env, "/t/src:o", bottles=[[1.0]], rate=100, wait_connected=True):
             reader.wait_for(10, timeout=60)
-            first_write = producer.sent[0]["t"]  # no message before the first Bottle
             os.kill(module.pid, signal.SIGSTOP)
             try:
                 t0 = time.monotonic()
@@ -391,12 +400,16 @@ class BridgeBehaviour:
             finally:
                 os.kill(module.pid, signal.SIGCONT)
             reader.wait_for(len(reader.bottles) + 50, timeout=60)  # it goes on
+            account = stats(yarp_server, "/relay_bridge/rpc:i")
             rc, elapsed = module.interrupt()
-            end = time.time()
         log = assert_clean_exit(yarp_server, module, rc, elapsed, ["/relay_bridge/out:o"])
         t = totals(log)
         assert t["skipped"] >= 50 * d - 2, (t, d)
-        assert t["published"] + t["skipped"] <= 50 * (end - first_write) + 2, (t, end - first_write)
+        published, skipped, _ = account["published"]
+        assert t["published"] >= published and t["skipped"] >= skipped, (t, account["text"])
+        # the seconds since its start, at most: its messages over its rate (said to 2 decimals)
+        life = published / (account["rate"][0] - 0.005)
+        assert published + skipped <= 50 * life + 2, (account["text"], life)
 
     @pytest.mark.parametrize("queue, pairs", [(64, [[1.0, 10.0], [2.0, 20.0]]), (1, [[2.0, 10.0]])],
                              ids=["queue64", "queue1"])
@@ -456,8 +469,12 @@ class BridgeBehaviour:
         # "any": every new Bottle of a alone is published, with b's last values
         assert [d[1] for d in data[1:]] == [[float(k), 2.0] for k in range(20)]
         assert [d[0] for d in data] == list(range(21))
+        # at once, not at the loop's next timed wake: the freshness check, up to
+        # 1 s away here (the input's timeout), which would put the median near
+        # 0.5 s; a loaded machine delays the three processes a message goes
+        # through by some milliseconds each, far under the bound
         latencies.sort()
-        assert latencies[len(latencies) // 2] < 0.05, latencies
+        assert latencies[len(latencies) // 2] < 0.25, latencies
 
     # -- readers and writers that are slow or fast
 
@@ -494,7 +511,7 @@ class BridgeBehaviour:
                 assert counters == sorted(set(counters)), "out of order"
                 assert module.alive
                 rc, elapsed = module.interrupt()
-                assert rc == 0 and elapsed < 2.0
+                assert rc == 0 and elapsed < EXIT_BOUND
                 # closing waits for the stalled peer at most a deadline, then unregisters the names
                 assert not any(p.startswith("/relay_bridge") for p in yarp_ports(yarp_server))
             finally:
@@ -647,7 +664,8 @@ class BridgeBehaviour:
         Forced: every step waits for its event (the watcher's connection, the
         stale notice, 20 held messages) instead of a fixed time; the rate is
         read from the module's own clock (the wall-clock stamp it puts in each
-        message), not from when the test process happened to receive them."""
+        message) and its counter, with the cycles it skipped (its totals),
+        not from when the test process happened to receive them."""
         with modules.module("hold_bridge", env, "--prefix", "/other", "--rate", "20",
                             "--timeout", "0.3", "--verbose") as module, \
                 YarpReader(env, "/test/reader", source="/hold_bridge/out:o") as reader, \
@@ -663,10 +681,10 @@ class BridgeBehaviour:
         log = assert_clean_exit(yarp_server, module, rc, elapsed, ["/other/m/in0:i", "/hold_bridge/out:o"])
         assert all(h.data[1] == [90.0] for h in held)
         counters = [h.data[0] for h in held]
-        assert_delivered(counters, totals(log))
-        stamps = [sec + nsec / 1e9 for sec, nsec in (h.data[2] for h in held)]
-        gaps = sorted(b - a for a, b in zip(stamps, stamps[1:]))
-        assert 0.04 <= gaps[len(gaps) // 2] <= 0.06, gaps  # 20 Hz, not event-driven (the config's)
+        t = totals(log)
+        assert_delivered(counters, t)
+        # 20 Hz, not event-driven (the config's): held messages come with no input at all
+        assert_fixed_rate([(h.data[0], h.data[2][0] + h.data[2][1] / 1e9) for h in held], t["skipped"], 20.0)
         assert "[m] 0: 90.0" in log
 
     def test_hold_policy_and_trigger_any(self, modules, yarp_server, env):
@@ -723,6 +741,7 @@ class BridgeBehaviour:
         want = expected(program, mux_values(program, sent), named=named)
         peers = []
         try:
+            begun = time.time()
             module = modules.module(config, env).start()
             peers.append(module)
             if out.kind == "ros2":
@@ -751,12 +770,13 @@ class BridgeBehaviour:
             got = consumer.wait_for(3, timeout=60)
             last = got[-1]
             data = last.msg if named else last.data
-            assert_matches(data, want, (last.t - 1.0, last.t + 1.0), exact_fields=out.kind == "ros2")
+            # a time the module stamps: its clock, after it started, before the consumer had the message
+            assert_matches(data, want, (begun, last.t), exact_fields=out.kind == "ros2")
             if named and "header" in want and want["header"].get("seq") == COUNTER:
                 counters = [g.msg["header"]["seq"] for g in got]
                 assert counters == sorted(counters) and len(set(counters)) == len(counters)
             rc, elapsed = module.interrupt(signal.SIGINT)
-            assert rc == 0 and elapsed < 2.0, module.log_text()[-2000:]
+            assert rc == 0 and elapsed < EXIT_BOUND, module.log_text()[-2000:]
             log = module.log_text()
             assert "totals:" in log and "Traceback" not in log, log[-3000:]
             assert not re.search(r"published 0 messages", log)
