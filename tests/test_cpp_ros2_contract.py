@@ -18,6 +18,7 @@ the CMakeLists' own find_package path."""
 
 from __future__ import annotations
 
+import collections
 import glob
 import os
 import signal
@@ -29,7 +30,7 @@ import pytest
 
 from harness.env import ROOT, VENV
 from harness.generated import generate
-from harness.module import Module, totals
+from harness.module import EXIT_BOUND, Module, totals
 from harness.ros2 import QosSubscriber, ros2_environment
 from harness.yarp import YarpProducer
 
@@ -109,8 +110,11 @@ def test_a_stopped_producer_makes_its_input_stale_and_nothing_is_published(nativ
     """At 50 Hz with on_stale = skip: the producer of /contract/b:o is
     SIGSTOPped; once its input is stale (0.5 s after its last Bottle) no
     message is published, said once; SIGCONT, and messages come again with
-    its new values. Told by the stamps (the node's clock at each publish):
-    none falls inside the stale stretch."""
+    its new values. Told by the messages themselves: each carries b's value
+    (one a Bottle), so a value goes out in the cycles while it is the newest
+    and fresh, TIMEOUT after it came at most, never in the stale stretch (a
+    second more of cycles); and the node's clock at each publish (a stamp)
+    says messages came after SIGCONT."""
     env = ros2_environment(yarp_server.env, ros2_domain)
     sub = QosSubscriber(env, "/contract/joints", "sensor_msgs/msg/JointState")
     module = Module([native], env=env, name="contract_native")
@@ -123,10 +127,9 @@ def test_a_stopped_producer_makes_its_input_stale_and_nothing_is_published(nativ
         module.wait_log("50 Hz")
         sub.wait_publishers(1)
         sub.wait_for(10)
-        stopped_at = time.time()
         os.kill(b.pid, signal.SIGSTOP)
         module.wait_log("input /contract/b:o is stale", timeout=60)
-        time.sleep(1.0)  # a stretch of stale input; the assertion is on the stamps, not on this time
+        time.sleep(1.0)  # a stretch of stale input; the assertions are on the messages, not on this time
         resumed_at = time.time()
         held = len(sub.messages)
         os.kill(b.pid, signal.SIGCONT)
@@ -138,19 +141,20 @@ def test_a_stopped_producer_makes_its_input_stale_and_nothing_is_published(nativ
         for p in reversed(procs):
             p.stop()
     log = module.log_text()
-    assert rc == 0 and elapsed < 2.0, log[-2000:]
+    assert rc == 0 and elapsed < EXIT_BOUND, log[-2000:]
     assert "Traceback" not in log
     stamps = [stamp(m) for m in sub.messages]
-    # the input is fresh until TIMEOUT after its last Bottle (written before the SIGSTOP); a
-    # margin for the cycle that checks it: published only with a fresh input, stamped then
-    inside = [t for t in stamps if stopped_at + TIMEOUT + 0.3 < t < resumed_at]
-    assert inside == [], f"{len(inside)} messages published while /contract/b:o was stale"
     assert any(t > resumed_at for t in stamps), "nothing published after the producer returned"
     assert log.count("input /contract/b:o is stale") == 1, log[-2000:]  # said once
     # every message has both inputs' values; b's are increasing: nothing stale went out again
     bs = [m.msg["position"][2] for m in sub.messages]
     assert all(m.msg["position"][:2] == [1.0, 2.0] for m in sub.messages)
     assert bs == sorted(bs)
+    # the input is fresh until TIMEOUT after its last Bottle (the module's clock): its value
+    # goes out in at most the cycles of that time (and the one that finds it stale), never
+    # in the stale stretch's (a second of them: 50 more); cycles are only ever skipped
+    value, most = collections.Counter(bs).most_common(1)[0]
+    assert most <= TIMEOUT * 50 + 2, f"b's value {value} in {most} messages: published while stale"
     t = totals(log)
     assert t["/contract/b:o"][2] == 1, log[-1500:]  # one stale period
     assert t["published"] >= len(sub.messages)
@@ -186,7 +190,7 @@ def test_a_stalled_subscriber_does_not_hold_the_module_up(native, yarp_server, r
         for p in reversed(procs):
             p.stop()
     log = module.log_text()
-    assert rc == 0 and elapsed < 2.0, log[-2000:]
+    assert rc == 0 and elapsed < EXIT_BOUND, log[-2000:]
     assert "Traceback" not in log
     bs = [m.msg["position"][2] for m in got]
     assert bs == sorted(bs) and len(set(bs)) > 50  # new values kept coming
@@ -212,7 +216,7 @@ def test_built_through_find_package_it_publishes_the_message(native_ament, yarp_
     finally:
         for p in reversed(procs):
             p.stop()
-    assert rc == 0 and elapsed < 2.0, module.log_text()[-2000:]
+    assert rc == 0 and elapsed < EXIT_BOUND, module.log_text()[-2000:]
     for m in got:
         assert m.msg["name"] == ["a0", "a1", "b0"] and m.msg["position"] == [0.25, -1.5, 7.0]
         assert stamp(m) > 1.7e9

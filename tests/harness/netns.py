@@ -190,6 +190,13 @@ class Rig:
         """The real ``yarp`` command run on ``host``."""
         return self.run(host, [self.install.bin / "yarp", *args], env=self.env(host), timeout=timeout)
 
+    def rpc(self, port: str, *commands: str, host: str = "names", timeout: float = 30.0) -> str:
+        """What `yarp rpc PORT`, run on ``host``, prints for ``commands``."""
+        r = subprocess.run(self.wrap(host, [self.install.bin / "yarp", "rpc", port]),
+                           input="".join(c + "\n" for c in commands), env=self.env(host), capture_output=True,
+                           text=True, timeout=timeout)
+        return r.stdout + r.stderr
+
     def exists(self, port: str, host: str = "names") -> bool:
         try:
             return self.yarp("exists", port, host=host, timeout=10).returncode == 0
