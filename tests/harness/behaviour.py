@@ -32,7 +32,7 @@ import pytest
 
 from harness.env import EXAMPLES, base_env, free_port
 from harness.module import (EXIT_BOUND, assert_clean_exit, assert_delivered, assert_fixed_rate, hold_the_reader,
-                            rate_from_counters, stats, totals)
+                            stats, totals)
 from harness.programs import DEG, EVIL_LIST, FIXED_STRINGS, hypothesis_strings, needs_ros1, bottle_configs
 from harness.reference import (COUNTER, Envelope, assert_matches, exactly, expected, mux_values, sent_values,
                                topic_message)
@@ -354,25 +354,34 @@ class BridgeBehaviour:
 
     def test_fixed_rate_50hz_with_nan_passing(self, modules, yarp_server, env):
         """--rate 50: a true period over 4 s (200 cycles), whatever the input
-        rate (200 Hz); NaN passes (on_nan = pass).
-        Forced: the rate is read from the module's message counter against the
-        receive times least delayed by the machine, and cycles it had to skip
-        (counted in its totals) are allowed for, so a loaded machine only
-        widens nothing: 49.5..50.5 Hz either way."""
+        rate (200 Hz); NaN passes (on_nan = pass); every message reaches the
+        reader, but those the module counts missed.
+        Forced: the rate is the module's own account between two `stats`,
+        each of which takes its counts and its clock at one instant: the
+        messages it published over the seconds between (the rate it says),
+        and with the cycles it skipped, which a loaded machine may make it
+        skip, so that neither the test's clock nor a reader's lateness enters:
+        49.5..50.5 Hz either way (a cycle more or less at each end is 0.25 Hz
+        over 4 s)."""
+        port = "/relay_bridge/rpc:i"
         with modules.module("relay_bridge", env, "--rate", "50") as module, \
                 YarpReader(env, "/test/rate:i", source="/relay_bridge/out:o") as reader, \
                 YarpProducer(env, "/t/src:o", bottles=[[1.0, float("nan")]], rate=200):
-            first = reader.wait_for(10, timeout=60)[-1]
-            reader.wait(lambda: reader.bottles[-1].t - first.t >= 4.0, 60, "4 s of messages")
+            reader.wait_for(10, timeout=60)
+            before = stats(yarp_server, port)  # the module's meter starts again here
+            mark = time.time()
+            reader.wait(lambda: reader.bottles[-1].t - mark >= 4.0, 60, "4 s of messages")
+            after = stats(yarp_server, port)  # the rate since the one before
             got = list(reader.bottles)
             rc, elapsed = module.interrupt()
         log = assert_clean_exit(yarp_server, module, rc, elapsed, ["/relay_bridge/out:o"])
         counters = [b.data[0] for b in got]
-        t = totals(log)
-        assert_delivered(counters, t)  # each message reached the reader
-        skipped = t["skipped"]
-        low, high = rate_from_counters(got[10:], skipped, 50.0)
-        assert low <= 50.5 and high >= 49.5, (low, high, skipped)
+        assert_delivered(counters, totals(log))  # each message reached the reader
+        published = after["published"][0] - before["published"][0]
+        skipped = after["published"][1] - before["published"][1]
+        low = after["rate"][0]  # published / seconds, to 2 decimals
+        high = low * (published + skipped) / published
+        assert published >= 150 and low <= 50.5 and high >= 49.5, (low, high, published, skipped, after["text"])
         assert math.isnan(got[-1].data[2])  # on_nan = pass
 
     def test_fixed_rate_skips_overrun_cycles(self, modules, yarp_server, env):

@@ -129,23 +129,6 @@ def assert_clean_exit(server, module: Module, rc, seconds: float, ports=()) -> s
     return log
 
 
-def rate_from_counters(bottles, skipped: int, nominal: float) -> tuple:
-    """(lowest, highest) rate a fixed-rate module can have had, from the
-    message counters (data[0]) and receive times of ``bottles``: between the
-    message received soonest after its cycle in the first second and the
-    same in the last second (a reader held up by the machine only delays a
-    receive time, never advances it), the module published the counter
-    difference and skipped at most ``skipped`` cycles."""
-    per = max(1, int(nominal))
-
-    def soonest(part):
-        return min(part, key=lambda b: b.t - b.data[0] / nominal)
-    a, b = soonest(bottles[:per]), soonest(bottles[-per:])
-    span = b.t - a.t
-    published = b.data[0] - a.data[0]
-    return published / span, (published + skipped) / span
-
-
 def assert_fixed_rate(stamped: list, skipped: int, rate: float) -> None:
     """Messages of a module at a fixed ``rate``, each (its counter, the time
     its module stamped on it by its own clock), held to how the loop runs:
