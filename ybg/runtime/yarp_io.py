@@ -2,6 +2,7 @@
 ports opened and watched, the output message tree written as a Bottle on a
 YARP port or a ROS 1 topic, and the shutdown within 2 s (docs/runtime.md)."""
 
+import collections
 import os
 import queue
 import signal
@@ -191,6 +192,48 @@ class _SourceReader(yarp.PortReader):
         return self.inp.arrive(connection)
 
 
+class Inbox(threading.Thread):
+    """The thread that hands to a bridge what its YARP port inputs read, in
+    the order they read it: one for all the inputs of a bridge, so that the
+    Bottles of one tick, which come one after the other, wake one thread
+    (or none, when it is still busy with the one before), not a thread
+    each. The inputs' connection threads put (input, what it read, arrival,
+    envelope) in its queue, the interpreter's own (``queue.SimpleQueue``: a
+    put, and a get that waits with the interpreter lock let go), or, for an
+    input read newest-only (``Timing.queue`` 1), the input alone, its newest
+    Bottle kept by the input. None stops it."""
+
+    def __init__(self, name):
+        threading.Thread.__init__(self, name=name, daemon=True)
+        self.queue = queue.SimpleQueue()
+        self.done = False  # it has ended
+
+    def run(self):
+        get = self.queue.get
+        try:
+            while True:
+                entry = get()
+                if entry is None:
+                    return
+                if entry.__class__ is tuple:
+                    inp = entry[0]
+                    inp._handle(entry[1], entry[2], entry[3], inp.queued - inp.handled - 1)
+                else:  # the newest Bottle of an input read newest-only, if no entry before took it
+                    inp = entry
+                    try:
+                        item, now, envelope = inp.newest.popleft()
+                    except IndexError:
+                        inp.handled += 1
+                        continue
+                    inp._handle(item, now, envelope, 0)
+                inp.handled += 1
+        finally:
+            self.done = True
+
+    def stop(self):
+        self.queue.put(None)
+
+
 class Input(InputState):
     """One input of a mux read from a YARP port: its own port, read strictly
     (every Bottle, in order; ``Timing.queue`` 1: the newest only), each
@@ -204,15 +247,13 @@ class Input(InputState):
     lock), into the input's one Bottle, checks it against the input's
     layout and the name of its sender against the ports the input takes (a
     set), and queues what it read with its arrival and envelope for the
-    input's own thread, which hands it to the bridge: a connection waits
-    for no more than the read, never for a message to be built or written,
-    and a reader held up falls behind in its queue (BACKLOG), not in the
-    network. The queue is the interpreter's own (``queue.SimpleQueue``: a
-    put, and a get that waits with the interpreter lock let go), so the
-    hand-over costs two calls. No thread ever blocks in a binding call: from
-    YARP 3.12.1 the bindings' BufferedPortBottle keeps the interpreter lock
-    in read(), so a thread blocked there stops every other; ``yarp.Port``
-    lets the lock go in its calls."""
+    bridge's reading thread (Inbox), which hands it to the bridge: a
+    connection waits for no more than the read, never for a message to be
+    built or written, and a reader held up falls behind in the queue
+    (BACKLOG Bottles of an input), not in the network. No thread ever blocks
+    in a binding call: from YARP 3.12.1 the bindings' BufferedPortBottle
+    keeps the interpreter lock in read(), so a thread blocked there stops
+    every other; ``yarp.Port`` lets the lock go in its calls."""
 
     def __init__(self, bridge, spec, local, timeout):
         self.init_state(bridge, spec, timeout)
@@ -227,13 +268,11 @@ class Input(InputState):
         self.bottle = yarp.Bottle()
         self.stamp = yarp.Stamp()
         self.reading = False  # a connection thread is in arrive()
-        # (item, arrival, envelope), oldest first; None: the input closes
-        self.pending = queue.SimpleQueue()
-        self.queued = 0       # put in pending
-        self.handled = 0      # taken from pending by the input's thread
-        self.done = False     # the input's thread has ended
+        self.inbox = None     # the bridge's reading thread (Inbox), once open
+        self.newest = collections.deque(maxlen=1)  # read newest-only: (item, arrival, envelope)
+        self.queued = 0       # put in the inbox
+        self.handled = 0      # of those, taken by the inbox's thread
         self.failed = False
-        self.thread = None
         self.checked = None  # (connections, refused) when the watcher last listed them
 
     def open(self):
@@ -252,8 +291,10 @@ class Input(InputState):
             return False
         where = self.port.where()
         self.contact = yarp.Contact(self.local, "tcp", where.getHost(), where.getPort())
-        self.thread = threading.Thread(target=self._run, name="input " + self.local, daemon=True)
-        self.thread.start()
+        if self.bridge.inbox is None:
+            self.bridge.inbox = Inbox("inputs of " + self.bridge.prefix)
+            self.bridge.inbox.start()
+        self.inbox = self.bridge.inbox
         return True
 
     def arrive(self, connection):
@@ -279,7 +320,11 @@ class Input(InputState):
                     self.bridge.watcher.poke()  # closes the connection now, in its own thread
                 return True
             self.queued += 1
-            self.pending.put((item, now, self.read_envelope()))
+            if self.strict:
+                self.inbox.queue.put((self, item, now, self.read_envelope()))
+            else:  # the newest only, as YARP reads by default
+                self.newest.append((item, now, self.read_envelope()))
+                self.inbox.queue.put(self)
             return True
         except Exception as e:  # an exception into YARP's thread would abort the process
             self.fail(e)
@@ -308,28 +353,9 @@ class Input(InputState):
             self.failed = True
             self.bridge.log("input %s: %s: %s" % (self.source, type(e).__name__, e))
 
-    def _run(self):
-        pending = self.pending
-        handle = self._handle
-        try:
-            while True:
-                item = pending.get()
-                if item is None:
-                    return
-                if not self.strict:
-                    while not pending.empty():  # the newest only, as YARP reads by default
-                        newer = pending.get()
-                        if newer is None:
-                            return
-                        self.handled += 1  # the older one, never handled
-                        item = newer
-                handle(item[0], item[1], item[2], self.queued - self.handled - 1)
-                self.handled += 1
-        finally:
-            self.done = True
-
     def _handle(self, item, now, envelope, behind):
-        """In the input's thread: what a connection read, to the bridge."""
+        """In the bridge's reading thread: what a connection read, to the
+        bridge; ``behind``: the input's Bottles queued after it."""
         if self.bridge.stopping:
             return
         try:
@@ -361,16 +387,17 @@ class Input(InputState):
 
     def interrupt(self):
         self.port.interrupt()
-        self.pending.put(None)
+        if self.inbox is not None:
+            self.inbox.stop()
 
     def settled(self):
         """No Bottle waits to be handled and none is being read or handled."""
-        return not self.reading and (self.done or self.handled == self.queued)
+        return not self.reading and (self.inbox is None or self.inbox.done or self.handled == self.queued)
 
     def close(self):
         self.port.close()
-        if self.thread is not None:
-            self.thread.join(0.2)
+        if self.inbox is not None:
+            self.inbox.join(0.2)
 
 
 class _Reader(yarp.BottleCallback):
@@ -648,6 +675,7 @@ class YarpBridge(Bridge):
     its RPC port answers `help`, `stats` and `quit`."""
 
     rpc = None
+    inbox = None  # the thread its YARP port inputs hand what they read to (Inbox)
 
     def make_input(self, mux, spec, local, timeout):
         return TopicInput(self, spec, local, timeout) if spec.kind == "ros1" else Input(self, spec, local, timeout)
