@@ -6,6 +6,7 @@
 // failed check prints its line and what was compared; the exit status is the
 // number of failures.
 #include "ybgc_runtime.hpp"
+#include "ybgc_internal.hpp"
 
 #include <yarp/conf/version.h>
 
@@ -351,6 +352,35 @@ void testAppendAndEnvelope()
     CHECK(ctx.envelopeNs({1}) == 99);  // none of them has one: the wall clock
 }
 
+/// An envelope's text as a port carries it (yarp::os::Stamp::write: "%d
+/// %.*g"), read as yarp::os::Stamp::read reads it.
+void testStampTime()
+{
+    const auto time = [](const std::string& text, double& t) {
+        return ybgc::stampTime(yarp::os::Bytes(const_cast<char*>(text.data()), text.size()), t);
+    };
+    double t = -1.0;
+    CHECK(time("5 1234.5678", t) && t == 1234.5678);
+    CHECK(time("30 1795938258.98688", t) && t == 1795938258.98688);
+    CHECK(time("0 1700000000.25 extra", t) && t == 1700000000.25);
+    t = -1.0;
+    CHECK(!time("", t) && t == -1.0);      // no envelope
+    CHECK(!time("-1 5.0", t) && t == -1.0);  // an invalid Stamp
+    CHECK(!time("(1 2)", t) && !time("7", t) && !time("abc 1.0", t));  // another kind of envelope
+    CHECK(!ybgc::stampTime(yarp::os::Bytes(nullptr, 0), t));
+    // as Stamp::read's sscanf("%d %lg") reads any text
+    for (const char* text : {"5 1234.5678", " 5  1e-3", "5.5 1.0", "5x 1.0", "5 x", "+3 -2.5", "2147483647 1.5",
+                             "2147483648 1.5", "7 nan", "7 inf", "-0 3", "0x10 2", "12\t0.25\n", "1 0x1p-2"}) {
+        int seq = -1;
+        double expected = 0.0;
+        const bool valid = std::sscanf(text, "%d %lg", &seq, &expected) == 2 && seq >= 0;
+        double got = 0.0;
+        const bool ok = time(text, got);
+        check(ok == valid && (!ok || got == expected || (std::isnan(got) && std::isnan(expected))), "stampTime",
+              __LINE__, text);
+    }
+}
+
 
 // --- which Bottles a message uses, driven by hand ------------------------------
 
@@ -404,6 +434,25 @@ struct Rig
     std::vector<std::unique_ptr<ybgc::InputState>> inputs;
     std::unique_ptr<ybgc::Matcher> matcher;
 };
+
+/// The room of a Bottle's values goes back to its input once a newer Bottle
+/// is used: the next Bottle is read into it, no allocation.
+void testRoomOfValuesKept()
+{
+    Rig r(1, true, false, {});
+    ybgc::InputState& in = *r.inputs[0];
+    Mux scratch = reals({1.0, 2.0, 3.0});
+    ybgc::accept(in, scratch, false, 0.0, at(1.0), r.spec.queue);
+    r.matcher->take();
+    scratch = reals({4.0, 5.0, 6.0});
+    const Element* room = scratch.data();
+    ybgc::accept(in, scratch, false, 0.0, at(1.1), r.spec.queue);
+    r.matcher->take();  // the second Bottle is used: the first one's room is kept
+    CHECK(in.latest.values.data() == room && in.latest.values.size() == 3 && in.latest.values[2].real == 6.0);
+    Mux next = reals({7.0});
+    ybgc::accept(in, next, false, 0.0, at(1.2), r.spec.queue);
+    CHECK(next.capacity() >= 3);  // the room the input gives back, for the next Bottle
+}
 
 void testMatchingTriggerAllByEnvelope()
 {
@@ -561,6 +610,8 @@ int main()
     testCheckValues();
     testRows();
     testAppendAndEnvelope();
+    testStampTime();
+    testRoomOfValuesKept();
     testMatchingTriggerAllByEnvelope();
     testMatchingByArrival();
     testTriggerAnyAndSampledInputs();

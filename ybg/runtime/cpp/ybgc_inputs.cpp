@@ -8,7 +8,11 @@
 #include <chrono>
 #include <cmath>
 #include <cstddef>
+#include <cerrno>
+#include <climits>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <functional>
 #include <mutex>
 #include <string>
@@ -21,7 +25,6 @@
 #include <yarp/os/Network.h>
 #include <yarp/os/PortInfo.h>
 #include <yarp/os/PortReport.h>
-#include <yarp/os/Stamp.h>
 
 namespace ybgc {
 
@@ -54,6 +57,7 @@ bool accept(InputState& in, Mux& values, bool hasEnvelope, double envelope, Stea
     in.queue.emplace_back();
     Pending& entry = in.queue.back();
     entry.data.values.swap(values);
+    values.swap(in.spare);  // the next Bottle is read into the room of one that was used
     entry.data.hasEnvelope = hasEnvelope;
     entry.data.envelope = hasEnvelope ? envelope : 0.0;
     entry.arrival = arrival;
@@ -122,6 +126,34 @@ std::string foreignText(const std::string& source, const std::string& other)
            + source + " the address of " + other + ", or the connection was made by hand): its Bottles are refused "
            + "(dropped and counted), the connection closed and " + source + " tried again; to take them, `accept` "
            + "it in the config or give --accept " + source + "=" + other + "; said once";
+}
+
+bool stampTime(const yarp::os::Bytes& envelope, double& time)
+{
+    // as yarp::os::Stamp::read reads the text of an envelope, sscanf's
+    // "%d %lg" (an int, then a double, each after any blanks), valid with a
+    // sequence number from 0; with strtol and strtod, which sscanf uses,
+    // without its parsing of the format (a tenth of the instructions)
+    if (envelope.get() == nullptr || envelope.length() == 0) {
+        return false;
+    }
+    char text[64];  // a stamp's text is some 30 characters (no allocation for it)
+    const std::size_t n = std::min(envelope.length(), sizeof text - 1);
+    std::memcpy(text, envelope.get(), n);
+    text[n] = '\0';
+    char* end = nullptr;
+    errno = 0;
+    const long seq = std::strtol(text, &end, 10);
+    if (end == text || errno == ERANGE || seq < 0 || seq > INT_MAX) {
+        return false;
+    }
+    char* after = nullptr;
+    const double t = std::strtod(end, &after);
+    if (after == end) {
+        return false;
+    }
+    time = t;
+    return true;
 }
 
 bool refuseForeign(InputState& in, const std::string& other, bool bottle)
@@ -231,6 +263,9 @@ void Matcher::use(InputState& in, std::size_t k)
 {
     in.unused += k;
     in.queue.erase(in.queue.begin(), in.queue.begin() + static_cast<std::ptrdiff_t>(k));
+    if (in.spare.capacity() < in.latest.values.capacity()) {
+        in.spare.swap(in.latest.values);  // its room, kept for the input's next Bottle (accept)
+    }
     in.latest = std::move(in.queue.front().data);
     in.hasLatest = true;
     in.queue.pop_front();
@@ -423,8 +458,6 @@ void Input::onRead(SourcedBottle& in)
         ++unused;
         return;
     }
-    yarp::os::Stamp stamp;
-    const bool hasEnvelope = port_.getEnvelope(stamp) && stamp.isValid();
     std::string why;
     const bool ok = parseBottle(bottle, spec, shared_.dropNan, scratch_, why, items_);
     std::lock_guard<std::mutex> lock(shared_.mutex);
@@ -433,7 +466,7 @@ void Input::onRead(SourcedBottle& in)
         refuse(*this, why);
         return;
     }
-    take(scratch_, hasEnvelope, hasEnvelope ? stamp.getTime() : 0.0, now);
+    take(scratch_, in.hasEnvelope, in.hasEnvelope ? in.envelope : 0.0, now);
 }
 
 void Input::onFrame(const std::string& source, Frame& frame, bool hasEnvelope, double envelope, int pending,

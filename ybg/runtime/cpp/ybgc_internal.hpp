@@ -23,6 +23,7 @@
 
 #include <yarp/os/Bottle.h>
 #include <yarp/os/BufferedPort.h>
+#include <yarp/os/Bytes.h>
 #include <yarp/os/ConnectionReader.h>
 #include <yarp/os/ConnectionWriter.h>
 #include <yarp/os/Contact.h>
@@ -62,22 +63,36 @@ struct Shared
     const char* module = nullptr;   // the bridge's name, said by the threads of its ports' callbacks (tModule)
 };
 
+/// The time of an envelope stamp in the text YARP carries it as ("SEQ
+/// TIME", yarp::os::Stamp::write), read as Stamp::read reads it: false when
+/// it is none (no envelope, another kind of envelope, a negative sequence
+/// number: an invalid Stamp).
+bool stampTime(const yarp::os::Bytes& envelope, double& time);
+
 /// An input Bottle with the name of the port that sent it: YARP's name for
 /// the connection's remote end (what YARP prints as "Receiving input from"),
-/// which is the sender's own name, whatever name the connection was asked for.
+/// which is the sender's own name, whatever name the connection was asked
+/// for; and the time of its envelope stamp, read from the connection as it
+/// brought it (the envelope the port keeps for this Bottle, without
+/// reading it again through a Stamp: YARP's getEnvelope() makes a
+/// connection reader for it, six allocations a Bottle).
 class SourcedBottle : public yarp::os::Portable
 {
 public:
     bool read(yarp::os::ConnectionReader& connection) override
     {
         source = connection.getRemoteContact().getName();
-        return bottle.read(connection);
+        const bool ok = bottle.read(connection);
+        hasEnvelope = stampTime(connection.readEnvelope(), envelope);
+        return ok;
     }
 
     bool write(yarp::os::ConnectionWriter& connection) const override { return bottle.write(connection); }
 
     yarp::os::Bottle bottle;
     std::string source;
+    bool hasEnvelope = false;
+    double envelope = 0.0;  // its envelope stamp's time, seconds
 };
 
 /// An admin command to the port at `where` (its contact: no name server

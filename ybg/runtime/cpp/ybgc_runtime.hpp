@@ -435,6 +435,7 @@ struct InputState
     std::deque<Pending> queue;          // accepted, not used yet (oldest first)
     Latest latest;                      // what messages use (hasLatest: there is one)
     bool hasLatest = false;
+    Mux spare;                          // the room of values no longer used, for the next Bottle (accept)
     SteadyClock::time_point arrival;    // of the newest accepted Bottle
     std::atomic<std::uint64_t> received{0};
     std::atomic<std::uint64_t> dropped{0};
@@ -451,7 +452,8 @@ struct InputState
     bool reportedCut = false;
 };
 
-/// A Bottle the input accepted, its values moved out of `values`: queued
+/// A Bottle the input accepted, its values moved out of `values` (which
+/// gets the room of values no longer used, InputState::spare): queued
 /// (at most `queue` kept: the oldest is then unused), the input fresh (said
 /// when it was stale; a Bottle wider than InputSpec::reads is said once).
 /// True when the input was fresh before it.
