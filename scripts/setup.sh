@@ -58,6 +58,8 @@ if [ -z "${YBG_SETUP_MINIMAL:-}" ]; then
   # the tests build many small CMake projects that compile the same runtime
   # library: ccache compiles it once per YARP version (tests/conftest.py)
   want_apt ccache
+  # the cost guard counts the C++ module's system calls (tests/test_cost.py)
+  want_apt strace
   # ROS 1 (Noetic-era, Debian) for YARP's own ROS 1 bridge (to_ros = true).
   want_apt ros-core python3-rospy python3-sensor-msgs python3-geometry-msgs python3-tf2-msgs \
            python3-std-msgs ros-sensor-msgs ros-std-msgs ros-geometry-msgs ros-tf2-msgs

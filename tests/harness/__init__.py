@@ -30,6 +30,8 @@ Modules
     services    commands: YARP RPC and rclpy service peers, a rig of modules of commands
     compose     a composed robot (examples/icub_robot): its producers, subscribers and checks
     variant     a second build of ybg_demo_msgs with one field more (one type name, two type hashes)
+    cost        what one message costs each backend's module, in counts that do not depend
+                on the machine's load (the cost guard, tests/test_cost.py; count_allocations.c)
 
 Behaviour
     programs    the programs the tests run, and the configs each backend builds
