@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from pathlib import Path
 from typing import Optional
 
@@ -289,6 +290,7 @@ def write(data: dict, docs: Path, json_path: Path) -> Path:
     docs = Path(docs)
     docs.mkdir(parents=True, exist_ok=True)
     out = docs / "benchmarks.md"
+    before = out.read_text() if out.exists() else ""
     L = []
     add = L.append
     mode = data.get("mode", "full")
@@ -313,7 +315,10 @@ def write(data: dict, docs: Path, json_path: Path) -> Path:
         "generated C++ modules (about 30 s, under `bench/build/`); every run regenerates the "
         "modules from `bench/configs/` with the working tree's ybgc. `--subjects cpp,relay`, "
         "`--skip-latency`, `--skip-fixed`, `--skip-memory` run a part; `--report-only` rewrites "
-        "this page from the JSON; `bench/profile.py SUBJECT` profiles one module while it works. "
+        "this page from the JSON; `bench/profile.py SUBJECT` profiles one module while it works "
+        "(`--callgrind`: the instructions a C++ module runs a tick), `bench/compare.py` runs builds of "
+        "other commits in the same rounds, and tests/test_cost.py counts what a message costs each "
+        "module (below, \"What a message costs\"). "
         "The Python packages it needs are the `bench` extra (`pip install -e '.[bench]'`, "
         "installed by `scripts/setup.sh`): matplotlib for the plots, py-spy for profiling; "
         "CPU and memory are read from /proc.")
@@ -334,6 +339,9 @@ def write(data: dict, docs: Path, json_path: Path) -> Path:
     if src:
         mod = ", ".join(src.get("modified") or []) or "none"
         add(f"| measured | commit {src.get('commit')}; files of ybg/ modified in the working tree: {mod} |")
+        note = kept_note(before, src.get("commit"))
+        if note:
+            add(note)
     add("")
     add("The machine has 2 cores, shared with other work: every process of a subject (producer, "
         "module, consumer, name server) competes for them, so the tails (p99, max) move from run "
@@ -530,8 +538,33 @@ def write(data: dict, docs: Path, json_path: Path) -> Path:
             f"{c['growth_per_field_ratio_largest_to_smallest']:.2f} (1.0 = linear) |")
         add("")
     text = "\n".join(L).rstrip() + "\n"
+    # the sections other benches wrote (images, compose, services: each
+    # puts its own back with --report-only), kept as they are
+    own = set(re.findall(r"^## .*$", text, re.M))
+    for title, section in sections(before):
+        if title not in own:
+            text = text.rstrip() + "\n\n" + section.rstrip() + "\n"
     out.write_text(text)
     return out
+
+
+def sections(page: str) -> list:
+    """[(its "## " line, its text)] of each section of a page."""
+    starts = [m.start() for m in re.finditer(r"^## ", page, re.M)] + [len(page)]
+    return [(page[a:b].splitlines()[0], page[a:b]) for a, b in zip(starts, starts[1:])]
+
+
+def kept_note(page: str, commit) -> str:
+    """The row of the page's run table that says why the runtime's changes
+    since the run were not measured (tests/test_benchmarks_page.py), when
+    the page is written again from the same run (--report-only); a new run
+    leaves it out."""
+    head = page.split("\n## ", 1)[0]
+    measured = re.search(r"^\| measured \| commit (\S+?);", head, re.M)
+    note = re.search(r"^\| not rerun for \|.*\|$", head, re.M)
+    if commit and measured and note and measured.group(1) == commit:
+        return note.group(0)
+    return ""
 
 
 def unique(items) -> list:

@@ -183,9 +183,10 @@ class Rig:
     """The processes of one subject on one shape: source, module, sink."""
 
     def __init__(self, ctx: dict, subject: str, shape: Shape, rate: Optional[float],
-                 stall: bool = False, record: bool = True):
+                 stall: bool = False, record: bool = True, wrap: Optional[list] = None):
         self.ctx, self.subject, self.shape, self.rate = ctx, subject, shape, rate
         self.stall, self.record = stall, record
+        self.wrap = list(wrap or [])  # a command the module runs under (bench/profile.py: valgrind)
         self.module: Optional[mw.Proc] = None
         self.source: Optional[h.Source] = None
         self.sink: Optional[h.Sink] = None
@@ -285,6 +286,7 @@ class Rig:
                 self.module = mw.Proc([h.PYTHON, info[sh.name], "--ros-args", *params],
                                       env=env, name=f"ros2_node{tag}", die_with_parent=True)
             if self.module is not None:
+                self.module.argv = [str(a) for a in self.wrap] + self.module.argv
                 self.module.start()
             self.sink.wait_connected(timeout=30, proc=self.module)
             self.source.wait_outputs(1, timeout=30, proc=self.module)
