@@ -408,8 +408,14 @@ def write(data: dict, docs: Path, json_path: Path) -> Path:
         "no statistics and prints nothing. The C++ module's CPU at 1 kHz is set against it "
         "(targets): what the module spends beyond it is the cost of its own code, not of "
         "reading strictly. `relay-strict` runs in the latency stage only (it is event-driven).")
-    add("- **CPU %** of the module process over the measured run (user + system, all threads, "
-        "100 % = one core); **RSS** from /proc (VmRSS; peak = VmHWM).")
+    if data.get("cpu_window") == "source":
+        add("- **CPU %** of the module process (user + system, all threads, 100 % = one core) over "
+            "the time the producer ran: its CPU until its last message counts, not the wait for "
+            "messages a subject lost (a relay that lost some would look cheaper); **RSS** from /proc "
+            "(VmRSS; peak = VmHWM).")
+    else:
+        add("- **CPU %** of the module process over the measured run (user + system, all threads, "
+            "100 % = one core); **RSS** from /proc (VmRSS; peak = VmHWM).")
     add("- Before each measured run a warm-up run (discarded) lets connections and buffers "
         "settle.")
     add("")

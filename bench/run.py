@@ -503,12 +503,17 @@ def latency_stage(ctx: dict, mode: Mode, progress: Progress) -> list:
                     c0, t0 = (h.cpu_seconds(pid) if pid else None), time.monotonic()
                     p0 = (h.cpu_seconds(rig.source.pid), h.cpu_seconds(rig.sink.pid))
                     run = rig.source.run(per_round, rate)
+                    # the CPU % is over the time the source ran: the CPU the
+                    # module spends after it (the last messages) counts, the
+                    # wait for messages that never come (a relay that lost
+                    # some waits the sink's quiet time) does not
+                    ran = time.monotonic() - t0
                     rig.ticks_total += run["ticks"]
                     expected = run["ticks"] * (sh.ports if rig.per_block else 1)
                     rig.sink.settle(expected)
                     if pid and c0 is not None:
                         cpu[s][0] += (h.cpu_seconds(pid) or c0) - c0
-                    cpu[s][1] += time.monotonic() - t0
+                    cpu[s][1] += ran
                     p1 = (h.cpu_seconds(rig.source.pid), h.cpu_seconds(rig.sink.pid))
                     for k in (0, 1):
                         if p0[k] is not None and p1[k] is not None:
@@ -871,6 +876,8 @@ def main(argv=None) -> int:
                          or (ros2_error if s in ROS2_OUT else None)} for s in subjects},
         "stall": {"every_s": STALL_EVERY, "for_s": STALL_FOR},
         "source": source_state(),
+        # the latency stage's CPU % is over the time the producer ran (latency_stage)
+        "cpu_window": "source",
     }
     ctx = {"tools": built["tools"], "subjects": built["subjects"], "ros2_ok": ros2_error is None,
            "ros2_error": ros2_error}
