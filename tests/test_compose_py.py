@@ -240,7 +240,7 @@ def test_ros2_commands_among_the_bridges(tmp_path):
 PY_CONFIGS = {
     "pa": "[output]\nport = /pa/out:o\nrate = 50\n\n[mux m]\nports = /src/a:o (float64 x3)\n"
           "convert = deg_to_rad\n\n[message]\nv = m\n",
-    "pb": "[output]\nport = /pb/out:o\n\n[mux m]\nports = /src/b:o\n\n[message]\nn = counter\nv = m\n",
+    "pb": "[output]\nport = /pb/out:o\ntimeout = 30\n\n[mux m]\nports = /src/b:o\n\n[message]\nn = counter\nv = m\n",
     "pc": "[output]\nport = /pc/out:o\nrate = 20\n\n[mux m]\nports = /src/c:o (int32 x2)\n\n[message]\nv = m\n",
     "pd": "[output]\nport = /pd/out:o\n\n[mux m]\nports = /src/d:o\n\n[message]\nv = m\n",
 }

@@ -47,6 +47,10 @@ CUT = 5.0
 FLOOD = 10.0
 #: a Bottle on its way when its producer was stopped, never reported sent
 SENT_UNSAID = 1
+#: for a test that counts stale periods (0) but is not about staleness: an
+#: input stale only after 30 s without data, whatever a loaded machine takes
+#: between the test's steps
+NEVER_STALE = ("--timeout", "30")
 #: growth of a module's resident memory that still counts as flat, in kB
 #: (an allocator's arenas; a queue that grew with the backlog would pass it)
 FLAT_KB = 8 * 1024
@@ -390,7 +394,8 @@ def fault_module_killed(rig: Rig, modules) -> dict:
     producer is connected again by it, the consumer finds its output again;
     every Bottle written to the new module comes out, its counter from 0."""
     with contextlib.ExitStack() as stack:
-        module, reader, producer = relay(stack, rig, modules, rate=None)
+        # (never stale within the test: the totals count stale periods, 0)
+        module, reader, producer = relay(stack, rig, modules, *NEVER_STALE, rate=None)
         producer.wait_outputs(1)
         reader.wait_connected()
         for k in range(5):
@@ -501,7 +506,8 @@ def restart_beside_other(stack: contextlib.ExitStack, rig: Rig, modules):
     module, reader, producer, the contact OTHER held before the restart)."""
     other = rig.place("producers", YarpProducer(rig.env("producers"), OTHER, bottles=FOREIGN, rate=50))
     stack.enter_context(other)
-    module, reader, producer = relay(stack, rig, modules, rate=None, started=False)
+    # (never stale within the test: the totals count stale periods, 0)
+    module, reader, producer = relay(stack, rig, modules, *NEVER_STALE, rate=None, started=False)
     reader.wait_connected()
     held = rig.contact(OTHER)
     rig.name_server.kill()

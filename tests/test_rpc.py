@@ -39,6 +39,8 @@ name = rpc_bridge
 
 [output]
 port = /rpc_bridge/out:o
+# never stale within a test (stats count stale periods: 0)
+timeout = 30
 
 [mux arm]
 ports = /rpcsrc/arm:o (float64 x2)

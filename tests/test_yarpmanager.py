@@ -30,6 +30,8 @@ name = app_bridge
 [output]
 port = /app_bridge/out:o
 connect = /appsink/in:i
+# never stale within the test (its stats count stale periods: 0)
+timeout = 30
 
 [mux arm]
 ports = /appsrc/arm:o (float64 x2)
