@@ -126,6 +126,7 @@ def test_tutorial_package_built_by_colcon(mw, tmp_path):
     run_tutorial(mw, ws, "ybg_demo_msgs/msg/MotorsInertial")
 
 
+@pytest.mark.timeout(900)  # a message package built by CMake and rosidl, then the node's
 def test_message_package_and_node_in_one_workspace(mw, tmp_path):
     """A user's own message package beside the node's in one workspace, both
     built by one ``colcon build`` with the wheels' rosidl (the message package

@@ -114,6 +114,7 @@ def _print_logs(request):
         print(f"---- log of {node.name}:\n{node.log_text()[-6000:]}")
 
 
+@pytest.mark.timeout(900)  # the first test builds the composed module (fixture icub)
 class TestComposedIcub:
     """examples/icub_robot, 14 configs, one native process (the shared fixture)."""
 
