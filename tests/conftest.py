@@ -98,6 +98,8 @@ def pytest_configure(config):
                                        "from `version` (a tuple) on only")
     config.addinivalue_line("markers", "yarp_ends: run on the oldest and the newest YARP release of the "
                                        "matrix only (docs/yarp-versions.md)")
+    config.addinivalue_line("markers", "builds: the test may build the session's C++ modules through "
+                                       "request.getfixturevalue (a build's timeout, as a test with the fixture)")
     config.addinivalue_line("markers", "slow: a long test (real middleware, seconds or more); "
                                        "deselect with -m 'not slow'")
     # A default per-test timeout, so that a hung middleware process cannot
@@ -122,7 +124,8 @@ def pytest_collection_modifyitems(config, items):
             raise pytest.UsageError("property tests not derandomized, or with an example database, under the ci "
                                     "profile (tests/harness/properties.py): " + ", ".join(random))
     for item in items:
-        if BUILD_FIXTURES & set(getattr(item, "fixturenames", ())) and item.get_closest_marker("timeout") is None:
+        builds = BUILD_FIXTURES & set(getattr(item, "fixturenames", ())) or item.get_closest_marker("builds")
+        if builds and item.get_closest_marker("timeout") is None:
             item.add_marker(pytest.mark.timeout(BUILD_TIMEOUT))
 
 

@@ -22,6 +22,9 @@ from harness.programs import DIAGNOSTICS_CONFIG as CONFIG
 from harness.ros2 import QosSubscriber, statuses, yarp_and_ros2
 from harness.yarp import YarpProducer
 
+#: the cpp modules come from the session's build (request.getfixturevalue)
+pytestmark = pytest.mark.builds
+
 
 @pytest.fixture
 def mw(ros2_domain):

@@ -35,7 +35,7 @@ from ybg.compiler.pipeline import compile_text
 from ybg.runtime import core
 
 # on YARP 3.5 and 4.0.0: 3.12.3 is the version tests' (docs/yarp-versions.md)
-pytestmark = pytest.mark.yarp_ends
+pytestmark = [pytest.mark.yarp_ends, pytest.mark.builds]
 
 SRC = "/t/src:o"
 OTHER = "/t/other:o"

@@ -33,6 +33,9 @@ from harness.services import (SERVICE_EXAMPLES, RpcClient, RpcServer, ServiceCli
 from harness.yarp import YarpServer, rpc
 from ybg.lower import services as texts
 
+#: the cpp modules come from the session's build (request.getfixturevalue)
+pytestmark = pytest.mark.builds
+
 BACKENDS = ("cpp", "ros2")
 TRIGGER = "std_srvs/srv/Trigger"
 SET_BOOL = "std_srvs/srv/SetBool"

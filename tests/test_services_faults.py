@@ -36,6 +36,9 @@ from harness.services import (RpcClient, RpcServer, ServiceClient, ServiceServer
 from harness.yarp import YarpServer
 from ybg.lower import services as texts
 
+#: the cpp modules come from the session's build (request.getfixturevalue)
+pytestmark = pytest.mark.builds
+
 KEY = "service_faults"
 LOOK_AT = "ybg_demo_msgs/srv/LookAt"
 ROS_SERVED = "/faults/look_at"          # served by the module, calls the YARP port
