@@ -8,6 +8,12 @@ the two round trips it is made of.
     .venv/bin/python bench/services.py --quick        a smoke run: bench/results/quick/services.json
     .venv/bin/python bench/services.py --report-only [--results FILE]
                                                       the docs section from a JSON
+    .venv/bin/python bench/services.py --profile cpp|relay [--calls N]
+                                                      what one call costs a bridge: the
+                                                      instructions of its threads (callgrind,
+                                                      counted after a warm-up, the same on a
+                                                      busy machine as on a quiet one) and its
+                                                      threads' context switches, per call
 
 Everything runs on 127.0.0.1, each subject with its own yarpserver and ROS 2
 domain (the test suite's helpers, tests/harness/, through bench/blocks.py).
@@ -133,8 +139,9 @@ class Rig:
     """The processes of one subject, with a name server and a ROS 2 domain
     of its own: [YARP RPC server] <- [bridge] <- caller (run per measure)."""
 
-    def __init__(self, ctx: dict, subject: str):
+    def __init__(self, ctx: dict, subject: str, wrap: Optional[list] = None):
         self.ctx, self.subject = ctx, subject
+        self.wrap = list(wrap or [])  # a command the bridge runs under (--profile: valgrind)
         self.server: Optional[mw.YarpServer] = None
         self.domain: Optional[mw.Ros2Domain] = None
         self.rpc: Optional[mw.Proc] = None
@@ -170,6 +177,7 @@ class Rig:
                 self.bridge = mw.Proc([h.PYTHON, self.ctx["subjects"]["ros2"]["path"]], env=self.env,
                                       name="ros2_node", die_with_parent=True)
             if self.bridge is not None:
+                self.bridge.argv = [str(a) for a in self.wrap] + self.bridge.argv
                 self.bridge.start()
         except BaseException:
             self.stop()
@@ -340,6 +348,86 @@ def throughput_stage(ctx: dict, args, subjects: tuple) -> dict:
     for s, err in errors.items():
         out.setdefault(s, {"error": err})
     return out
+
+
+# --------------------------------------------------------------------------
+# what one call costs a bridge
+
+
+def switches(pid: int) -> dict:
+    """The context switches of process ``pid`` so far, summed over its
+    threads: {"voluntary", "involuntary", "threads"}."""
+    out = {"voluntary": 0, "involuntary": 0, "threads": 0}
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        try:
+            text = (task / "status").read_text()
+        except OSError:
+            continue
+        out["threads"] += 1
+        for line in text.splitlines():
+            if line.startswith("voluntary_ctxt_switches:"):
+                out["voluntary"] += int(line.split()[1])
+            elif line.startswith("nonvoluntary_ctxt_switches:"):
+                out["involuntary"] += int(line.split()[1])
+    return out
+
+
+def profile(ctx: dict, subject: str, calls: int, top: int = 25) -> dict:
+    """``subject`` (cpp, relay) per call: its threads' context switches
+    (a run of ``calls`` calls, one caller), then its instructions under
+    callgrind (counted from the end of a warm-up, user space only: the
+    kernel's share is not in them)."""
+    out: dict = {"subject": subject, "calls": calls}
+    rig = Rig(ctx, subject).start()
+    try:
+        rig.measure(100, 1, warmup=100)
+        before = switches(rig.bridge.pid)
+        m = rig.measure(calls, 1, warmup=0)
+        after = switches(rig.bridge.pid)
+        n = len(m["times"])
+        out["threads"] = after["threads"]
+        out["voluntary_switches_per_call"] = (after["voluntary"] - before["voluntary"]) / n
+        out["involuntary_switches_per_call"] = (after["involuntary"] - before["involuntary"]) / n
+        out["median_us"] = figures(m["times"])["median_us"]
+        out["cpu_us_per_call"] = 1e6 * m["cpu_s"]["bridge"] / n if m["cpu_s"].get("bridge") is not None else None
+    finally:
+        rig.stop()
+    out_dir = Path(ctx["tmp"])
+    stem = out_dir / f"{subject}.callgrind"
+    wrap = ["valgrind", "--tool=callgrind", "--instr-atstart=no", "--dump-instr=no",
+            f"--callgrind-out-file={stem}.%p"]
+    rig = Rig(ctx, subject, wrap=wrap).start()
+    try:
+        rig.measure(50, 1, warmup=50)
+        mw.subprocess.run(["callgrind_control", "-i", "on", str(rig.bridge.pid)], check=True, capture_output=True)
+        m = rig.measure(calls, 1, warmup=0)
+        mw.subprocess.run(["callgrind_control", "-d", str(rig.bridge.pid)], check=True, capture_output=True)
+        n = len(m["times"])
+    finally:
+        rig.stop()
+    dumps = sorted(out_dir.glob(stem.name + ".*.1"))
+    if not dumps:
+        raise BenchError(f"no callgrind dump in {out_dir}")
+    text = mw.subprocess.run(["callgrind_annotate", "--inclusive=yes", str(dumps[-1])], capture_output=True,
+                             text=True, check=True).stdout
+    total = next(int(line.split()[0].replace(",", "")) for line in text.splitlines()
+                 if line.strip().endswith("PROGRAM TOTALS"))
+    out["instructions_per_call"] = total / n
+    out["top"] = []
+    for line in [x for x in text.splitlines() if "%)" in x and "PROGRAM TOTALS" not in x][:top]:
+        count, rest = line.split("(", 1)
+        name = rest.split(")", 1)[1].strip().split(" [")[0].replace("???:", "")
+        out["top"].append((int(count.replace(",", "")) / n, name[:110]))
+    return out
+
+
+def print_profile(p: dict) -> None:
+    say(f"{p['subject']}: {p['calls']} calls; {p['instructions_per_call']:,.0f} instructions a call "
+        f"(callgrind); {p['voluntary_switches_per_call']:.2f} voluntary and "
+        f"{p['involuntary_switches_per_call']:.2f} involuntary context switches a call, {p['threads']} threads; "
+        f"median {us(p['median_us'])}, CPU {us(p['cpu_us_per_call'])} a call")
+    for count, name in p["top"]:
+        say(f"  {count:10,.0f}  {name}")
 
 
 # --------------------------------------------------------------------------
@@ -540,6 +628,8 @@ def main(argv=None) -> int:
     ap.add_argument("--docs-file", type=Path, default=DOCS)
     ap.add_argument("--build-dir", type=Path, default=BENCH / "build" / "services")
     ap.add_argument("--report-only", action="store_true", help="the docs section from the JSON, run nothing")
+    ap.add_argument("--profile", choices=BRIDGES[:2], help="what one call costs this bridge: instructions "
+                    "(callgrind) and context switches a call; --calls calls (default 1000)")
     args = ap.parse_args(argv)
 
     mode = "quick" if args.quick else "full"
@@ -548,6 +638,15 @@ def main(argv=None) -> int:
     args.calls_each = args.calls_each or (50 if args.quick else 500)
     json_path = args.results or (BENCH / "results" / ("quick" if args.quick else "") / "services.json")
     write_docs = args.docs or mode == "full"
+
+    if args.profile:
+        mw.require_yarp()
+        mw.require_ros2()
+        built = build(args.build_dir, (args.profile,))
+        tmp = mw.TmpDir("ybg-bench-services-")
+        ctx = {"tools": built["tools"], "subjects": built["subjects"], "tmp": str(tmp.path)}
+        print_profile(profile(ctx, args.profile, args.calls or 1000))
+        return 0
 
     if args.report_only:
         data = json.loads(json_path.read_text())

@@ -168,7 +168,7 @@ import importlib.util, json, math, sys, time
 import yarp
 import os
 sys.path.insert(0, os.path.dirname(os.path.abspath(sys.argv[1])))  # the runtime beside the module
-from ybgc_runtime.yarp_io import parse_bottle
+from ybgc_runtime.yarp_inputs import parse_bottle
 yarp.Network.init()
 out, inp = yarp.BufferedPortBottle(), yarp.BufferedPortBottle()
 inp.setStrict(True)

@@ -122,7 +122,7 @@ def qos_line(kind: str, topic: str, peer: str, policy: str, theirs: str, ours: s
 
 def cpp_text(name: str) -> str:
     """The text of the C++ runtime's string constant ``name`` (adjacent literals joined)."""
-    source = (ROOT / "ybg" / "runtime" / "cpp" / "ybgc_ros2.cpp").read_text()
+    source = (ROOT / "ybg" / "runtime" / "cpp" / "ybgc_ros2_events.cpp").read_text()
     m = re.search(rf"{name} =\s*((?:\"[^\"]*\"\s*)+);", source)
     assert m, name
     return "".join(re.findall(r'"([^"]*)"', m.group(1)))

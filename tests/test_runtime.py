@@ -4,7 +4,7 @@
   converters, slices, counters, times, and the bridge's matching of Bottles
   into messages, its queues and its freshness, driven by hand with the
   arrival times and envelopes a test chooses (nothing waits on a clock).
-- The reading of input Bottles (``ybg.runtime.yarp_io.parse_bottle``) on
+- The reading of input Bottles (``ybg.runtime.yarp_inputs.parse_bottle``) on
   real YARP Bottles, with no name server.
 - How the runtime reaches a module: its files beside the module (the
   library's own, under a banner), its version, a module refusing a runtime of another
@@ -420,7 +420,7 @@ def bottle(text):
 
 
 def test_parse_bottle_layouts():
-    from ybg.runtime.yarp_io import parse_bottle
+    from ybg.runtime.yarp_inputs import parse_bottle
 
     # undeclared: any number of numbers, each as it came (an integer stays one)
     values, why = parse_bottle(bottle("1 2.5 -3"), None, False, False)
@@ -501,7 +501,7 @@ def test_a_ros2_duration_is_read_as_seconds():
 
 
 def parse_bottle_of(text):
-    from ybg.runtime.yarp_io import parse_bottle
+    from ybg.runtime.yarp_inputs import parse_bottle
     return parse_bottle(bottle(text), None, False, False)
 
 
@@ -611,7 +611,7 @@ def test_thesis_demonstrations_give_thin_modules():
 
 WATCHER_SCRIPT = r"""
 import sys, yarp
-from ybg.runtime.yarp_io import Watcher
+from ybg.runtime.connections import Watcher
 yarp.Network.init()
 port = yarp.BufferedPortBottle()
 assert port.open("/rt/own:i")

@@ -1,4 +1,4 @@
-"""The runtime of the rclpy node of commands (ybg/runtime/services.py) and
+"""The runtime of the rclpy node of commands (ybg/runtime/services.py, commands.py) and
 the node's functions the ros2 backend writes, without a name server or a
 ROS 2 peer: a reply Bottle's elements checked, converted and filled into a
 response (the bool-from-word rule, a vocab as its word), the command Bottle
@@ -18,8 +18,8 @@ from ybg.backends import RenderOptions, check_result, get_backend
 from ybg.compiler import ir
 from ybg.compiler.pipeline import compile_path
 from ybg.lower import services as texts
-from ybg.runtime import services as rt
-from ybg.runtime.services import Conv, Elements, Unfit
+from ybg.runtime import commands as rt
+from ybg.runtime.commands import Conv, Elements, Unfit
 
 from harness.env import EXAMPLES
 
@@ -233,26 +233,40 @@ def test_setbool_request_sent_as_zero_or_one():
     assert items(s.command(SetBool.Request(data=False)))[-1] == ("int32", 0)
 
 
+def module_rpc(ns, prefix):
+    """A node of commands alone, its part (the inlined runtime's, whose
+    classes the spec has) and the process that answers its RPC port, no
+    port opened: (part, process); ``process.answer(command)`` is the reply."""
+    spec = ns["SPEC"]
+    part = ns["CommandsBridge"](spec, None, prefix)
+    process = ns["Process"](spec.module, (ns["Member"](spec.module),), alone=True)
+    process.parts[spec.module] = part
+    process.rpc = types.SimpleNamespace(name=part.rpc_name, after_reply=None)
+    return part, process
+
+
 def test_served_port_commands_help_and_unknown():
     program = example("yarp_rpc_to_ros2")
     ns = node_namespace(program)
     spec = ns["SPEC"]
-    node = ns["CommandsNode"](spec, None, "/robot_gate")  # the inlined runtime's, whose classes the spec has
+    node, process = module_rpc(ns, "/robot_gate")
     port = "/robot_gate/rpc:i"
     assert node.rpc_name == port  # the module's own RPC port is the one it serves: one port
-    helped = node.answer(port, bottle("help"))
+    helped = process.answer(bottle("help"))
     assert items(helped) == [("vocab", "many")] + [("string", line) for line in texts.help_lines(program, port)]
-    unknown = node.answer(port, bottle("jump 3"))
+    unknown = process.answer(bottle("jump 3"))
     assert items(unknown) == [("int32", 0), ("string", texts.unknown_command("jump"))]
     # arguments that do not fit: the failure reply, without a call
-    bad = node.answer(port, bottle("track on"))
+    bad = process.answer(bottle("track on"))
     (track,) = [s for s in program.services if s.name == "track"]
     assert items(bad)[0] == ("int32", 0)
     assert items(bad)[1][1].startswith("`track data:int32`: element 0 is the word on, expected int32")
     assert texts.usage(track) == "track data:int32"
-    stats = node.answer(port, bottle("stats"))
+    stats = process.answer(bottle("stats"))
     assert stats.toString() == ("(service home calls 0 answered 0 failed 0 timed_out 0 no_server 0 unfit 0) "
                                 "(service track calls 1 answered 0 failed 1 timed_out 0 no_server 0 unfit 1)")
+    # the same port among the bridges of a process: its commands, no stats or quit
+    assert node._served(port, bottle("stats")).toString() == unknown.toString().replace("jump", "stats")
     # the reply of a response, and the failure reply
     track_spec = [s for s in spec.services if s.name == "track"][0]
     request = track_spec.request(Elements(bottle("track 1"), 1, track_spec.types), SetBool.Request())
@@ -264,12 +278,12 @@ def test_served_port_commands_help_and_unknown():
 
 def test_module_rpc_port_alone():
     ns = node_namespace(example("home_arm_trigger"))
-    node = ns["CommandsNode"](ns["SPEC"], None, "/left_arm_homing")
-    port = "/left_arm_homing/rpc:i"
-    assert items(node.answer(port, bottle("help"))) == [("vocab", "many")] + [("string", t) for t in rt.RPC_HELP]
-    assert items(node.answer(port, bottle("jump"))) == [("vocab", "fail"), ("string", texts.unknown_command("jump"))]
-    assert items(node.answer(port, bottle("quit"))) == [("vocab", "bye")]
-    assert node.quit_asked
+    node, process = module_rpc(ns, "/left_arm_homing")
+    assert items(process.answer(bottle("help"))) == [("vocab", "many")] + [("string", t) for t in rt.COMMANDS_HELP]
+    assert items(process.answer(bottle("jump"))) == [("vocab", "fail"),
+                                                     ("string", texts.unknown_command("jump"))]
+    assert items(process.answer(bottle("quit"))) == [("vocab", "bye")]
+    assert process.quit_asked and process.rpc.after_reply == process.request_stop  # stops once `bye` is sent
 
 
 def test_converter_array_list_and_literals_in_a_command():

@@ -5,8 +5,10 @@ sends and each bridge must publish, the peers (a real YARP producer on every
 input port, real rclpy subscribers on every topic, the camera, the
 trajectory's planner and YARP reader), and the checks, each taking the
 running process and its peers (``icub``: .env, .server, .node (the composed
-process, a Module), .programs, .producers, .camera, .subs, .image,
-.planner, .player):
+process, a Module), .programs (its stream bridges), .producers, .camera,
+.subs, .image, .planner, .player; and, when the process has bridges of
+commands too, .commands (module -> ir.Commands) and .feed_commands(), which
+makes a call of each of their services through the process):
 
     start_peers(env, programs) -> peers
     check_values(icub)          every bridge's values, through the one process
@@ -558,12 +560,13 @@ def check_isolation(icub):
     assert dropped1 - dropped0 >= 300 + (received1 - received0 - 300) // 2 - 5, (w.before, w.after)
 
 
-def wait_bridges(server, port: str, pred, timeout: float = 60.0) -> dict:
-    """The first `stats` of a composed module whose bridges all satisfy
-    ``pred`` (their bridge_stats()): {bridge: bridge_stats}."""
+def wait_bridges(server, port: str, pred, timeout: float = 60.0, only=None) -> dict:
+    """The first `stats` of a composed module whose bridges (those named in
+    ``only``, else all) all satisfy ``pred`` (their bridge_stats()):
+    {bridge: bridge_stats}."""
     end = time.monotonic() + timeout
     while True:
-        got = {m: bridge_stats(t) for m, t in composed_stats(server, port).items()}
+        got = {m: bridge_stats(t) for m, t in composed_stats(server, port).items() if only is None or m in only}
         if got and all(pred(s) for s in got.values()):
             return got
         if time.monotonic() > end:
@@ -581,18 +584,42 @@ def feed_the_bridges_on_command(icub) -> None:
     plan_through(icub, trajectory(points=2, joints=7))
 
 
+#: a service's list of `stats`, as `yarp rpc` prints it
+SERVICE_STATS = re.compile(r'\(service "?([^"\s]+)"? calls (\d+) answered (\d+) failed (\d+) timed_out (\d+) '
+                           r'no_server (\d+) unfit (\d+)\)')
+
+
+def service_totals(log: str, module: str) -> dict:
+    """The totals of a bridge of commands printed at exit, under its name:
+    {service: (calls, answered, failed)}."""
+    return {m.group(1): tuple(int(x) for x in m.groups()[1:]) for m in re.finditer(
+        rf"^{module}: service (\S+): calls (\d+), answered (\d+), failed (\d+) ", log, re.M)}
+
+
 def check_stats_and_quit(icub):
     """`help`, `stats` (a list per bridge: its name then its own stats)
     and `quit` on /icub/rpc:i: every bridge stops and prints its totals
     under its name, which hold at least what its `stats` said; the process
     exits 0 (timed from the `[bye]` reply: EXIT_BOUND); no bridge's own RPC
-    port is open. It feeds every bridge itself, whatever ran before it."""
+    port is open. It feeds every bridge itself, whatever ran before it
+    (a bridge of commands: a call of each service, its list of each)."""
+    commands = getattr(icub, "commands", {})
     feed_the_bridges_on_command(icub)
+    if commands:
+        icub.feed_commands()
     helped = rpc(icub.server, "/icub/rpc:i", "help")
     assert "stats: one list per bridge" in helped and "quit: stop every bridge" in helped
     # every bridge has published (the streaming ones, once their producers are connected)
-    stats = wait_bridges(icub.server, "/icub/rpc:i", lambda s: s["published"] and s["published"][0] > 0)
+    stats = wait_bridges(icub.server, "/icub/rpc:i", lambda s: s["published"] and s["published"][0] > 0,
+                         only=icub.programs)
     assert sorted(stats) == sorted(icub.programs), stats
+    texts = composed_stats(icub.server, "/icub/rpc:i")
+    assert sorted(texts) == sorted([*icub.programs, *commands]), texts
+    listed = {}
+    for module, program in commands.items():
+        listed[module] = {m[0]: tuple(map(int, m[1:])) for m in SERVICE_STATS.findall(texts[module])}
+        assert sorted(listed[module]) == sorted(s.name for s in program.services), texts[module]
+        assert all(n[0] >= 1 and n[0] == n[1] + n[2] for n in listed[module].values()), texts[module]
     for module, s in stats.items():
         sources = [i.name for m in icub.programs[module].muxes for i in m.inputs]
         assert sorted(s["inputs"]) == sorted(sources), (module, s)
@@ -603,7 +630,7 @@ def check_stats_and_quit(icub):
     assert stats["icub_head"]["inputs"]["/icub/head/state:o"][1] == 0, stats["icub_head"]
     ports = icub.server.yarp("name", "list").stdout
     assert "/icub/rpc:i" in ports
-    assert not any(f"/{m}/rpc:i" in ports for m in icub.programs), ports
+    assert not any(f"/{m}/rpc:i" in ports for m in [*icub.programs, *commands]), ports
     rc, took = quit_over_rpc(icub.env, icub.node, "/icub/rpc:i")
     log = icub.node.log_text()
     assert rc == 0, log[-3000:]
@@ -619,4 +646,9 @@ def check_stats_and_quit(icub):
                 got, said = totals[i.name], stats[module]["inputs"][i.name]
                 assert got[0] >= said[0] and got[1] >= said[1], (module, i.name, got, said)
     assert bridge_totals(log, "icub_head")["/icub/head/state:o"][1] == 0
+    for module in commands:
+        totals = service_totals(log, module)
+        assert sorted(totals) == sorted(listed[module]), (module, log[-3000:])
+        for name, (calls, answered, failed) in totals.items():
+            assert calls >= listed[module][name][0] and calls == answered + failed, (module, name, totals)
     assert "/icub/rpc:i" not in icub.server.yarp("name", "list").stdout

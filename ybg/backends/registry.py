@@ -43,9 +43,7 @@ REGISTRY: dict[str, BackendInfo] = {
             why={("ros2", "rows"): "a ROS 2 message is not filled from rows",
                  ("ros1", "image"): "camera images are bridged to and from ROS 2"},
             kinds=frozenset({"stream", "commands"}),
-            composes=frozenset({"stream"}),
-            why_not_composed={"commands": "its module runs on a loop of its own; run it as a module of its own "
-                                          "(ybgc generate)"},
+            composes=frozenset({"stream", "commands"}),
         )),
     "py": BackendInfo(
         "ybg.backends.py:PyBackend",

@@ -32,26 +32,37 @@ CPP_DIR = RUNTIME_DIR / "cpp"
 #: the name of the runtime package beside a Python module
 PY_PACKAGE = "ybgc_runtime"
 #: the Python runtime's modules, in the order they are inlined
-PY_MODULES = ("geometry", "core", "yarp_io", "images", "compose", "ros2_io", "services")
+PY_MODULES = ("geometry", "base", "core", "connections", "yarp_inputs", "shell", "yarp_io", "images", "compose",
+              "ros2_shell", "ros2_events", "ros2_io", "commands", "callers", "services")
+#: the modules a YARP module of a stream bridge (the py backend's) runs on,
+#: which --single-file inlines
+PY_STREAM_MODULES = ("geometry", "base", "core", "connections", "yarp_inputs", "shell", "yarp_io")
+#: ... an rclpy node of a stream bridge (the ros2 backend's)
+PY_NODE_MODULES = PY_STREAM_MODULES + ("images", "ros2_shell", "ros2_events", "ros2_io")
+#: ... an rclpy node of commands (the ros2 backend's)
+PY_COMMANDS_MODULES = ("base", "shell", "ros2_shell", "commands", "callers", "services")
 #: the C++ runtime's files: the header a module includes, the header its
 #: sources share (not for modules), and its sources, one concern a file, in
 #: the order they are built and inlined
 CPP_HEADER = "ybgc_runtime.hpp"
 CPP_INTERNAL_HEADER = "ybgc_internal.hpp"
 CPP_SOURCES = ("ybgc_runtime.cpp", "ybgc_inputs.cpp", "ybgc_bottles.cpp", "ybgc_connections.cpp",
-               "ybgc_convert.cpp", "ybgc_totals.cpp", "ybgc_options.cpp")
-#: the C++ runtime's ROS 2 side (rcl), beside a module that publishes to ROS 2
-#: or reads a ROS 2 topic
+               "ybgc_convert.cpp", "ybgc_totals.cpp", "ybgc_options.cpp", "ybgc_shell.cpp")
+#: the C++ runtime's ROS 2 side (rcl), beside a module with a ROS 2 node: one
+#: that publishes to ROS 2 or reads a ROS 2 topic, or of commands
 CPP_ROS2_HEADER = "ybgc_ros2.hpp"
-CPP_ROS2_SOURCES = ("ybgc_ros2.cpp", "ybgc_ros2_params.cpp")
+CPP_ROS2_SOURCES = ("ybgc_ros2.cpp", "ybgc_ros2_node.cpp", "ybgc_ros2_events.cpp", "ybgc_ros2_params.cpp")
 #: the C++ runtime's camera images (YARP_sig), beside a module that reads or
 #: writes images (always one with ROS 2)
 CPP_IMAGES_HEADER = "ybgc_images.hpp"
 CPP_IMAGES_SOURCES = ("ybgc_images.cpp",)
 #: the C++ runtime's commands (YARP RPC ports and ROS 2 services), beside a
-#: module of commands (always with the ROS 2 side)
+#: module of commands (always with the ROS 2 side): the header a module
+#: includes, the header its sources share, and its sources
 CPP_SERVICES_HEADER = "ybgc_services.hpp"
-CPP_SERVICES_SOURCES = ("ybgc_services.cpp",)
+CPP_SERVICES_INTERNAL_HEADER = "ybgc_services_internal.hpp"
+CPP_SERVICES_SOURCES = ("ybgc_services.cpp", "ybgc_services_callers.cpp", "ybgc_services_served.cpp",
+                        "ybgc_services_node.cpp")
 #: the C++ runtime's process of several bridges (ybgc compose), beside a
 #: composed module
 CPP_COMPOSE_HEADER = "ybgc_compose.hpp"
@@ -99,7 +110,7 @@ def _cpp_names(ros2: bool, images: bool = False, services: bool = False, compose
     return ((CPP_HEADER, CPP_INTERNAL_HEADER, *CPP_SOURCES)
             + ((CPP_ROS2_HEADER, *CPP_ROS2_SOURCES) if ros2 or images or services else ())
             + ((CPP_IMAGES_HEADER, *CPP_IMAGES_SOURCES) if images else ())
-            + ((CPP_SERVICES_HEADER, *CPP_SERVICES_SOURCES) if services else ())
+            + ((CPP_SERVICES_HEADER, CPP_SERVICES_INTERNAL_HEADER, *CPP_SERVICES_SOURCES) if services else ())
             + ((CPP_COMPOSE_HEADER, *CPP_COMPOSE_SOURCES) if compose else ()))
 
 
@@ -164,8 +175,10 @@ def runtime_text_filter(text) -> str:
     return text.rstrip("\n")
 
 
-__all__ = ["RuntimeView", "runtime_view", "runtime_text_filter", "VERSION", "PY_PACKAGE", "PY_MODULES", "CPP_HEADER",
+__all__ = ["RuntimeView", "runtime_view", "runtime_text_filter", "VERSION", "PY_PACKAGE", "PY_MODULES",
+           "PY_STREAM_MODULES", "PY_NODE_MODULES", "PY_COMMANDS_MODULES", "CPP_HEADER",
            "CPP_INTERNAL_HEADER", "CPP_SOURCES", "CPP_ROS2_HEADER", "CPP_ROS2_SOURCES", "CPP_IMAGES_HEADER",
-           "CPP_IMAGES_SOURCES", "CPP_SERVICES_HEADER", "CPP_SERVICES_SOURCES", "CPP_COMPOSE_HEADER",
+           "CPP_IMAGES_SOURCES", "CPP_SERVICES_HEADER", "CPP_SERVICES_INTERNAL_HEADER", "CPP_SERVICES_SOURCES",
+           "CPP_COMPOSE_HEADER",
            "CPP_COMPOSE_SOURCES",
            "python_files", "python_inline", "cpp_files", "cpp_inline", "is_runtime_file"]

@@ -6,29 +6,20 @@ the totals (docs/runtime.md). ``yarp_io`` and ``ros2_io`` add the ports."""
 
 import argparse
 import collections
-import functools
 import math
 import os
 import sys
 import threading
 import time
 
+from .base import _INT_BITS, ConverterSpec, call_count, say, scale_range  # ybgc:runtime-import
 from .geometry import GEOMETRY, GEOMETRY_WIDTHS  # ybgc:runtime-import
-
-#: an input element type -> what the input Bottle must hold there
-_FLOAT_TYPES = frozenset(("float32", "float64"))
-_INT_TYPES = frozenset(("int8", "uint8", "int16", "uint16", "int32", "uint32",
-                        "int64", "uint64", "byte", "char"))
-
-_INT_BITS = {"int8": 8, "uint8": 8, "byte": 8, "char": 8, "int16": 16, "uint16": 16,
-             "int32": 32, "uint32": 32, "int64": 64, "uint64": 64}
 
 #: ``accepts``: the other ports whose Bottles a YARP port input takes too;
 #: ``image``: a camera image input (images.py): the ROS encoding of a YARP
 #: port's frames, or "any" for a ROS 2 topic of sensor_msgs/Image
 InputSpec = collections.namedtuple("InputSpec", "mux index source kind types timeout positions reads accepts image",
                                    defaults=(None, None, (), None))
-ConverterSpec = collections.namedtuple("ConverterSpec", "name scale offset to_float start stop")
 #: a geometry converter (geometry.py) on the elements [start, start + its width)
 GeometrySpec = collections.namedtuple("GeometrySpec", "name function args start")
 #: an element-wise expression: each number x of [start, stop) becomes function(x)
@@ -211,9 +202,6 @@ class Context:
         return time_msg(self._ns if ns is None else ns, style)
 
 
-_LOG_LOCK = threading.Lock()
-
-
 class Bridge:
     """The module's loop: gathers inputs into muxes, converts, builds and
     publishes messages, event-driven or at a fixed rate."""
@@ -228,6 +216,9 @@ class Bridge:
         self.rate = spec.rate if options.rate is None else (options.rate or None)
         self.timeout = options.timeout
         self.verbose = options.verbose
+        # no value is printed on the message path (--verbose, a mux's verbose:
+        # a terminal that stops reading would hold the thread that prints)
+        self.quiet = not self.verbose and not any(m.verbose for m in spec.muxes)
         # the bridge's lock; ``lock`` and ``cond`` are the same lock (``with
         # self.lock`` takes it in C, ``with self.cond`` through Python calls)
         self.lock = threading.RLock()
@@ -270,11 +261,7 @@ class Bridge:
 
     # -- messages to the user
     def log(self, text):
-        # one write of the whole line: several threads log (inputs, the
-        # loop, ROS 2 callbacks), and print() writes the end of line apart
-        with _LOG_LOCK:
-            sys.stdout.write("%s: %s\n" % (self.spec.module, text))
-            sys.stdout.flush()
+        say(self.spec.module, text)
 
     # -- called by the input threads
     def on_bottle(self, inp, values, reason, now, envelope):
@@ -569,9 +556,8 @@ class Bridge:
         output of no YARP port)."""
         return getattr(self.output, "missed", 0)
 
-    def _print_totals(self, prefix=""):
-        """The totals at exit; ``prefix`` heads each line (the bridge's name,
-        in a process of several bridges)."""
+    def totals_lines(self):
+        """The totals at exit, a line each."""
         lines = ["totals:"]
         for inp in self.inputs:
             line = ("  input %s: received %d, dropped %d, stale periods %d, unused %d"
@@ -582,7 +568,7 @@ class Bridge:
         if self.missed:
             lines.append("  " + MISSED_LINE % self.missed)
         lines.extend("  " + EVENTS_TOTALS_LINE % e for e in self.ros2_events() if e[2] or e[3])
-        print("\n".join(prefix + line for line in lines), flush=True)
+        return lines
 
 
 class EndpointEvents:
@@ -674,86 +660,13 @@ def convert(values, converters):
                 part = [float(x) for x in values[c.start:c.start + width]]
                 values[c.start:c.start + width] = GEOMETRY[c.function](part, *c.args)
             continue
-        stop = n if c.stop is None else min(c.stop, n)
-        if c.start >= stop:
-            continue
         if isinstance(c, EachSpec):
+            stop = n if c.stop is None else min(c.stop, n)
             f = c.function
             values[c.start:stop] = [x if isinstance(x, str) else float(f(float(x))) for x in values[c.start:stop]]
             continue
-        if c.scale == 1.0 and c.offset == 0.0 and not c.to_float:
-            continue
-        scale, offset = c.scale, c.offset
-        part = values[c.start:stop]
-        if c.to_float:
-            part = [float(x * scale + offset) for x in part]
-        else:  # an integer stays an integer
-            part = [int(x * scale + offset) if isinstance(x, int) else x * scale + offset for x in part]
-        values[c.start:stop] = part
+        scale_range(values, c)
     return values
-
-
-#: the environment variable that makes a module count, from its start, the
-#: Python calls on the path of its Bottles and messages (CallCount)
-COUNT_CALLS = "YBGC_COUNT_CALLS"
-
-
-class CallCount:
-    """The Python calls made on the message path, counted for the cost guard
-    (tests/test_cost.py): each entry of that path (an input's Bottle or
-    message read in a middleware's thread, its handling, a cycle of the
-    fixed-rate loop) is run with a profile hook in its thread, which counts
-    every Python function called and every C function called from Python,
-    and of these the calls into YARP's bindings (each lets the interpreter
-    lock go, and another thread may take it). The totals (calls, YARP calls,
-    entries run) are kept as three int64 in a file, which a test reads while
-    the module runs. Only when COUNT_CALLS names that file at start
-    (``call_count``); otherwise nothing is wrapped and nothing is counted."""
-
-    def __init__(self, path):
-        self.fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o644)
-        self.lock = threading.Lock()
-        self.totals = [0, 0, 0]
-        self._save()
-
-    def _save(self):
-        os.pwrite(self.fd, b"".join(n.to_bytes(8, "little") for n in self.totals), 0)
-
-    def counted(self, function):
-        """``function``, its calls counted; within another counted function
-        (the same thread), it is counted as part of that one."""
-        def run(*args):
-            if sys.getprofile() is not None:
-                return function(*args)
-            tally = [0, 0]
-
-            def hook(frame, event, arg):
-                if event == "call":
-                    tally[0] += 1
-                elif event == "c_call":
-                    tally[0] += 1
-                    if "yarp" in (getattr(arg, "__module__", None) or ""):
-                        tally[1] += 1
-
-            sys.setprofile(hook)
-            try:
-                return function(*args)
-            finally:
-                sys.setprofile(None)
-                with self.lock:
-                    self.totals[0] += tally[0]
-                    self.totals[1] += tally[1]
-                    self.totals[2] += 1
-                    self._save()
-        return run
-
-
-@functools.lru_cache(maxsize=1)
-def call_count():
-    """The process's CallCount when the environment asked for one at start
-    (COUNT_CALLS, read once), else None."""
-    path = os.environ.get(COUNT_CALLS)
-    return CallCount(path) if path else None
 
 
 class RateMeter:

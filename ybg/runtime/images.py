@@ -17,7 +17,7 @@ import time
 import yarp
 
 from .core import BACKLOG  # ybgc:runtime-import
-from .yarp_io import _NO_ENVELOPE, Input  # ybgc:runtime-import
+from .yarp_inputs import _NO_ENVELOPE, Input  # ybgc:runtime-import
 
 
 def vocab32(text):

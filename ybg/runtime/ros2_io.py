@@ -1,42 +1,32 @@
-"""The ROS 2 side of the ros2 backend's nodes: the bridge run inside an
-rclpy node. ROS 2 topics as mux inputs, a typed message filled field by
-field and published with the config's QoS, stamps from the node's clock
-(use_sim_time is respected), the node's parameters in place of the
-command-line options, QoS overridden by ``qos_overrides`` parameters, and the
-bridge's totals on /diagnostics; camera images both ways (sensor_msgs/Image
-topics read and published, with their CameraInfo: the frames are images.py's)
+"""The ROS 2 side of the ros2 backend's stream nodes: the bridge run inside
+an rclpy node, a part of the process shell (shell.py, ros2_shell.py). ROS 2
+topics as mux inputs, a typed message filled field by field and published
+with the config's QoS, stamps from the node's clock (use_sim_time is
+respected), the node's parameters in place of the command-line options,
+QoS overridden by ``qos_overrides`` parameters, and the bridge's totals on
+/diagnostics; camera images both ways (sensor_msgs/Image topics read and
+published, with their CameraInfo: the frames are images.py's)
 (docs/runtime.md)."""
 
 import argparse
 import collections
 import operator
-import os
-import signal
-import sys
-import threading
 import time
 
-import rclpy
 import rclpy.time
-import rclpy.utilities
-import yarp
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.clock import Clock, ClockType
-from rclpy.event_handler import (PublisherEventCallbacks, SubscriptionEventCallbacks,
-                                 UnsupportedEventTypeError)
-from rclpy.executors import SingleThreadedExecutor
+from diagnostic_msgs.msg import DiagnosticStatus
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.qos_overriding_options import QoSOverridingOptions, QoSPolicyKind
-from rclpy.signals import SignalHandlerOptions
 
-from .compose import SWITCH_INTERVAL, Composer, describe, load_failure  # ybgc:runtime-import
-from .core import _FLOAT_TYPES, _INT_TYPES, InputState, call_count, parse_accept, seconds_to_ns  # ybgc:runtime-import
-from .core import INCOMPATIBLE_QOS_TEXT, INCOMPATIBLE_TYPE_TEXT, EndpointEvents  # ybgc:runtime-import
+from .base import _FLOAT_TYPES, _INT_TYPES, call_count  # ybgc:runtime-import
+from .core import BridgeSpec, InputState, parse_accept, seconds_to_ns  # ybgc:runtime-import
 from .core import PUBLISHERS_TEXT, SUBSCRIBERS_TEXT  # ybgc:runtime-import
 from .images import ImageInput, append_rows, fit_calibration, frame_of, message_frame  # ybgc:runtime-import
+from .ros2_events import EndpointWatch, event_values  # ybgc:runtime-import
+from .ros2_shell import DIAGNOSTICS_PERIOD, NODE_KINDS, NodeKind, Parameter, ParameterError  # ybgc:runtime-import
+from .ros2_shell import declare, epilog, node_parameters, number, run_alone, run_composed  # ybgc:runtime-import
 from .yarp_io import YarpBridge  # ybgc:runtime-import
-
 
 #: Subscriptions keep only the newest message (like the YARP inputs); best
 #: effort matches reliable and best-effort publishers alike.
@@ -116,108 +106,6 @@ class Stamps:
             return self._now.to_msg()
         return rclpy.time.Time(nanoseconds=ns).to_msg()
 
-
-# --- incompatible peers ----------------------------------------------------------
-
-def _policy_value(value):
-    """A reliability or durability policy as rmw names it (``reliable``, ``transient_local``)."""
-    name = getattr(value, "name", None)
-    return name.lower() if name else "unknown"
-
-
-def _qos_words(qos):
-    return "%s, %s" % (_policy_value(qos.reliability), _policy_value(qos.durability))
-
-
-def _conflicts(publisher, subscription):
-    """Whether a publisher of QoS ``publisher`` gives nothing to a subscription
-    of QoS ``subscription`` by their reliability or durability."""
-    return ((publisher.reliability == ReliabilityPolicy.BEST_EFFORT
-             and subscription.reliability == ReliabilityPolicy.RELIABLE)
-            or (publisher.durability == DurabilityPolicy.VOLATILE
-                and subscription.durability == DurabilityPolicy.TRANSIENT_LOCAL))
-
-
-class EndpointWatch:
-    """Listens for the incompatible-QoS and incompatible-type events of one
-    ROS 2 publisher or subscription (``kind``) of ``topic``: counted in its
-    EndpointEvents (the bridge's `stats`, exit totals and /diagnostics), the
-    first of each kind said with the peer's QoS (the first peer in the graph
-    whose reliability or durability does not match) or type hash."""
-
-    def __init__(self, bridge, node, kind, topic, type_name):
-        self.bridge = bridge
-        self.node = node
-        self.kind = kind
-        self.peer = "subscription" if kind == "publisher" else "publisher"
-        self.type_name = type_name
-        self.counts = EndpointEvents(kind, topic)
-        bridge.endpoints.append(self.counts)
-        self.entity = None  # its rclpy publisher or subscription, once made
-
-    def callbacks(self, make, **events):
-        """``make(callbacks)`` (PublisherEventCallbacks or
-        SubscriptionEventCallbacks) with its events and ``events``; again
-        without ``events`` on an rmw that has no such events (rclpy leaves
-        out an incompatible-QoS or -type event the rmw lacks by itself)."""
-        own = dict(incompatible_qos=self.on_qos, incompatible_type=self.on_type)
-        try:
-            return make(**own, **events)
-        except UnsupportedEventTypeError:
-            return make(**own)
-
-    def _peers(self):
-        """The graph's endpoints of the other kind on its topic, and its own."""
-        topic = self.entity.topic_name
-        if self.kind == "publisher":
-            return self.node.get_subscriptions_info_by_topic(topic), self.node.get_publishers_info_by_topic(topic)
-        return self.node.get_publishers_info_by_topic(topic), self.node.get_subscriptions_info_by_topic(topic)
-
-    def _ours(self, own):
-        for e in own:
-            if e.node_name == self.node.get_name() and e.node_namespace == self.node.get_namespace():
-                return e
-        return None
-
-    def on_qos(self, info):
-        self.bridge.on_incompatible(self.counts, "qos", info.total_count, lambda: self._qos_text(info))
-
-    def on_type(self, info):
-        self.bridge.on_incompatible(self.counts, "type", info.total_count, self._type_text)
-
-    def _qos_text(self, info):
-        ours = self.entity.qos_profile if self.entity is not None else None
-        theirs = "unknown (not in the graph yet)"
-        if ours is not None:
-            peers = self._peers()[0]
-            pick = [e for e in peers if (_conflicts(ours, e.qos_profile) if self.kind == "publisher"
-                                         else _conflicts(e.qos_profile, ours))] or peers
-            if pick:
-                theirs = _qos_words(pick[0].qos_profile)
-        try:
-            policy = QoSPolicyKind(int(info.last_policy_kind)).name.lower()
-        except ValueError:
-            policy = "policy %s" % info.last_policy_kind
-        return INCOMPATIBLE_QOS_TEXT.format(kind=self.kind, topic=self.counts.topic, peer=self.peer, policy=policy,
-                                            theirs=theirs, ours="unknown" if ours is None else _qos_words(ours))
-
-    def _type_text(self):
-        theirs = ours = "unknown"
-        if self.entity is not None:
-            peers, own = self._peers()
-            mine = self._ours(own)
-            if mine is not None:
-                ours = str(mine.topic_type_hash)
-            other = [e for e in peers if str(e.topic_type_hash) != ours]
-            if other:
-                theirs = str(other[0].topic_type_hash)
-        return INCOMPATIBLE_TYPE_TEXT.format(kind=self.kind, topic=self.counts.topic, peer=self.peer,
-                                             type=self.type_name, theirs=theirs, ours=ours)
-
-
-def event_values(counts):
-    """The key-values of /diagnostics of a ROS 2 endpoint's incompatible peers."""
-    return (("incompatible QoS", str(counts.qos)), ("incompatible type", str(counts.type)))
 
 
 # --- ROS 2 topics as mux inputs ------------------------------------------------
@@ -502,44 +390,11 @@ class Ros2Output:
         pass  # destroyed with the node
 
 
-class Spinner(threading.Thread):
-    """Runs the node's executor (subscriptions, the /clock of simulated
-    time) until stopped."""
-
-    def __init__(self, node, log, timeout=0.1):
-        threading.Thread.__init__(self, name="ros 2 executor", daemon=True)
-        self.executor = SingleThreadedExecutor()
-        self.executor.add_node(node)
-        self.log = log
-        self.timeout = timeout  # the longest wait for an event (a stop wakes it: wake())
-        self.done = threading.Event()
-
-    def wake(self):
-        """Its executor's wait ends at once (a task that does nothing)."""
-        self.executor.create_task(lambda: None)
-
-    def run(self):
-        reported = False
-        while not self.done.is_set():
-            try:
-                self.executor.spin_once(timeout_sec=self.timeout)
-            except Exception as e:
-                if self.done.is_set() or not rclpy.ok():
-                    break
-                if not reported:
-                    reported = True
-                    self.log("ROS 2 executor: %s" % e)
-
-    def stop(self, timeout=1.0):
-        self.done.set()
-        if self.is_alive():
-            self.join(timeout)
-        self.executor.shutdown(timeout_sec=0.1)
-
 
 class NodeBridge(YarpBridge):
     """The runtime's Bridge, with ROS 2 topics for the inputs of kind ros2
-    and the message stamped from the node's clock."""
+    and the message stamped from the node's clock; its state on
+    /diagnostics (``statuses``)."""
 
     def __init__(self, spec, options, node, output, build, compute, topic_inputs):
         self.node = node
@@ -552,6 +407,8 @@ class NodeBridge(YarpBridge):
             output.log = self.log
         if isinstance(output, Ros2Output):
             output.bridge = self
+        # (time, published) of the last /diagnostics: the rate achieved over RATE_WINDOW of them
+        self.samples = collections.deque([(time.monotonic(), 0)], maxlen=RATE_WINDOW + 1)
 
     def make_input(self, mux, spec, local, timeout):
         if spec.kind == "ros2":
@@ -586,6 +443,18 @@ class NodeBridge(YarpBridge):
                 self.log("cannot fill the message (%s: %s); further failures are only counted"
                          % (type(e).__name__, text))
 
+    def statuses(self, now):
+        """/diagnostics: one status per input, and one for the output (the
+        rate achieved over the last RATE_WINDOW statuses)."""
+        with self.cond:
+            self.samples.append((now, self.published))
+            statuses = [("input %s" % inp.source,) + _with_events(input_status(inp, now), inp) for inp in self.inputs]
+            (t0, n0), (t1, n1) = self.samples[0], self.samples[-1]
+            achieved = (n1 - n0) / (t1 - t0) if t1 > t0 else 0.0
+            statuses.append(("output %s" % self.output.port_name,)
+                            + _with_events(output_status(self, achieved), self.output))
+        return statuses
+
 
 # --- /diagnostics ------------------------------------------------------------------
 
@@ -594,13 +463,6 @@ class NodeBridge(YarpBridge):
 RATE_TOLERANCE = 0.1
 #: the number of periods the achieved rate is measured over
 RATE_WINDOW = 5
-#: the seconds between two /diagnostics messages, unless the parameter
-#: diagnostic_updater.period says (diagnostic_updater's own default)
-DIAGNOSTICS_PERIOD = 1.0
-
-
-def _key_values(pairs):
-    return [KeyValue(key=k, value=v) for k, v in pairs]
 
 
 def input_status(inp, now):
@@ -646,312 +508,99 @@ def _with_events(status, endpoint):
     return level, text, tuple(values) + event_values(watch.counts)
 
 
-class Diagnostics:
-    """Publishes the bridge's totals on /diagnostics as a DiagnosticArray
-    every ``period`` seconds of the steady clock, as diagnostic_updater does:
-    one status per input (``<node>: input <source>``) and one for the output
-    (``<node>: output <topic or port>``), hardware_id the module's name."""
+# --- the node of a stream bridge ----------------------------------------------------
 
-    def __init__(self, bridge, node, period):
-        self.bridge = bridge
-        self.node = node
-        self.name = node.get_name()
-        self.hardware_id = bridge.spec.module
-        self.samples = collections.deque(maxlen=RATE_WINDOW + 1)  # (time, published)
-        with bridge.cond:
-            self.samples.append((time.monotonic(), bridge.published))
-        self.publisher = node.create_publisher(DiagnosticArray, "/diagnostics", 1)
-        self.timer = node.create_timer(period, self.publish, clock=Clock(clock_type=ClockType.STEADY_TIME))
-
-    def _status(self, name, level, text, values):
-        return DiagnosticStatus(level=level, name="%s: %s" % (self.name, name), message=text,
-                                hardware_id=self.hardware_id, values=_key_values(values))
-
-    def array(self):
-        """The DiagnosticArray of the bridge's state now."""
-        bridge = self.bridge
-        now = time.monotonic()
-        with bridge.cond:
-            self.samples.append((now, bridge.published))
-            statuses = [self._status("input %s" % inp.source, *_with_events(input_status(inp, now), inp))
-                        for inp in bridge.inputs]
-            (t0, n0), (t1, n1) = self.samples[0], self.samples[-1]
-            achieved = (n1 - n0) / (t1 - t0) if t1 > t0 else 0.0
-            statuses.append(self._status("output %s" % bridge.output.port_name,
-                                         *_with_events(output_status(bridge, achieved), bridge.output)))
-        msg = DiagnosticArray(status=statuses)
-        msg.header.stamp = self.node.get_clock().now().to_msg()
-        return msg
-
-    def publish(self):
-        self.publisher.publish(self.array())
-
-
-# --- parameters, start and shutdown ----------------------------------------------
-
-class ParameterError(ValueError):
-    pass
-
-
-def _parameter_number(value, name):
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ParameterError("parameter %s must be a number, got %r" % (name, value))
-    return float(value)
-
-
-def node_options(node, default_prefix, default_rate, spec=None):
-    """The options of docs/runtime.md from the node's parameters (``spec``:
-    the bridge's, to check `accept` against its inputs)."""
-    def declare(name, default, text):
-        descriptor = ParameterDescriptor(description=text, dynamic_typing=True)
-        return node.declare_parameter(name, default, descriptor).value
-
-    rate = _parameter_number(declare("rate", default_rate, "fixed output rate in Hz; 0 = event-driven"),
-                   "rate")
-    if rate < 0:
+def _rate(value, name):
+    value = number(value, name)
+    if value < 0:
         raise ParameterError("parameter rate must be 0 (event-driven) or positive")
-    timeout = _parameter_number(declare("timeout", 0.0, "freshness timeout of every input in seconds; "
-                                              "0 = each input's own from the config"), "timeout")
-    if timeout < 0:
+    return value
+
+
+def _timeout(value, name):
+    value = number(value, name)
+    if value < 0:
         raise ParameterError("parameter timeout must be positive (or 0: the config's)")
-    prefix = declare("prefix", default_prefix, "prefix of the node's own YARP port names")
-    if not isinstance(prefix, str) or not prefix.startswith("/"):
-        raise ParameterError("parameter prefix must be a string starting with /")
-    verbose = declare("verbose", False, "print every value after conversion, for every mux")
-    if not isinstance(verbose, bool):
-        raise ParameterError("parameter verbose must be true or false")
-    diagnostics = declare("diagnostics", True, "publish the bridge's state on /diagnostics")
-    if not isinstance(diagnostics, bool):
-        raise ParameterError("parameter diagnostics must be true or false")
-    period = _parameter_number(declare("diagnostic_updater.period", DIAGNOSTICS_PERIOD,
-                                       "seconds between two /diagnostics messages"),
-                               "diagnostic_updater.period")
-    if period <= 0:
-        raise ParameterError("parameter diagnostic_updater.period must be positive")
-    accept = declare("accept", "", "other ports whose Bottles an input takes too: PORT=OTHER items "
-                                   "(a list, or one string separated by commas)")
-    if isinstance(accept, str):
-        accept = [a.strip() for a in accept.split(",") if a.strip()]
-    if not isinstance(accept, (list, tuple)) or not all(isinstance(a, str) for a in accept):
+    return value
+
+
+def _accept(value, name):
+    if isinstance(value, str):
+        value = [a.strip() for a in value.split(",") if a.strip()]
+    if not isinstance(value, (list, tuple)) or not all(isinstance(a, str) for a in value):
         raise ParameterError("parameter accept must be a string or a list of strings, PORT=OTHER")
-    try:
-        accept = parse_accept(spec, accept) if spec is not None else {}
-    except ValueError as e:
-        raise ParameterError("parameter accept: %s" % e) from None
-    return argparse.Namespace(prefix=prefix, rate=rate, timeout=timeout or None, verbose=verbose,
-                              diagnostics_period=period if diagnostics else None, accept=accept)
+    return value
 
 
-def _parse_command_line(spec, args, default_prefix, default_rate):
-    parser = argparse.ArgumentParser(
-        prog=os.path.basename(sys.argv[0]) if sys.argv and sys.argv[0] else spec.module,
-        description="\n".join(spec.description),
-        epilog="ROS parameters (--ros-args -p NAME:=VALUE):\n"
-               "  rate          fixed output rate in Hz, 0 for event-driven (default: %g)\n"
-               "  timeout       freshness timeout of every input in seconds, 0 for the\n"
-               "                config's (default: 0)\n"
-               "  prefix        prefix of the node's own YARP port names (default: %s)\n"
-               "  verbose       print every value after conversion (default: false)\n"
-               "  accept        PORT=OTHER: the input of YARP port PORT also takes the Bottles\n"
-               "                of port OTHER (a list, or one string separated by commas)\n"
-               "  diagnostics   publish the bridge's state on /diagnostics (default: true)\n"
-               "  diagnostic_updater.period\n"
-               "                seconds between two /diagnostics messages (default: 1)\n"
-               "  qos_overrides./TOPIC.publisher.POLICY (.subscription. for inputs)\n"
-               "                history, depth, reliability, durability over the config's\n"
-               "  use_sim_time  stamp messages with the simulated time of /clock\n"
-               "Generated by ybgc from %s." % (default_rate, default_prefix, spec.config),
-        formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.parse_args(args)
+class StreamNode(NodeKind):
+    """A stream bridge's node as the shell runs it (ros2_shell.NodeKind):
+    its parameters in place of a YARP module's options (docs/runtime.md,
+    "Command line") and its bridge (NodeBridge)."""
 
+    def __init__(self, spec, node_name, default_prefix, default_rate, topic_inputs, make_output, build, compute):
+        self.spec = spec
+        self.name = spec.module
+        self.node_name = node_name
+        self.description = "\n".join(spec.description)
+        self.default_prefix = default_prefix
+        self.default_rate = default_rate
+        self.topic_inputs = topic_inputs
+        self.make_output = make_output
+        self.build = build
+        self.compute = compute
 
-def run_node(spec, argv, node_name, default_prefix, default_rate, topic_inputs,
-             make_output, build, compute):
-    """Start rclpy and the node, run the bridge until SIGINT/SIGTERM; the exit status."""
-    argv = list(sys.argv[1:] if argv is None else argv)
-    started = []
-    pending = []
+    @classmethod
+    def of_module(cls, module):
+        """The kind of a stream node's generated module."""
+        return cls(module.SPEC, module.NODE_NAME, module.DEFAULT_PREFIX, module.DEFAULT_RATE, module.TOPIC_INPUTS,
+                   module.make_output, module.build_message, module.compute)
 
-    def on_signal(signum, frame):
-        # until the bridge runs (it installs its own handlers): remember the request
-        if started:
-            started[0].request_stop()
-        else:
-            pending.append(signum)
+    def parameters(self):
+        common = node_parameters(self.default_prefix, ("print every value after conversion, for every mux",
+                                                       "print every value after conversion"),
+                                 "publish the bridge's state on /diagnostics")
+        return (
+            Parameter("rate", self.default_rate, "fixed output rate in Hz; 0 = event-driven", _rate,
+                      "  rate          fixed output rate in Hz, 0 for event-driven (default: %g)\n" % self.default_rate),
+            Parameter("timeout", 0.0, "freshness timeout of every input in seconds; 0 = each input's own from the "
+                                      "config", _timeout,
+                      "  timeout       freshness timeout of every input in seconds, 0 for the\n"
+                      "                config's (default: 0)\n"),
+        ) + common[:2] + (
+            Parameter("accept", "", "other ports whose Bottles an input takes too: PORT=OTHER items (a list, or "
+                                    "one string separated by commas)", _accept,
+                      "  accept        PORT=OTHER: the input of YARP port PORT also takes the Bottles\n"
+                      "                of port OTHER (a list, or one string separated by commas)\n"),
+        ) + common[2:]
 
-    signal.signal(signal.SIGINT, on_signal)
-    signal.signal(signal.SIGTERM, on_signal)
-    prog = sys.argv[0] if sys.argv and sys.argv[0] else spec.module
-    _parse_command_line(spec, rclpy.utilities.remove_ros_args([prog] + argv)[1:],
-                        default_prefix, default_rate)
-    try:
-        rclpy.init(args=[prog] + argv, signal_handler_options=SignalHandlerOptions.NO)
-    except Exception as e:
-        print("%s: cannot start ROS 2: %s" % (spec.module, e), flush=True)
-        return 2
-    node = None
-    spinner = None
-    try:
-        node = rclpy.create_node(node_name)
+    def epilog(self):
+        return epilog(self.parameters(),
+                      "  qos_overrides./TOPIC.publisher.POLICY (.subscription. for inputs)\n"
+                      "                history, depth, reliability, durability over the config's\n"
+                      "  use_sim_time  stamp messages with the simulated time of /clock\n"
+                      "Generated by ybgc from %s." % self.spec.config)
+
+    def options(self, node):
+        """The options of docs/runtime.md from the node's parameters."""
+        values = declare(node, self.parameters())
         try:
-            options = node_options(node, default_prefix, default_rate, spec)
-        except ParameterError as e:
-            print("%s: %s" % (spec.module, e), flush=True)
-            return 2
-        bridge = NodeBridge(spec, options, node, make_output(node), build, compute, topic_inputs)
-        if options.diagnostics_period:
-            Diagnostics(bridge, node, options.diagnostics_period)
-        started.append(bridge)
-        if pending:
-            bridge.request_stop()
-        spinner = Spinner(node, bridge.log)
-        spinner.start()
-        return bridge.run()
-    finally:
-        if spinner is not None:
-            spinner.stop()
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+            accept = parse_accept(self.spec, values["accept"])
+        except ValueError as e:
+            raise ParameterError("parameter accept: %s" % e) from None
+        return argparse.Namespace(prefix=values["prefix"], rate=values["rate"], timeout=values["timeout"] or None,
+                                  verbose=values["verbose"], diagnostics_period=values["diagnostics_period"],
+                                  accept=accept)
+
+    def part(self, node, options):
+        return NodeBridge(self.spec, options, node, self.make_output(node), self.build, self.compute,
+                          self.topic_inputs)
 
 
-# --- several nodes in one process (ybgc compose) ------------------------------------
-
-def _parse_composed_command_line(name, members, args):
-    parser = argparse.ArgumentParser(
-        prog=os.path.basename(sys.argv[0]) if sys.argv and sys.argv[0] else name,
-        description=describe(name, members),
-        epilog="Each bridge is a node of its own name with the parameters of its node alone (rate,\n"
-               "timeout, prefix, verbose, accept, diagnostics, diagnostic_updater.period,\n"
-               "qos_overrides.*, use_sim_time), given for one node as\n"
-               "  --ros-args -p NODE:NAME:=VALUE   or in a --params-file keyed by node name\n"
-               "(-p NAME:=VALUE gives every node the value). `yarp rpc /%s/rpc:i` answers\n"
-               "help, stats and quit." % name,
-        formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.parse_args(args)
+NODE_KINDS[BridgeSpec] = StreamNode.of_module
 
 
-#: the longest wait of a composed node's executor for an event: a dozen
-#: executors waking ten times a second each with nothing to do would take a
-#: tenth of a core
-COMPOSED_SPIN_TIMEOUT = 1.0
-
-
-def _stop_nodes(spinners, nodes):
-    """Every executor stopped at once, then the nodes destroyed."""
-    for spinner in spinners:
-        spinner.done.set()
-        spinner.wake()
-    end = time.monotonic() + 1.0
-    for spinner in spinners:
-        spinner.join(max(0.0, end - time.monotonic()))
-    for spinner in spinners:
-        spinner.executor.shutdown(timeout_sec=0.05)
-    for node in nodes:
-        node.destroy_node()
-
-
-def run_composed(name, members, argv, load):
-    """Run the bridges ``members`` (each loaded by ``load(member)``, a node
-    of the ``ros2`` backend) in this process: one rclpy context (one DDS
-    participant), one node per bridge with its own name, parameters,
-    executor thread and /diagnostics status; the YARP side is
-    compose.Composer's. Until SIGINT, SIGTERM or `quit` on
-    ``/<name>/rpc:i``; the exit status (2: a bad parameter, nothing opened)."""
-    argv = list(sys.argv[1:] if argv is None else argv)
-    sys.setswitchinterval(SWITCH_INTERVAL)
-    composer = Composer(name, members)
-    composer.handle_signals()
-    prog = sys.argv[0] if sys.argv and sys.argv[0] else name
-    _parse_composed_command_line(name, members, rclpy.utilities.remove_ros_args([prog] + argv)[1:])
-    try:
-        rclpy.init(args=[prog] + argv, signal_handler_options=SignalHandlerOptions.NO)
-    except Exception as e:
-        print("%s: cannot start ROS 2: %s" % (name, e), flush=True)
-        return 2
-    nodes = []
-    spinners = []
-    finished = []
-
-    def finish(stuck):
-        # the nodes destroyed within the exit's budget (each entity destroyed
-        # is told to every participant, which on a busy machine can take
-        # seconds for a dozen nodes): else the process exits at once, its
-        # ports closed and its totals printed already
-        finished.append(True)
-        if stuck:
-            return
-        done = threading.Event()
-
-        def stop_ros():
-            _stop_nodes(spinners, nodes)
-            rclpy.try_shutdown()
-            done.set()
-
-        threading.Thread(target=stop_ros, name="stop ROS 2", daemon=True).start()
-        if not done.wait(max(0.1, composer.time_left())):
-            sys.stdout.flush()
-            sys.stderr.flush()
-            os._exit(1 if composer.failed else 0)
-
-    try:
-        prepared = []
-        for member in members:
-            try:
-                module = load(member)
-                # a node of commands (its spec lists services): its runtime is
-                # the module its run_commands comes from
-                commands = sys.modules[module.run_commands.__module__] if hasattr(module.SPEC, "services") \
-                    else None
-                node_name = module.SPEC.node_name if commands is not None else module.NODE_NAME
-            except (Exception, SystemExit) as e:
-                composer.refuse(member, load_failure(member, e))
-                continue
-            node = rclpy.create_node(node_name)
-            nodes.append(node)
-            try:
-                if commands is not None:
-                    options = commands.node_options(node, module.SPEC.default_prefix)
-                else:
-                    options = node_options(node, module.DEFAULT_PREFIX, module.DEFAULT_RATE, module.SPEC)
-            except (ParameterError, getattr(commands, "ParameterError", ParameterError)) as e:
-                print("%s: %s" % (module.SPEC.module, e), flush=True)
-                return 2
-            try:
-                if commands is not None:
-                    bridge = commands.ComposedCommands(module.SPEC, node, options)
-                else:
-                    bridge = NodeBridge(module.SPEC, options, node, module.make_output(node), module.build_message,
-                                        module.compute, module.TOPIC_INPUTS)
-            except Exception as e:
-                composer.refuse(member, "%s: %s" % (type(e).__name__, e))
-                nodes.remove(node)
-                node.destroy_node()
-                continue
-            prepared.append((member, node, bridge, options))
-        yarp.Network.init()
-        if not yarp.Network.checkNetwork(3.0):
-            composer.log("cannot reach the YARP name server (is yarpserver running?)")
-            return 1
-        if not composer.open_rpc():
-            return 1
-        for member, node, bridge, options in prepared:
-            if composer.stop_event.is_set():
-                break
-            if not composer.start(member, bridge):
-                nodes.remove(node)
-                node.destroy_node()
-                continue
-            if not isinstance(bridge, NodeBridge):  # a node of commands: its loop runs its executor
-                bridge.start_diagnostics(options.diagnostics_period)
-                continue
-            if options.diagnostics_period:
-                Diagnostics(bridge, node, options.diagnostics_period)
-            spinner = Spinner(node, bridge.log, COMPOSED_SPIN_TIMEOUT)
-            spinner.start()
-            spinners.append(spinner)
-        return composer.serve(finish)
-    finally:
-        if not finished:
-            _stop_nodes(spinners, nodes)
-            rclpy.try_shutdown()
+def run_node(spec, argv, node_name, default_prefix, default_rate, topic_inputs, make_output, build, compute):
+    """Start rclpy and the node, run the bridge until SIGINT, SIGTERM or
+    `quit`; the exit status. (A composed node's bridges: run_composed.)"""
+    return run_alone(StreamNode(spec, node_name, default_prefix, default_rate, topic_inputs, make_output, build,
+                               compute), argv)

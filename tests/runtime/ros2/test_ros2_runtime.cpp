@@ -9,6 +9,7 @@
 // a parameter file), and the statuses of /diagnostics. Each failed check prints its line; the exit
 // status is the number of failures.
 #include "ybgc_ros2.hpp"
+#include "ybgc_internal.hpp"  // the command line, every kind of bridge's
 
 #include <builtin_interfaces/msg/time.h>
 #include <rcl/arguments.h>
@@ -167,7 +168,7 @@ void testRosArgs()
     }
     argv.push_back(nullptr);
     int argc = static_cast<int>(words.size());
-    const std::vector<std::string> ros = ybgc::ros2::takeRosArgs(argc, argv.data());
+    const std::vector<std::string> ros = ybgc::takeRosArgs(argc, argv.data());
     CHECK(ros == (std::vector<std::string>{"--ros-args", "-p", "use_sim_time:=true"}));
     CHECK(argc == 5 && std::string(argv[1]) == "--prefix" && std::string(argv[3]) == "--rate");
     CHECK(argv[5] == nullptr);
@@ -436,10 +437,38 @@ void testDiagnostics()
             argv.push_back(w.data());
         }
         argv.push_back(nullptr);
-        ybgc::ros2::CommandLine line(3, argv.data(), {"--rate=25", "--verbose"});
+        ybgc::CommandLine line(3, argv.data(), {"--rate=25", "--verbose"});
         CHECK(line.argc() == 5 && line.argv()[5] == nullptr);
         CHECK(std::string(line.argv()[0]) == "module" && std::string(line.argv()[1]) == "--rate=25");
         CHECK(std::string(line.argv()[3]) == "--rate" && std::string(line.argv()[4]) == "10");
+    }
+    {
+        // a bridge's command line with its ROS arguments: those of a stream give every option, those of
+        // commands `prefix` and `verbose` alone; a bad value is status 2
+        auto words = [](std::vector<std::string> w) { return w; };
+        for (const bool stream : {true, false}) {
+            std::vector<std::string> w = words({"module", "--name", "x", "--ros-args", "-p", "rate:=40", "-p",
+                                                "diag:verbose:=true", "-p", "prefix:=/p", "--", "--verbose"});
+            std::vector<char*> argv;
+            for (std::string& s : w) {
+                argv.push_back(s.data());
+            }
+            argv.push_back(nullptr);
+            ybgc::RosCommandLine line(static_cast<int>(w.size()), argv.data(), "module", "diag", stream);
+            CHECK(line.status == 0);
+            CHECK(line.rosArgs.size() == 7 && line.rosArgs[0] == "--ros-args");
+            std::vector<std::string> got(line.argv() + 1, line.argv() + line.argc());
+            CHECK(got == (stream ? std::vector<std::string>{"--rate=40", "--prefix=/p", "--verbose", "--name", "x",
+                                                            "--verbose"}
+                                 : std::vector<std::string>{"--prefix=/p", "--verbose", "--name", "x", "--verbose"}));
+        }
+        std::vector<std::string> w = words({"module", "--ros-args", "-p", "diagnostics:=1"});
+        std::vector<char*> argv;
+        for (std::string& s : w) {
+            argv.push_back(s.data());
+        }
+        argv.push_back(nullptr);
+        CHECK(ybgc::RosCommandLine(static_cast<int>(w.size()), argv.data(), "module", "diag", false).status == 2);
     }
 
     // the rate over the last 5 periods: the oldest of the last 6 samples to the newest

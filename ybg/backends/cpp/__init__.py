@@ -19,7 +19,11 @@ print.
 A config of commands (:class:`~ybg.compiler.ir.Commands`: YARP RPC ports and
 ROS 2 services, docs/services.md) is lowered by :mod:`.services` and printed
 by ``services.cpp.j2`` and ``services.CMakeLists.txt.j2``; it runs on the
-runtime's ``ybgc_services.*`` with its ROS 2 side.
+runtime's ``ybgc_services*`` with its ROS 2 side. Each kind of bridge is a
+:class:`~ybg.backends.base.BridgeKind` here (:class:`StreamModule`,
+:class:`CommandsModule`): its view, its template, what it says of itself,
+whether it needs the runtime's commands; the composed module (:mod:`.compose`)
+asks the same ones.
 """
 
 from __future__ import annotations
@@ -67,6 +71,11 @@ class StreamModule(BridgeKind):
     its CMakeLists.txt, its yarpmanager application; with ``package``, an
     ament_cmake package around it."""
 
+    #: the template of its module file (a bridge of a composed module's too)
+    template = "module.cpp.j2"
+    #: it runs on the runtime's commands (ybgc_services*)
+    services = False
+
     def render(self, program, options: RenderOptions) -> dict[str, str]:
         view = self.lower(program)
         ros2 = view.uses_ros2
@@ -106,10 +115,40 @@ class StreamModule(BridgeKind):
             return ros2.lower(program)
         return lower(program)
 
+    view = lower
+
+    @staticmethod
+    def describe(program) -> str:
+        """What it does, for a comment: what it publishes."""
+        from ybg.lower.rosnames import ros2_type_name
+
+        out = program.output
+        if out.kind == "ros2":
+            return f"{ros2_type_name(out.msg_type or program.message.msg_type or '')} on {out.name}"
+        if out.kind == "ros1":
+            return f"the ROS 1 topic {out.name}"
+        return f"the YARP port {out.name}"
+
 
 class CommandsModule(BridgeKind):
     """A module of commands (.services): the module, its CMakeLists.txt, and
     the runtime with its ROS 2 side and commands beside it (or inlined)."""
+
+    template = "services.cpp.j2"
+    services = True
+
+    @staticmethod
+    def view(commands):
+        from ybg.backends.cpp import services
+
+        return services.lower(commands)
+
+    @staticmethod
+    def describe(commands) -> str:
+        """What it does, for a comment: what each command serves and calls."""
+        return "commands " + ", ".join(
+            f"{s.service} -> {s.port}" if s.serves == "ros2" else f"{s.port} ({s.name}) -> {s.service}"
+            for s in commands.services)
 
     def render(self, commands, options: RenderOptions) -> dict[str, str]:
         from ybg.backends.cpp import services
@@ -147,15 +186,11 @@ class CppBackend(Backend):
     bridge_kinds = {"stream": StreamModule(), "commands": CommandsModule()}
 
     def compose(self, programs, name: str, options: RenderOptions = RenderOptions()) -> dict[str, str]:
-        """One native executable running every program's bridge (.compose, docs/compose.md)."""
+        """One native executable running every program's bridge, of either
+        kind (.compose, docs/compose.md)."""
         from ybg.backends.cpp.compose import compose
 
         return compose(programs, name, options)
-
-    @staticmethod
-    def _lower(program):
-        """A stream's view (:class:`StreamModule`), for the composed module."""
-        return StreamModule.lower(program)
 
 
 __all__ = ["CppBackend", "LoweringError", "TEMPLATE_DIR", "environment"]

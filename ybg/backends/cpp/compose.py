@@ -2,7 +2,9 @@
 (docs/compose.md).
 
 Each bridge is the module that ``ybgc generate`` makes for its config,
-printed by the same lowering and template (``module.cpp.j2``), in
+printed by the same lowering and template as alone (its kind's, a
+:class:`~ybg.backends.base.BridgeKind` of the backend: ``module.cpp.j2`` for
+a stream, ``services.cpp.j2`` for a config of commands), in
 ``bridges/<module>.cpp``: in a namespace of its own, ``bridge_<module>``,
 its ``main()`` the entry ``bridge_<module>::run`` instead. The composed
 module ``<name>.cpp`` (``compose.cpp.j2``) lists them and runs them on the
@@ -15,8 +17,9 @@ bridge's connections. With ``--package``: one ament_cmake package, one
 executable, and a launch file that gives each bridge's node its parameters
 from a parameter file keyed by node name (``config/<name>.yaml``).
 
-A config of commands (``ir.Commands``) is refused: its module runs on a
-loop of its own (``ybgc_services.*``), not yet on the composed process.
+A bridge of commands runs on the runtime's commands (``ybgc_services*``) in
+the same process shell as a stream: its node on the process's rcl context,
+its YARP ports served and called, its counts in the process's ``stats``.
 """
 
 from __future__ import annotations
@@ -28,15 +31,15 @@ from dataclasses import dataclass
 import jinja2
 
 from ybg.backends.base import RenderOptions
-from ybg.backends.runtime import (CPP_COMPOSE_SOURCES, CPP_IMAGES_SOURCES, CPP_ROS2_SOURCES, CPP_SOURCES, VERSION,
-                                  cpp_files, runtime_view)
+from ybg.backends.runtime import (CPP_COMPOSE_SOURCES, CPP_IMAGES_SOURCES, CPP_ROS2_SOURCES, CPP_SERVICES_SOURCES,
+                                  CPP_SOURCES, VERSION, cpp_files, runtime_view)
 from ybg.compiler import ir
 from ybg.lower import yarpmanager
 from ybg.lower.compose import BRIDGES, config_at, config_file, refusal
 from ybg.lower.errors import LoweringError
 from ybg.lower.package import YAML_FILTERS, NodeParameters
 from ybg.lower.python import py_literal
-from ybg.lower.rosnames import node_name, node_parameters, package_name, ros2_type_name
+from ybg.lower.rosnames import node_name, node_parameters, package_name
 from ybg.lower.templates import (code_filter, indent_line_filter, py_comment_filter, template_environment,
                                  xml_comment_filter, xml_filter)
 
@@ -125,16 +128,6 @@ def environment() -> jinja2.Environment:
     })
 
 
-def _describe(program: ir.Program) -> str:
-    """What a bridge publishes, for a comment."""
-    out = program.output
-    if out.kind == "ros2":
-        return f"{ros2_type_name(out.msg_type or program.message.msg_type or '')} on {out.name}"
-    if out.kind == "ros1":
-        return f"the ROS 1 topic {out.name}"
-    return f"the YARP port {out.name}"
-
-
 def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> dict[str, str]:
     """The files of the composed module ``name`` of ``programs`` (docs/compose.md)."""
     from ybg.backends.cpp import CppBackend, runtime_library
@@ -146,7 +139,7 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
     CppBackend().check_composed(programs)
     for program in programs:
         try:
-            view = CppBackend._lower(program)
+            view = CppBackend().kind(program).view(program)
         except LoweringError as e:
             if getattr(e, "module", None) is None:
                 e.module = program.module
@@ -162,17 +155,18 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
 
     ros2 = any(v.uses_ros2 for _, v in views)
     images = any(v.images for _, v in views)
+    services = any(CppBackend().kind(p).services for p, _ in views)
     files: dict[str, str] = {}
     members = []
-    template = env.get_template("module.cpp.j2")
     rt = runtime_view("cpp", False)
     for program, view in views:
+        kind = CppBackend().kind(program)
         namespace = cpp_identifier(f"bridge_{program.module}")
         member = BridgeMember(namespace=namespace, composed=comment(name), config=comment(config_file(program)))
-        files[f"{BRIDGES}/{view.filename}"] = template.render(m=view, rt=rt, member=member)
+        files[f"{BRIDGES}/{view.filename}"] = env.get_template(kind.template).render(m=view, rt=rt, member=member)
         members.append(MemberView(namespace=namespace, module=cpp_string(program.module),
                                   config=cpp_string(config_file(program)), at=cpp_string(config_at(program)),
-                                  summary=comment(f"{program.module}: {_describe(program)}")))
+                                  summary=comment(f"{program.module}: {kind.describe(program)}")))
     packages = sorted({p for _, v in views for p in v.ros2_packages})
     filename = f"{name}.cpp"
     composed = ComposedView(filename=filename, name=name, name_literal=cpp_string(name), name_comment=comment(name),
@@ -189,11 +183,11 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
     files["CMakeLists.txt"] = env.get_template("compose.CMakeLists.txt.j2").render(
         m=build, runtime_sources=list(CPP_SOURCES), runtime_library=runtime_library(),
         own_sources=list(CPP_COMPOSE_SOURCES) + (list(CPP_ROS2_SOURCES) if ros2 else [])
-        + (list(CPP_IMAGES_SOURCES) if images else []),
+        + (list(CPP_IMAGES_SOURCES) if images else []) + (list(CPP_SERVICES_SOURCES) if services else []),
         package=pkg, project=pkg.package if pkg is not None else name,
         launch_file=f"launch/{pkg.launch_file}" if pkg is not None and pkg.nodes else None,
         params_file=f"config/{pkg.params_file}" if pkg is not None and pkg.nodes else None)
-    files.update(cpp_files(ros2=ros2, images=images, compose=True))
+    files.update(cpp_files(ros2=ros2, images=images, services=services, compose=True))
     workdir = options.extra.get("workdir")
     files[f"{name}.xml"] = application(programs, name, f"build/{name}" if workdir and pkg is None else name, workdir
                                        if pkg is None else None)
@@ -245,6 +239,8 @@ def application(programs, name: str, command: str, workdir: str | None) -> str:
     if workdir is not None:
         text(module, "workdir", workdir)
     for program in programs:
+        if isinstance(program, ir.Commands):
+            continue  # its callers connect at each call
         for source, destination in yarpmanager.connections(program):
             link = ET.SubElement(app, "connection")
             text(link, "from", source)

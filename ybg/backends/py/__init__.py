@@ -20,7 +20,7 @@ import jinja2
 
 from ybg.backends.base import Backend, BridgeKind, RenderOptions
 from ybg.backends.py.lower import lower
-from ybg.backends.runtime import python_files, runtime_text_filter, runtime_view
+from ybg.backends.runtime import PY_STREAM_MODULES, python_files, runtime_text_filter, runtime_view
 from ybg.lower import yarpmanager
 from ybg.lower.errors import LoweringError
 from ybg.lower.python import PYTHON_FILTERS
@@ -44,7 +44,7 @@ class StreamModule(BridgeKind):
 
     def render(self, program, options: RenderOptions) -> dict[str, str]:
         view = lower(program)
-        rt = runtime_view("py", options.single_file, ("geometry", "core", "yarp_io"))
+        rt = runtime_view("py", options.single_file, PY_STREAM_MODULES)
         files = {view.filename: environment().get_template("module.py.j2").render(m=view, rt=rt)}
         if not options.single_file:
             files.update(python_files())

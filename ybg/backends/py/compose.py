@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import jinja2
 
 from ybg.backends.base import RenderOptions
-from ybg.backends.runtime import VERSION, python_files, runtime_view
+from ybg.backends.runtime import PY_STREAM_MODULES, VERSION, python_files, runtime_view
 from ybg.lower import yarpmanager
 from ybg.lower.compose import BRIDGES, config_at, config_file
 from ybg.lower.errors import LoweringError
@@ -66,7 +66,7 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
         raise e
     PyBackend().check_composed(programs)
     env = environment()
-    rt = runtime_view("py", False, ("geometry", "core", "yarp_io"))
+    rt = runtime_view("py", False, PY_STREAM_MODULES)
     files: dict[str, str] = {}
     members = []
     template = env.get_template("module.py.j2")

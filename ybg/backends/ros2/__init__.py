@@ -25,7 +25,8 @@ import jinja2
 from ybg.backends.base import Backend, BridgeKind, RenderOptions
 from ybg.backends.ros2 import services
 from ybg.backends.ros2.lower import lower, lower_package
-from ybg.backends.runtime import PY_MODULES, PY_PACKAGE, python_files, runtime_text_filter, runtime_view
+from ybg.backends.runtime import (PY_COMMANDS_MODULES, PY_NODE_MODULES, PY_PACKAGE, python_files,
+                                  runtime_text_filter, runtime_view)
 from ybg.lower.errors import LoweringError
 from ybg.lower.package import launch_file
 from ybg.lower.python import PYTHON_FILTERS
@@ -35,8 +36,8 @@ from ybg.lower.templates import py_comment_filter, template_environment, xml_com
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"
 #: the runtime modules a node inlines with --single-file: a stream node's,
 #: and a node of commands'
-STREAM_MODULES = tuple(m for m in PY_MODULES if m != "services")
-COMMANDS_MODULES = ("services",)
+STREAM_MODULES = PY_NODE_MODULES
+COMMANDS_MODULES = PY_COMMANDS_MODULES
 
 
 def _package_name(text) -> str:

@@ -1,9 +1,11 @@
 // Several bridges in one process (ybgc_compose.hpp): the process's command
-// line, signals, YARP network and RPC port; each bridge's main() run in a
-// thread of its own as the Host of its bridge (ybgc_internal.hpp), started
-// one after the other (one that cannot start is said and the others run);
-// the stop (SIGINT, SIGTERM, `quit`) of every bridge at once, each closing
-// its own ports, its totals printed under its name, within 2 s.
+// line, signals, YARP network and RPC port (the process shell's parts,
+// ybgc_shell.cpp); each bridge's main() run in a thread of its own as the
+// Host of its bridge (ybgc_internal.hpp), whatever its kind (a stream,
+// commands), started one after the other (one that cannot start is said
+// and the others run); the stop (SIGINT, SIGTERM, `quit`) of every bridge at
+// once, each closing its own ports, its totals printed under its name,
+// within 2 s.
 #include "ybgc_compose.hpp"  // ybgc:runtime-import
 #include "ybgc_internal.hpp"  // ybgc:runtime-import
 
@@ -23,11 +25,7 @@
 #include <vector>
 
 #include <yarp/os/Bottle.h>
-#include <yarp/os/ConnectionReader.h>
-#include <yarp/os/ConnectionWriter.h>
 #include <yarp/os/Network.h>
-#include <yarp/os/PortReader.h>
-#include <yarp/os/RpcServer.h>
 
 namespace ybgc {
 namespace compose {
@@ -36,11 +34,12 @@ namespace {
 
 /// What `help` answers on the RPC port of a composed module, one line a
 /// command (as the Python runtime's compose.COMPOSED_HELP).
-const char* const kHelp[] = {
+const std::vector<std::string> kHelp = {
     "help: this list",
     "stats: one list per bridge, its name then its own stats: per input (input SOURCE received N dropped N "
     "stale N unused N refused N), (published N skipped N failures N missed N), (rate ACHIEVED configured "
-    "HZ|event-driven); a bridge that is not running: (NAME \"not running\" WHY)",
+    "HZ|event-driven); a node of commands: per service (service NAME calls N answered N failed N timed_out N "
+    "no_server N unfit N); a bridge that is not running: (NAME \"not running\" WHY)",
     "quit: stop every bridge (each closes its ports and prints its totals; exit 0, or 1 if a bridge could "
     "not start)",
 };
@@ -58,28 +57,6 @@ void sayAs(const char* name, const std::string& text)
 {
     printLines(std::string(name) + ": " + text + "\n");
 }
-
-/// A command line of its own for a bridge's main(): its module's name,
-/// then the process's ROS arguments.
-class Words
-{
-public:
-    Words(const char* program, const std::vector<std::string>& rosArgs)
-    {
-        words_.emplace_back(program);
-        words_.insert(words_.end(), rosArgs.begin(), rosArgs.end());
-        for (std::string& w : words_) {
-            argv_.push_back(w.data());
-        }
-        argv_.push_back(nullptr);
-    }
-    int argc() const { return static_cast<int>(words_.size()); }
-    char** argv() { return argv_.data(); }
-
-private:
-    std::vector<std::string> words_;
-    std::vector<char*> argv_;
-};
 
 class Composer;
 
@@ -113,53 +90,14 @@ public:
     std::mutex liveMutex;
     bool live = false;                 // its bridge runs (guarded by liveMutex)
     Running running;                   // (guarded by liveMutex)
-    std::unique_ptr<RateMeter> meter;  // `stats`: the rate since the previous one (guarded by liveMutex)
 
 private:
     Composer& composer_;
     const bool checking_;
 };
 
-/// The RPC port of the process (/<name>/rpc:i), answered by the composer in
-/// YARP's own thread for the port, as a module's RpcPort is.
-class Rpc : public yarp::os::PortReader
-{
-public:
-    Rpc(std::string name, Composer& composer) : name(std::move(name)), composer_(composer) {}
-
-    bool open()
-    {
-        port_.setReader(*this);
-        return port_.open(name);
-    }
-
-    /// Closed; after a `quit`, once its `bye` is on its way.
-    void close()
-    {
-        if (quitAsked) {
-            const SteadyClock::time_point deadline = SteadyClock::now() + std::chrono::milliseconds(500);
-            while (reading_ && SteadyClock::now() < deadline) {
-                std::this_thread::sleep_for(std::chrono::milliseconds(1));
-            }
-            std::this_thread::sleep_for(std::chrono::milliseconds(50));  // read() returned: the reply is sent
-        }
-        port_.interrupt();
-        port_.close();
-    }
-
-    bool read(yarp::os::ConnectionReader& connection) override;
-
-    const std::string name;
-    std::atomic<bool> quitAsked{false};
-
-private:
-    Composer& composer_;
-    std::atomic<bool> reading_{false};
-    yarp::os::RpcServer port_;
-};
-
-/// The bridges of the process.
-class Composer
+/// The bridges of the process, and what its RPC port answers.
+class Composer : public RpcCommands
 {
 public:
     Composer(const char* name, const Member* members, std::size_t count, std::vector<std::string> rosArgs) :
@@ -179,7 +117,8 @@ public:
             Slot checker(*this, slot->member, true);
             Host::setCurrent(&checker);
             tModule = slot->member.module;
-            Words words(slot->member.module, rosArgs_);
+            char* program = const_cast<char*>(slot->member.module);
+            CommandLine words(1, &program, rosArgs_);
             status = slot->member.run(words.argc(), words.argv());
             Host::setCurrent(nullptr);
             tModule = nullptr;
@@ -204,7 +143,7 @@ public:
                     continue;
                 }
             }
-            s->thread = std::thread([this, s] { runBridge(*s); });
+            s->thread = std::thread([this, s] { runSlot(*s); });
             std::unique_lock<std::mutex> lock(mutex_);
             wake_.wait(lock, [this, s] { return s->state != Slot::State::Starting || stopping_; });
         }
@@ -225,7 +164,7 @@ public:
     }
 
     /// Asks every bridge to stop (any thread; a signal's, the RPC port's).
-    void requestStop()
+    void stop() override
     {
         {
             std::lock_guard<std::mutex> lock(mutex_);
@@ -236,7 +175,7 @@ public:
         }
         wake_.notify_all();
         for (const auto& slot : slots_) {
-            stop(*slot);
+            stopSlot(*slot);
         }
     }
 
@@ -250,10 +189,10 @@ public:
     /// their totals printed in order under their names, the ROS 2 context
     /// shut down; the exit status (1 when a bridge could not start). A bridge
     /// that does not close within the budget: the process exits without it.
-    int shutDown(Rpc& rpc)
+    int shutDown(RpcPort& rpc)
     {
-        requestStop();
-        rpc.close();
+        stop();
+        rpc.close(std::chrono::milliseconds(500));
         SteadyClock::time_point stoppedAt;
         {
             std::lock_guard<std::mutex> lock(mutex_);
@@ -304,44 +243,30 @@ public:
         return status;
     }
 
-    /// The answer to `command` on the process's RPC port.
-    void respond(const yarp::os::Bottle& command, yarp::os::Bottle& reply, Rpc& rpc)
+    /// `stats` on the process's RPC port: one list per bridge, its name
+    /// then its own lists (or why it is not running).
+    void ownStats(yarp::os::Bottle& reply) override
     {
-        const std::string word = command.size() > 0 ? command.get(0).toString() : std::string();
-        if (word == "help") {
-            reply.addVocab32("many");
-            for (const char* line : kHelp) {
-                reply.addString(line);
-            }
-        } else if (word == "stats") {
-            reply.addVocab32("many");
-            for (const auto& slot : slots_) {
-                yarp::os::Bottle& item = reply.addList();
-                item.addString(slot->member.module);
-                {
-                    std::lock_guard<std::mutex> live(slot->liveMutex);
-                    if (slot->live) {
-                        const Totals totals = slot->running.totals();
-                        statsItems(item, totals, slot->meter->read(SteadyClock::now(), totals.published),
-                                   slot->running.rate);
-                        continue;
-                    }
+        reply.addVocab32("many");
+        for (const auto& slot : slots_) {
+            yarp::os::Bottle& item = reply.addList();
+            item.addString(slot->member.module);
+            {
+                std::lock_guard<std::mutex> live(slot->liveMutex);
+                if (slot->live) {
+                    slot->running.stats(item);
+                    continue;
                 }
-                std::lock_guard<std::mutex> lock(mutex_);
-                item.addString("not running");
-                item.addString(slot->state == Slot::State::Refused ? slot->why
-                               : slot->state == Slot::State::Closed ? std::string("stopped")
-                                                                     : std::string("starting"));
             }
-        } else if (word == "quit" || word == "exit" || word == "bye") {
-            say("asked to quit on the RPC port");
-            rpc.quitAsked = true;
-            requestStop();
-            reply.addVocab32("bye");
-        } else {
-            reply.addString("unknown command '" + word + "'; the commands: help, stats, quit");
+            std::lock_guard<std::mutex> lock(mutex_);
+            item.addString("not running");
+            item.addString(slot->state == Slot::State::Refused ? slot->why
+                           : slot->state == Slot::State::Closed ? std::string("stopped")
+                                                                 : std::string("starting"));
         }
     }
+
+    std::vector<std::string> help() const override { return kHelp; }
 
     const char* name() const { return name_; }
 
@@ -351,7 +276,6 @@ public:
         {
             std::lock_guard<std::mutex> live(slot.liveMutex);
             slot.running = std::move(running);
-            slot.meter = std::make_unique<RateMeter>(SteadyClock::now());
             slot.live = true;
         }
         bool stopping = false;
@@ -362,7 +286,7 @@ public:
         }
         wake_.notify_all();
         if (stopping) {
-            stop(slot);  // a stop came while it was starting
+            stopSlot(slot);  // a stop came while it was starting
         }
     }
 
@@ -401,7 +325,7 @@ public:
 
 private:
     /// Asks the slot's bridge to stop, if it runs.
-    static void stop(Slot& slot)
+    static void stopSlot(Slot& slot)
     {
         std::lock_guard<std::mutex> live(slot.liveMutex);
         if (slot.live) {
@@ -410,11 +334,12 @@ private:
     }
 
     /// A bridge's thread: its module's main(), hosted by its slot.
-    void runBridge(Slot& slot)
+    void runSlot(Slot& slot)
     {
         Host::setCurrent(&slot);
         tModule = slot.member.module;
-        Words words(slot.member.module, rosArgs_);
+        char* program = const_cast<char*>(slot.member.module);
+        CommandLine words(1, &program, rosArgs_);
         const int status = slot.member.run(words.argc(), words.argv());
         bool refusedNow = false;
         {
@@ -465,31 +390,16 @@ private:
         if (finishers.empty()) {
             return;
         }
-        struct Done
-        {
-            std::mutex mutex;
-            std::condition_variable cv;
-            bool done = false;
-        };
-        auto state = std::make_shared<Done>();
-        std::thread finisher([finishers = std::move(finishers), state] {
+        const bool done = finishBy(deadline, [finishers = std::move(finishers)] {
             for (auto it = finishers.rbegin(); it != finishers.rend(); ++it) {
                 (*it)();
             }
-            std::lock_guard<std::mutex> lock(state->mutex);
-            state->done = true;
-            state->cv.notify_all();
+            return true;
         });
-        std::unique_lock<std::mutex> lock(state->mutex);
-        if (state->cv.wait_until(lock, deadline, [&state] { return state->done; })) {
-            lock.unlock();
-            finisher.join();
-            return;
+        if (!done) {
+            std::fflush(stdout);
+            std::_Exit(status);
         }
-        lock.unlock();
-        finisher.detach();
-        std::fflush(stdout);
-        std::_Exit(status);
     }
 
     const char* name_;
@@ -522,24 +432,6 @@ void Slot::atEnd(std::function<void()> finish)
     composer_.atEnd(std::move(finish));
 }
 
-bool Rpc::read(yarp::os::ConnectionReader& connection)
-{
-    reading_ = true;
-    yarp::os::Bottle command;
-    if (!command.read(connection)) {
-        reading_ = false;
-        return false;
-    }
-    yarp::os::Bottle reply;
-    composer_.respond(command, reply, *this);
-    yarp::os::ConnectionWriter* writer = connection.getWriter();
-    if (writer != nullptr) {
-        reply.write(*writer);
-    }
-    reading_ = false;
-    return true;
-}
-
 /// --help: the bridges, and how each takes its parameters.
 void help(const char* name, const std::string& prog, const Member* members, std::size_t count)
 {
@@ -565,23 +457,14 @@ int run(const char* name, const Member* members, std::size_t count, int argc, ch
     std::string prog = argc > 0 && argv[0][0] != '\0' ? argv[0] : name;
     prog = prog.substr(prog.rfind('/') + 1);
     // the ROS arguments (from --ros-args to -- or the end) go to every bridge; nothing else is taken
-    std::vector<std::string> rosArgs;
+    std::vector<std::string> rosArgs = takeRosArgs(argc, argv);
     std::string others;
-    bool inside = false;
     for (int k = 1; k < argc; ++k) {
-        if (!inside && std::strcmp(argv[k], "--ros-args") == 0) {
-            inside = true;
-            rosArgs.emplace_back(argv[k]);
-        } else if (inside && std::strcmp(argv[k], "--") == 0) {
-            inside = false;
-        } else if (inside) {
-            rosArgs.emplace_back(argv[k]);
-        } else if (std::strcmp(argv[k], "--help") == 0 || std::strcmp(argv[k], "-h") == 0) {
+        if (std::strcmp(argv[k], "--help") == 0 || std::strcmp(argv[k], "-h") == 0) {
             help(name, prog, members, count);
             return 0;
-        } else {
-            others += (others.empty() ? "" : " ") + std::string(argv[k]);
         }
+        others += (others.empty() ? "" : " ") + std::string(argv[k]);
     }
     if (!others.empty()) {
         std::fprintf(stderr, "usage: %s [--help] [--ros-args ...]\n%s: error: unrecognized arguments: %s\n",
@@ -599,12 +482,17 @@ int run(const char* name, const Member* members, std::size_t count, int argc, ch
         say("cannot reach the YARP name server (is yarpserver running?)");
         return 1;
     }
-    Rpc rpc("/" + std::string(name) + "/rpc:i", composer);
+    RpcPort rpc(
+        "/" + std::string(name) + "/rpc:i",
+        [&composer](const yarp::os::Bottle& command, yarp::os::Bottle& reply) {
+            return composer.answerRpc(command, reply);
+        },
+        [&composer] { composer.stop(); });
     if (!rpc.open()) {
         say("cannot open the RPC port " + rpc.name);
         return 1;
     }
-    signals.start([&composer] { composer.requestStop(); });
+    signals.start([&composer] { composer.stop(); });
     composer.startAll();
     composer.waitStop();
     const int status = composer.shutDown(rpc);

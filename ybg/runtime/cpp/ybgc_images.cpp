@@ -600,15 +600,29 @@ std::unique_ptr<MessageSink> imageOutput(const OutputSpec& spec, std::size_t inp
 int run(const BridgeSpec& spec, std::size_t input, const ros2::Topics& topics, int argc, char* argv[],
         MakeMessage make)
 {
-    std::vector<std::string> rosArgs = ros2::takeRosArgs(argc, argv);
-    std::vector<std::string> options;
-    if (const int status = ros2::checkRosArgs(rosArgs, topics.node, &options)) {
-        return status;
+    RosCommandLine line(argc, argv, spec.module, topics.node);
+    if (line.status != 0) {
+        return line.status;
     }
-    ros2::CommandLine line(argc, argv, options);
-    ros2::Subscriptions subscriptions(topics, std::move(rosArgs));
+    ros2::Subscriptions subscriptions(topics, std::move(line.rosArgs));
     const std::unique_ptr<MessageSink> output = imageOutput(spec.output, input, std::move(make));
     return ybgc::run(spec, line.argc(), line.argv(), *output, &subscriptions, &framePort);
+}
+
+int runImagePublisher(const BridgeSpec& spec, const ros2::Ros2Spec& ros2, const ros2::MessageType& type,
+                      const CameraInfoSpec* cameraInfo, const ros2::Topics* topics, int argc, char* argv[],
+                      ros2::FillMessage fill)
+{
+    RosCommandLine line(argc, argv, spec.module, ros2.node);
+    if (line.status != 0) {
+        return line.status;
+    }
+    ImagePublisher publisher(ros2, type, std::move(fill), cameraInfo, std::move(line.rosArgs));
+    std::unique_ptr<ros2::Subscriptions> subscriptions;
+    if (topics != nullptr) {
+        subscriptions = std::make_unique<ros2::Subscriptions>(*topics, std::vector<std::string>{}, &publisher);
+    }
+    return ybgc::run(spec, line.argc(), line.argv(), publisher, subscriptions.get(), &framePort);
 }
 
 }  // namespace images

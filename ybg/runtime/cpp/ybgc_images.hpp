@@ -118,30 +118,22 @@ private:
     std::unique_ptr<Rcl> rcl_;
 };
 
-/// Runs a bridge that publishes a ROS 2 image read from YARP (`fill`, the
-/// module's builder, fills the sensor_msgs/Image: setImage), with its
-/// CameraInfo (`cameraInfo`, nullptr for none), and reads ROS 2 topics too
-/// (`topics`, nullptr for none), until SIGINT or SIGTERM; the exit status.
+/// Runs a bridge that publishes a ROS 2 image read from YARP (`fill` fills
+/// the sensor_msgs/Image: setImage), with its CameraInfo (`cameraInfo`,
+/// nullptr for none), and reads ROS 2 topics too (`topics`, nullptr for
+/// none), until SIGINT or SIGTERM; the exit status.
+int runImagePublisher(const BridgeSpec& spec, const ros2::Ros2Spec& ros2, const ros2::MessageType& type,
+                      const CameraInfoSpec* cameraInfo, const ros2::Topics* topics, int argc, char* argv[],
+                      ros2::FillMessage fill);
+
+/// The same, `fill` the module's builder of the sensor_msgs/Image.
 template <class Msg>
 int run(const BridgeSpec& spec, const ros2::Ros2Spec& ros2, const ros2::MessageType& type,
         const CameraInfoSpec* cameraInfo, const ros2::Topics* topics, int argc, char* argv[],
         bool (*fill)(const Inputs&, const Context&, Msg&, std::string&))
 {
     static_assert(std::is_same_v<Msg, sensor_msgs__msg__Image>, "the message of a camera image is its Image");
-    std::vector<std::string> rosArgs = ros2::takeRosArgs(argc, argv);
-    std::vector<std::string> options;
-    if (const int status = ros2::checkRosArgs(rosArgs, ros2.node, &options)) {
-        return status;
-    }
-    ros2::CommandLine line(argc, argv, options);
-    ImagePublisher publisher(ros2, type, [fill](void* msg, const Inputs& in, const Context& ctx, std::string& failure) {
-        return fill(in, ctx, *static_cast<Msg*>(msg), failure);
-    }, cameraInfo, std::move(rosArgs));
-    std::unique_ptr<ros2::Subscriptions> subscriptions;
-    if (topics != nullptr) {
-        subscriptions = std::make_unique<ros2::Subscriptions>(*topics, std::vector<std::string>{}, &publisher);
-    }
-    return ybgc::run(spec, line.argc(), line.argv(), publisher, subscriptions.get(), &framePort);
+    return runImagePublisher(spec, ros2, type, cameraInfo, topics, argc, argv, ros2::filling(fill));
 }
 
 // --- a ROS 2 image topic to a YARP port of images ---------------------------------------------

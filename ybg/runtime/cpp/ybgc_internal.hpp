@@ -1,7 +1,9 @@
 // The internals that the C++ runtime's source files share, not for modules
 // (what a module uses is ybgc_runtime.hpp): the input ports, the watcher of
-// connections, the YARP output, the RPC port and the command-line options,
-// which the bridge (ybgc_runtime.cpp) puts together.
+// connections, the YARP output, which a stream (ybgc_runtime.cpp) puts
+// together; and the process shell every kind of bridge runs in, alone or
+// among others (ybgc_shell.cpp: signals, the RPC port, start and shutdown;
+// ybgc_options.cpp: the command line).
 #ifndef YBGC_INTERNAL_HPP
 #define YBGC_INTERNAL_HPP
 
@@ -11,6 +13,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
+#include <cstdio>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -268,7 +271,7 @@ bool writePatiently(Port& port, bool& patient)
     return busy;
 }
 
-// --- the RPC port (ybgc_totals.cpp) -----------------------------------------------------
+// --- what `stats` says of a stream (ybgc_totals.cpp) ------------------------------------
 
 /// The rate achieved: messages published per second since the previous
 /// reading (the first: since the meter was made, at start).
@@ -290,6 +293,9 @@ private:
 /// configured HZ|event-driven); `rate`: the configured rate, 0 event-driven.
 void statsItems(yarp::os::Bottle& out, const Totals& totals, double achieved, double rate);
 
+/// What `help` answers on a stream's RPC port, one line a command.
+extern const std::vector<std::string> kStreamHelp;
+
 /// The exit totals' line of a ROS 2 publisher or subscription that had
 /// incompatible peers (without its indent), as the Python runtime's.
 std::string ros2TotalsLine(const Totals::Ros2Endpoint& e);
@@ -297,48 +303,145 @@ std::string ros2TotalsLine(const Totals::Ros2Endpoint& e);
 /// (the Python runtime's core.MISSED_LINE).
 std::string missedLine(std::uint64_t missed);
 
-/// The module's RPC port `<prefix>/rpc:i`, as YARP modules have one (`yarp
-/// rpc /<module>/rpc:i`): `help`, `stats`, `quit` (also `exit`, `bye`: the
-/// RFModule convention). Each command is answered in YARP's own thread for
-/// the port, the totals read under the bridge's lock; the loop and the
-/// inputs never wait for it.
+// --- the process shell (ybgc_shell.cpp) ---------------------------------------------------
+// What every kind of bridge (a stream, commands) runs in, alone or among others
+// (ybgc compose): its command line, SIGINT and SIGTERM, the YARP network, its RPC
+// port, its start and its shutdown within deadlines, its exit totals.
+
+/// A thread of this thread's bridge: what it says is headed by the bridge's
+/// name (tModule), in a process of several bridges too.
+template <class F>
+std::thread bridgeThread(F&& f)
+{
+    return std::thread([f = std::forward<F>(f), who = tModule]() mutable {
+        tModule = who;
+        f();
+    });
+}
+
+/// Runs `work` in a thread of this bridge; true when it ended by
+/// `deadline` and said so (returned true), else false: a thread still at
+/// work is left to end by itself (a peer that does not answer holds it; the
+/// process may exit without it).
+bool finishBy(SteadyClock::time_point deadline, std::function<bool()> work);
+
+/// A thread left closing a port still uses its bridge: the calling thread
+/// never returns (the process exits without it).
+[[noreturn]] void hold();
+
+/// The command's first item as a word ("" for none; a vocab as its word, a
+/// number as its text).
+std::string firstWord(const yarp::os::Bottle& command);
+
+/// A YARP RPC port served (a yarp::os::RpcServer): each command answered by
+/// `answer` in YARP's own thread of its connection (callers on several
+/// connections are answered at once), never in a bridge's loop or inputs;
+/// a command whose answer asked to quit (answer's result) runs `quit` once
+/// its reply is on its way. What its thread says is headed by the name of
+/// the bridge that made it.
 class RpcPort : public yarp::os::PortReader
 {
 public:
-    /// `rate`: the configured rate in Hz, 0 for event-driven.
-    RpcPort(std::string name, std::function<Totals()> totals, std::function<void()> quit, double rate);
+    using Answer = std::function<bool(const yarp::os::Bottle& command, yarp::os::Bottle& reply)>;
+
+    RpcPort(std::string name, Answer answer, std::function<void()> quit);
 
     bool open();
 
-    /// Closed; after a `quit` it asked for, once its `bye` is on its way:
-    /// YARP sends a reply when read() has returned, so a port closed at once
-    /// could drop it (the caller would not know the module heard it).
-    void close();
+    /// Closed once no command is being answered (or after `limit`) and the
+    /// reply of a `quit` is on its way: YARP sends a reply when read() has
+    /// returned, so a port closed at once could drop it (the caller would
+    /// not know the module heard it).
+    void close(std::chrono::milliseconds limit);
 
     bool read(yarp::os::ConnectionReader& connection) override;
 
     const std::string name;
 
 private:
-    /// `reply` to `command`; false for an unknown one.
-    bool respond(const yarp::os::Bottle& command, yarp::os::Bottle& reply);
-
-    std::function<Totals()> totals_;
+    Answer answer_;
     std::function<void()> quit_;
-    const double rate_;
-    std::atomic<bool> reading_{false};
+    const char* module_;  // the bridge whose lines its thread says (tModule)
+    std::atomic<int> reading_{0};
+    std::atomic<bool> answered_{false};  // a command came while it was closing
     std::atomic<bool> quitAsked_{false};
-    std::mutex meterMutex_;
-    RateMeter meter_;
     yarp::os::RpcServer port_;
 };
 
-// --- SIGINT and SIGTERM (ybgc_runtime.cpp) ----------------------------------------------
+/// What closing a bridge ended with: its ports closed (else a peer held one
+/// and their names were unregistered), its threads ended, each within its
+/// deadline. Either false: the process exits without waiting for them.
+struct Closed
+{
+    bool ports = true;
+    bool threads = true;
+    bool clean() const { return ports && threads; }
+};
+
+/// What a module's own RPC port answers, as YARP modules do (`yarp rpc
+/// <prefix>/rpc:i`): `help`, `stats`, `quit` (also `exit`, `bye`: the
+/// RFModule convention); a bridge's, or a process of several bridges'.
+class RpcCommands
+{
+public:
+    virtual ~RpcCommands() = default;
+    /// `stats`: its lists, after the vocab `many` (a bridge of commands: its lists alone).
+    virtual void ownStats(yarp::os::Bottle& reply) = 0;
+    /// What `help` answers, a line a command.
+    virtual std::vector<std::string> help() const = 0;
+    /// The answer to a word it does not know.
+    virtual void unknown(const std::string& word, yarp::os::Bottle& reply) const;
+    /// Asks it to stop, from any thread (a signal's, an RPC port's, the process's).
+    virtual void stop() = 0;
+
+    /// `stats` and `quit` answered (`quit` set: it stops once the reply is
+    /// on its way); false for any other word.
+    bool answerOwn(const std::string& word, yarp::os::Bottle& reply, bool& quit);
+    /// A command on its RPC port: `help`, `stats`, `quit`, else unknown();
+    /// true when it asked to quit.
+    bool answerRpc(const yarp::os::Bottle& command, yarp::os::Bottle& reply);
+};
+
+/// A bridge of one kind (a stream: ybgc_runtime.cpp; commands:
+/// ybgc_services_node.cpp) as the process shell runs it: alone, a module
+/// with its own signals, YARP network and RPC port; or among others in a
+/// process of several (Host), which has them.
+class Bridge : public RpcCommands
+{
+public:
+    /// Opens what it uses; false when something cannot open (said; failure() says why).
+    virtual bool open() = 0;
+    /// Says what it does, then runs until stop().
+    virtual void serve() = 0;
+    /// Closes what open() opened, within its deadlines.
+    virtual Closed close() = 0;
+    /// Its exit totals, each line headed by `prefix`.
+    virtual std::string totalsText(const std::string& prefix) = 0;
+    /// What `stats` answers of it, appended to `out`: its lists.
+    virtual void stats(yarp::os::Bottle& out) = 0;
+    void ownStats(yarp::os::Bottle& reply) override;
+    /// Does it serve the port `name` itself (commands: a port it serves
+    /// named as its own RPC port, which then answers `stats` and `quit` too)?
+    virtual bool serves(const std::string& /*name*/) const { return false; }
+
+    /// Says why it cannot run, and keeps it (failure()).
+    void fail(const std::string& why);
+    /// Why it cannot run ("": it can).
+    const std::string& failure() const { return failure_; }
+
+    /// Its own RPC port's name, set by the shell before open() (a module of
+    /// its own: <prefix>/rpc:i); "" in a process of several bridges, whose RPC
+    /// port is the process's.
+    std::string ownPort;
+
+protected:
+    std::string failure_;
+};
 
 /// Blocks SIGINT and SIGTERM in every thread (construct it before any
 /// thread starts) and waits for them in a thread of its own: the first one
 /// asks the process to stop; if it is not closed 1.9 s later, or a second
-/// signal comes, the process exits at once.
+/// signal comes, the process exits at once, status 1.
 class SignalWatch
 {
 public:
@@ -360,16 +463,15 @@ private:
 /// What the process of several bridges holds of one of them once it runs.
 struct Running
 {
-    std::function<Totals()> totals;  // its totals as they stand (under its lock)
-    std::function<void()> stop;      // asks it to stop, from any thread
-    double rate = 0.0;               // its configured rate, Hz (0: event-driven)
+    std::function<void(yarp::os::Bottle&)> stats;  // its lists of `stats` (under its lock)
+    std::function<void()> stop;                     // asks it to stop, from any thread
 };
 
 /// The process that runs a bridge among others (ybgc compose), set in the
-/// thread that runs the bridge (Host::current()): run() then uses the
+/// thread that runs the bridge (Host::current()): the shell then uses the
 /// process's YARP network, signals and RPC port instead of opening its
 /// own, and tells it how the bridge starts and ends; a ROS 2 node opens on
-/// the process's one rcl context (ybgc_ros2.cpp).
+/// the process's one rcl context (ybgc_ros2_node.cpp).
 class Host
 {
 public:
@@ -379,7 +481,7 @@ public:
     static void setCurrent(Host* host);
 
     /// Only its command line and parameters are checked, nothing opens:
-    /// run() returns 0 once they are.
+    /// the shell returns 0 once they are.
     virtual bool checking() const = 0;
     /// It runs (its ports and nodes open) until `running.stop`.
     virtual void started(Running running) = 0;
@@ -409,14 +511,96 @@ struct Options
     std::vector<std::pair<std::string, std::string>> accept;  // --accept: (input's source, other port)
 };
 
+/// What a kind of bridge takes on its command line: --name (--prefix),
+/// --verbose and --help; a stream also --rate, --timeout, --accept, --from
+/// and --context.
+struct OptionsSpec
+{
+    const char* module;         // the program's name when argv[0] has none; its YARP config file's
+    const char* config;         // the config it was generated from (--help)
+    const char* defaultPrefix;  // --name's default
+    bool stream = false;        // it takes a stream's options too
+    double rate = 0.0;          // --rate's default (a stream: its config's)
+    std::vector<std::string> ports;  // --accept: the YARP ports it reads
+    const char* usage = "";     // its usage line, after the program's name
+    const std::vector<const char*>* description = nullptr;  // what it does (--help)
+    /// Prints the rest of its --help: its options and ROS arguments.
+    std::function<void(std::FILE* out)> help;
+};
+
+/// Its usage line for the program `prog` and, `full`, its --help.
+void printUsage(const OptionsSpec& spec, const std::string& prog, std::FILE* out, bool full);
+
 /// A number as the start-up line and --help say it (printf's %g).
 std::string formatNumber(double x);
 
 /// Parses argv into `opt`: -1 to go on, else the exit status (0 after
-/// --help). `--from` / `--context`: the options in that YARP config file
-/// come first, so that the command line wins over the file and the file
-/// over the config.
-int parseOptions(const BridgeSpec& spec, int argc, char* argv[], Options& opt);
+/// --help, 2 for a bad option, said with the usage line). `--from` /
+/// `--context` (a stream): the options in that YARP config file come
+/// first, so that the command line wins over the file and the file over the
+/// config.
+int parseOptions(const OptionsSpec& spec, int argc, char* argv[], Options& opt);
+
+/// What a stream takes on its command line, and its --help.
+OptionsSpec streamOptions(const BridgeSpec& spec);
+
+/// Moves the ROS arguments of a command line (from `--ros-args` to `--` or
+/// the end, as ROS 2 spells them) out of `argv`, into the result.
+std::vector<std::string> takeRosArgs(int& argc, char* argv[]);
+
+/// A command line with `before` inserted after the program's name: the
+/// options the ROS parameters give, which the command line's own follow
+/// (and so win over).
+class CommandLine
+{
+public:
+    CommandLine(int argc, char* argv[], const std::vector<std::string>& before);
+    int argc() const { return static_cast<int>(words_.size()); }
+    char** argv() { return argv_.data(); }
+
+private:
+    std::vector<std::string> words_;
+    std::vector<char*> argv_;
+};
+
+/// The command line of a bridge with a ROS 2 node (ybgc_ros2_params.cpp,
+/// beside a module with one): its ROS arguments taken out (`rosArgs`, given
+/// to rcl) and checked for the node `node` before anything opens, and the
+/// options its parameters give put before the command line's own (argc(),
+/// argv()); `status` 0 to go on, else the exit status (2, said under the
+/// name of `module`). A bridge of commands (`stream` false) takes the
+/// parameters `prefix` and `verbose` alone.
+class RosCommandLine
+{
+public:
+    RosCommandLine(int argc, char* argv[], const char* module, const char* node, bool stream = true);
+    int argc() const { return line_->argc(); }
+    char** argv() { return line_->argv(); }
+
+    int status = 0;
+    std::vector<std::string> rosArgs;
+
+private:
+    std::unique_ptr<CommandLine> line_;
+};
+
+/// How the shell starts a bridge of one kind (runBridge).
+struct Start
+{
+    OptionsSpec options;
+    /// Once its options are parsed: -1 to go on, else the exit status (said).
+    std::function<int(const Options&)> check;
+    /// Once YARP is up, before it opens: "" or why it cannot run.
+    std::function<std::string()> usable;
+    /// The bridge of these options.
+    std::function<std::unique_ptr<Bridge>(const Options&)> make;
+};
+
+/// Parses the command line and runs the bridge until SIGINT, SIGTERM or
+/// `quit` (a module of its own), or as its host says (a process of several
+/// bridges); the exit status: 0 when stopped, 1 when it cannot reach YARP or
+/// something cannot open, 2 for a bad option.
+int runBridge(const Start& start, int argc, char* argv[]);
 
 }  // namespace ybgc
 

@@ -6,13 +6,15 @@
 // through the message package's C structs (<pkg>/msg/<name>.h); Subscriptions
 // read ROS 2 topics as inputs. Both honour the ROS arguments of the command
 // line as an rclcpp or rclpy node does: remappings, use_sim_time and the
-// qos_overrides.* parameters. The helpers below are what a builder's lines call: they convert a mux element to the
-// field's C type as the Python ROS 2 node does, and size strings and
-// sequences with rosidl_runtime_c's functions. ybgc writes this file,
-// ybgc_ros2.cpp (rcl: the node, the publisher, the subscriptions) and
-// ybgc_ros2_params.cpp (ROS arguments, parameters, QoS overrides, the
-// statuses of /diagnostics) beside a module that publishes to ROS 2 or reads
-// a ROS 2 topic.
+// qos_overrides.* parameters. The helpers below are what a builder's lines
+// call: they convert a mux element to the field's C type as the Python ROS 2
+// node does, and size strings and sequences with rosidl_runtime_c's
+// functions. ybgc writes this file, ybgc_ros2.cpp (rcl: the publisher, the
+// subscriptions, the message helpers), ybgc_ros2_node.cpp (the node: its
+// context, clock, /diagnostics), ybgc_ros2_events.cpp (incompatible and
+// matched peers) and ybgc_ros2_params.cpp (ROS arguments, parameters, QoS
+// overrides, the statuses of /diagnostics) beside a module with a ROS 2
+// node: one that publishes to ROS 2 or reads a ROS 2 topic, or of commands.
 #ifndef YBGC_ROS2_HPP
 #define YBGC_ROS2_HPP
 
@@ -23,6 +25,7 @@
 #include <rcl/node.h>
 #include <rcl/publisher.h>
 #include <rcl/subscription.h>
+#include <rcl/wait.h>
 #include <rcl_yaml_param_parser/types.h>
 #include <rmw/types.h>
 #include <rosidl_runtime_c/message_type_support_struct.h>
@@ -38,6 +41,17 @@
 
 namespace ybgc {
 namespace ros2 {
+
+/// rcl's error text, reset.
+std::string rclError();
+
+/// A finalization's result: nothing more to do when it fails at exit (the error reset).
+void finished(rcl_ret_t ret);
+
+/// Waits on `waitSet` for up to `ms` milliseconds: true when something is
+/// ready; false on a timeout or an error (reset: after an error 10 ms pass
+/// first, so that a loop of waits is never a busy one).
+bool waitOn(rcl_wait_set_t& waitSet, std::int64_t ms);
 
 // --- values of each field's C type, as the Python node converts them ------------
 
@@ -235,21 +249,6 @@ bool parameterOptions(const rcl_params_t* params, const std::string& fqn, std::v
 int checkRosArgs(const std::vector<std::string>& rosArgs, const char* node,
                  std::vector<std::string>* options = nullptr);
 
-/// A command line with `before` inserted after the program's name: the
-/// options the ROS parameters give, which the command line's own follow
-/// (and so win over).
-class CommandLine
-{
-public:
-    CommandLine(int argc, char* argv[], const std::vector<std::string>& before);
-    int argc() const { return static_cast<int>(words_.size()); }
-    char** argv() { return argv_.data(); }
-
-private:
-    std::vector<std::string> words_;
-    std::vector<char*> argv_;
-};
-
 // --- /diagnostics ------------------------------------------------------------------------
 
 /// One status of a diagnostic_msgs/DiagnosticArray, as plain data.
@@ -261,6 +260,10 @@ struct Status
     std::string message;
     std::vector<std::pair<std::string, std::string>> values;
 };
+
+/// The statuses a node publishes on /diagnostics, read when called (under
+/// its bridge's lock: never call it holding the lock).
+using StatusSource = std::function<std::vector<Status>()>;
 
 /// The statuses of the bridge's totals, as the Python node writes them
 /// (docs/runtime.md, "Diagnostics"): one a input, `<node>: input <source>`,
@@ -354,17 +357,17 @@ public:
     rcl_context_t* context();
     rcl_node_t* node();
     std::string name() const;
-    /// Publishes `totals` on /diagnostics (a diagnostic_msgs/DiagnosticArray,
-    /// depth 1, reliable, as diagnostic_updater does) every
-    /// `diagnostic_updater.period` seconds (parameter, default 1) of the
-    /// steady clock, stamped with the node's clock, `hardware_id` the
-    /// module's name, until closed; nothing with the parameter
-    /// `diagnostics:=false`. The parameters were checked by open().
+    /// Publishes the statuses of `source` on /diagnostics (a
+    /// diagnostic_msgs/DiagnosticArray, depth 1, reliable, as
+    /// diagnostic_updater does) every `diagnostic_updater.period` seconds
+    /// (parameter, default 1) of the steady clock, stamped with the node's
+    /// clock, `hardware_id` the module's name `hardwareId`, until closed;
+    /// nothing with the parameter `diagnostics:=false`. The parameters were
+    /// checked by open().
+    void publishStatuses(StatusSource source, std::string hardwareId);
+    /// The same of a stream's `totals`: its inputs and its output (statuses()),
+    /// the rate achieved over the last 5 periods.
     void publishDiagnostics(TotalsSource totals);
-    /// The parameters of /diagnostics it was opened with (checked by open()):
-    /// whether to publish it (`diagnostics`), and every `period` seconds
-    /// (`diagnostic_updater.period`), for a node that publishes its own.
-    bool diagnostics(double& period) const;
     /// Takes the events of `peers` every 100 ms, by a thread of its own,
     /// until unwatch(peers) or close().
     void watch(PeerEvents* peers);
@@ -378,7 +381,7 @@ private:
     bool startClock();
     void followClock();
     bool diagnosticsParameters();
-    void diagnose(TotalsSource totals);
+    void diagnose(const StatusSource& source, const std::string& hardwareId);
     std::string name_;
     std::vector<std::string> rosArgs_;
     std::unique_ptr<Rcl> rcl_;
@@ -458,27 +461,30 @@ private:
     PeerEvents peers_;
 };
 
-/// Moves the ROS arguments of a command line (from `--ros-args` to `--` or
-/// the end, as ROS 2 spells them) out of `argv`, into the result.
-std::vector<std::string> takeRosArgs(int& argc, char* argv[]);
+/// The module's builder `fill` of a message of C struct Msg, as a FillMessage.
+template <class Msg>
+FillMessage filling(bool (*fill)(const Inputs&, const Context&, Msg&, std::string&))
+{
+    return [fill](void* msg, const Inputs& in, const Context& ctx, std::string& failure) {
+        return fill(in, ctx, *static_cast<Msg*>(msg), failure);
+    };
+}
 
-/// Parses the command line and runs the bridge with its ROS 2 output until
-/// SIGINT or SIGTERM; the exit status. `fill` is the module's builder for a
-/// message of type `Msg` (the C struct of its definition).
+struct Topics;
+
+/// Parses the command line and runs the bridge with its ROS 2 output (a
+/// message of `type`, filled by `fill`) until SIGINT or SIGTERM, reading the
+/// ROS 2 `topics` too (nullptr: none) on the same node; the exit status.
+int run(const BridgeSpec& spec, const Ros2Spec& ros2, const MessageType& type, const Topics* topics, int argc,
+        char* argv[], FillMessage fill);
+
+/// The same, `fill` the module's builder for a message of type `Msg` (the C
+/// struct of its definition).
 template <class Msg>
 int run(const BridgeSpec& spec, const Ros2Spec& ros2, const MessageType& type, int argc, char* argv[],
         bool (*fill)(const Inputs&, const Context&, Msg&, std::string&))
 {
-    std::vector<std::string> rosArgs = takeRosArgs(argc, argv);
-    std::vector<std::string> options;
-    if (const int status = checkRosArgs(rosArgs, ros2.node, &options)) {
-        return status;
-    }
-    CommandLine line(argc, argv, options);
-    Publisher publisher(ros2, type, [fill](void* msg, const Inputs& in, const Context& ctx, std::string& failure) {
-        return fill(in, ctx, *static_cast<Msg*>(msg), failure);
-    }, std::move(rosArgs));
-    return ybgc::run(spec, line.argc(), line.argv(), publisher);
+    return run(spec, ros2, type, nullptr, argc, argv, filling(fill));
 }
 
 // --- ROS 2 topics as inputs -------------------------------------------------------------
@@ -657,17 +663,7 @@ template <class Msg>
 int run(const BridgeSpec& spec, const Ros2Spec& ros2, const MessageType& type, const Topics& topics, int argc,
         char* argv[], bool (*fill)(const Inputs&, const Context&, Msg&, std::string&))
 {
-    std::vector<std::string> rosArgs = takeRosArgs(argc, argv);
-    std::vector<std::string> options;
-    if (const int status = checkRosArgs(rosArgs, ros2.node, &options)) {
-        return status;
-    }
-    CommandLine line(argc, argv, options);
-    Publisher publisher(ros2, type, [fill](void* msg, const Inputs& in, const Context& ctx, std::string& failure) {
-        return fill(in, ctx, *static_cast<Msg*>(msg), failure);
-    }, std::move(rosArgs));
-    Subscriptions subscriptions(topics, {}, &publisher);
-    return ybgc::run(spec, line.argc(), line.argv(), publisher, &subscriptions);
+    return run(spec, ros2, type, &topics, argc, argv, filling(fill));
 }
 
 }  // namespace ros2

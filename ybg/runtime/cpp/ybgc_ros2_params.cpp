@@ -1,9 +1,11 @@
 // The plain logic of the C++ runtime's ROS 2 side (ybgc_ros2.hpp), no rcl
-// node: the ROS arguments taken from the command line, the parameters of a
-// node as rclcpp matches them, the QoS overrides, the module's options given
-// as parameters, and the statuses /diagnostics publishes. ybgc_ros2.cpp
-// opens the node, its publisher and its subscriptions with them.
+// node: the ROS arguments of a command line and the options they give, the
+// parameters of a node as rclcpp matches them, the QoS overrides, the
+// module's options given as parameters, and the statuses /diagnostics
+// publishes. ybgc_ros2_node.cpp opens the node with them, ybgc_ros2.cpp its
+// publisher and subscriptions.
 #include "ybgc_ros2.hpp"  // ybgc:runtime-import
+#include "ybgc_internal.hpp"  // ybgc:runtime-import
 
 #include <algorithm>
 #include <cmath>
@@ -11,6 +13,7 @@
 #include <cstdio>
 #include <cstring>
 #include <initializer_list>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -280,40 +283,26 @@ bool parameterOptions(const rcl_params_t* params, const std::string& fqn, std::v
 
 // --- the command line ----------------------------------------------------------------------
 
-std::vector<std::string> takeRosArgs(int& argc, char* argv[])
+}  // namespace ros2
+
+RosCommandLine::RosCommandLine(int argc, char* argv[], const char* module, const char* node, bool stream)
 {
-    std::vector<std::string> rosArgs;
-    int kept = 1;
-    bool inside = false;
-    for (int k = 1; k < argc; ++k) {
-        if (!inside && std::strcmp(argv[k], "--ros-args") == 0) {
-            inside = true;
-            rosArgs.emplace_back(argv[k]);
-        } else if (inside && std::strcmp(argv[k], "--") == 0) {
-            inside = false;
-        } else if (inside) {
-            rosArgs.emplace_back(argv[k]);
-        } else {
-            argv[kept++] = argv[k];
-        }
+    if (Host::current() == nullptr) {
+        gModule = module;
     }
-    argc = kept;
-    argv[argc] = nullptr;
-    return rosArgs;
+    rosArgs = takeRosArgs(argc, argv);
+    std::vector<std::string> options;
+    status = ros2::checkRosArgs(rosArgs, node, &options);
+    if (!stream) {
+        // the parameters a bridge of commands takes (prefix, verbose)
+        options.erase(std::remove_if(options.begin(), options.end(), [](const std::string& option) {
+                          return option.rfind("--prefix=", 0) != 0 && option != "--verbose";
+                      }), options.end());
+    }
+    line_ = std::make_unique<CommandLine>(argc, argv, options);
 }
 
-CommandLine::CommandLine(int argc, char* argv[], const std::vector<std::string>& before)
-{
-    words_.emplace_back(argc > 0 ? argv[0] : "");
-    words_.insert(words_.end(), before.begin(), before.end());
-    for (int k = 1; k < argc; ++k) {
-        words_.emplace_back(argv[k]);
-    }
-    for (std::string& w : words_) {
-        argv_.push_back(w.data());
-    }
-    argv_.push_back(nullptr);
-}
+namespace ros2 {
 
 // --- /diagnostics ------------------------------------------------------------------------
 

@@ -1,15 +1,14 @@
-// The C++ runtime's bridge (ybgc_runtime.hpp): run() parses the command
-// line, opens the inputs, the output, the RPC port and the watcher of
-// connections, loops (event-driven or at a fixed rate) until SIGINT, SIGTERM
-// or `quit`, and closes everything within its deadlines. The parts it puts
-// together (ybgc_internal.hpp) are in the runtime's other files.
+// A stream (ybgc_runtime.hpp): its inputs, its output and the watcher of
+// connections, opened; its loop (event-driven or at a fixed rate) until it
+// is stopped; everything closed within its deadlines; its totals. It runs in
+// the process shell (ybgc_shell.cpp) as every kind of bridge does: run()
+// gives the shell its options and makes it. The parts it puts together
+// (ybgc_internal.hpp) are in the runtime's other files.
 #include "ybgc_internal.hpp"  // ybgc:runtime-import
 
 #include <atomic>
-#include <cerrno>
 #include <chrono>
 #include <condition_variable>
-#include <csignal>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -21,8 +20,6 @@
 #include <utility>
 #include <vector>
 
-#include <pthread.h>
-#include <signal.h>
 
 #include <yarp/conf/version.h>
 #include <yarp/os/Bottle.h>
@@ -32,55 +29,6 @@
 #include <yarp/os/Network.h>
 
 namespace ybgc {
-
-// --- SIGINT and SIGTERM ----------------------------------------------------------------
-
-SignalWatch::SignalWatch()
-{
-    sigemptyset(&set_);
-    sigaddset(&set_, SIGINT);
-    sigaddset(&set_, SIGTERM);
-    pthread_sigmask(SIG_BLOCK, &set_, nullptr);
-}
-
-void SignalWatch::start(std::function<void()> onStop)
-{
-    thread_ = std::thread([this, onStop] { run(onStop); });
-}
-
-void SignalWatch::finish()
-{
-    if (!thread_.joinable()) {
-        return;
-    }
-    finished_ = true;
-    pthread_kill(thread_.native_handle(), SIGTERM);
-    thread_.join();
-}
-
-void SignalWatch::run(const std::function<void()>& onStop)
-{
-    int sig = 0;
-    while (sigwait(&set_, &sig) != 0) {
-    }
-    if (finished_) {
-        return;
-    }
-    onStop();
-    const timespec limit = {1, 900000000};
-    while (true) {
-        const int r = sigtimedwait(&set_, nullptr, &limit);
-        if (finished_) {
-            return;
-        }
-        if (r < 0 && errno == EINTR) {
-            continue;
-        }
-        say(r < 0 ? "closing takes too long; exiting without closing every port"
-                  : "second signal; exiting without closing every port");
-        std::_Exit(1);
-    }
-}
 
 // --- ROS 1 -------------------------------------------------------------------------------
 
@@ -122,18 +70,17 @@ void withdrawFromRosMaster(const std::string& port, bool publisher)
 
 // --- the bridge ---------------------------------------------------------------------------
 
-/// The module's loop: gathers inputs into muxes, converts, builds and
-/// publishes messages. Event-driven, the message is built and written in
-/// the callback of the input whose Bottle completes it (no thread in
-/// between, so nothing is added to the latency) and the loop only wakes
-/// when an input would go stale. At a fixed rate, the loop publishes at
-/// absolute deadlines.
-class Bridge : public ArrivalListener
+/// A stream: gathers inputs into muxes, converts, builds and publishes
+/// messages. Event-driven, the message is built and written in the callback
+/// of the input whose Bottle completes it (no thread in between, so nothing
+/// is added to the latency) and the loop only wakes when an input would go
+/// stale. At a fixed rate, the loop publishes at absolute deadlines.
+class Stream : public Bridge, public ArrivalListener
 {
 public:
-    Bridge(const BridgeSpec& spec, const Options& options, MessageSink& output, InputFeed* feed, FramePorts frames) :
+    Stream(const BridgeSpec& spec, const Options& options, MessageSink& output, InputFeed* feed, FramePorts frames) :
             spec_(spec), options_(options), output_(output), feed_(feed),
-            eventDriven_(!(options.rate > 0))
+            eventDriven_(!(options.rate > 0)), meter_(SteadyClock::now())
     {
         shared_.dropNan = spec.dropNan;
         shared_.queue = spec.queue;
@@ -167,7 +114,7 @@ public:
         matcher_ = std::make_unique<Matcher>(spec, std::move(states), eventDriven_);
     }
 
-    void requestStop()
+    void stop() override
     {
         {
             std::lock_guard<std::mutex> lock(shared_.mutex);
@@ -176,7 +123,7 @@ public:
         shared_.wake.notify_all();
     }
 
-    /// The totals as they stand, read under the lock (the RPC port's `stats`).
+    /// The totals as they stand, read under the lock (`stats`, /diagnostics).
     Totals totals()
     {
         std::lock_guard<std::mutex> lock(shared_.mutex);
@@ -213,53 +160,18 @@ public:
         return out;
     }
 
-    /// Opens everything, loops until stopped, closes; the exit status.
-    int run()
+    void stats(yarp::os::Bottle& out) override
     {
-        const int status = open(true);
-        if (status == 0) {
-            serve();
+        const Totals now = totals();
+        double achieved = 0.0;
+        {
+            std::lock_guard<std::mutex> lock(meterMutex_);
+            achieved = meter_.read(SteadyClock::now(), now.published);
         }
-        // Closing waits for the peers; one that does not answer (a stalled
-        // reader) would hold it: after a deadline the names are unregistered
-        // and the process ends without waiting any longer.
-        const Closed closed = close();
-        printLines(totalsText(""));
-        if (!closed.ports || !closed.watcher) {
-            if (!closed.ports) {
-                say("a peer did not answer while the ports closed; their names were unregistered");
-            }
-            std::fflush(stdout);
-            std::_Exit(status);
-        }
-        return status;
+        statsItems(out, now, achieved, now.rate);
     }
 
-    /// The same in a process of several bridges (ybgc compose): no RPC port
-    /// of its own (the process has one); `host` hears that it runs, or why
-    /// it cannot start, and its totals once closed. The exit status.
-    int run(Host& host)
-    {
-        if (open(false) != 0) {
-            const Closed closed = close();  // what it opened
-            host.refused(failure_);
-            if (!closed.ports || !closed.watcher) {
-                hold();
-            }
-            return 1;
-        }
-        host.started({[this] { return totals(); }, [this] { requestStop(); }, eventDriven_ ? 0.0 : options_.rate});
-        serve();
-        const Closed closed = close();
-        if (!closed.ports) {
-            say("a peer did not answer while the ports closed; their names were unregistered");
-        }
-        host.closed(totalsText(std::string(spec_.module) + ": "), closed.ports && closed.watcher);
-        if (!closed.ports || !closed.watcher) {
-            hold();
-        }
-        return 0;
-    }
+    std::vector<std::string> help() const override { return kStreamHelp; }
 
     /// An input accepted a Bottle (its callback thread, Shared::mutex held).
     void arrived(Input& /*input*/, bool wasFresh) override
@@ -275,26 +187,10 @@ public:
         }
     }
 
-private:
-    /// What closing ended with: the ports closed (else their names were
-    /// unregistered), the watcher stopped, each within its deadline.
-    struct Closed
-    {
-        bool ports;
-        bool watcher;
-    };
-
-    /// Says why it cannot run, and keeps it (failure_).
-    void fail(const std::string& why)
-    {
-        say(why);
-        failure_ = why;
-    }
-
-    /// Opens the inputs, the output, the inputs read outside YARP and, with
-    /// `rpc`, the RPC port; makes the watcher of connections: 0, or 1 when
-    /// one cannot open (said; failure_ says why).
-    int open(bool rpc)
+    /// Opens the inputs, the output and the inputs read outside YARP; makes
+    /// the watcher of connections: false when one cannot open (said;
+    /// failure() says why).
+    bool open() override
     {
         int status = 0;
         for (; opened_ < inputs_.size(); ++opened_) {
@@ -317,16 +213,6 @@ private:
             if (!feedOpen_) {
                 feed_->close();
                 failure_ = "cannot read its ROS 2 topics";  // the feed said why
-                status = 1;
-            }
-        }
-        if (rpc) {
-            rpc_ = std::make_unique<RpcPort>(
-                options_.prefix + "/rpc:i", [this] { return totals(); }, [this] { requestStop(); },
-                eventDriven_ ? 0.0 : options_.rate);
-            rpcOpen_ = status == 0 && rpc_->open();
-            if (status == 0 && !rpcOpen_) {
-                fail("cannot open the RPC port " + rpc_->name);
                 status = 1;
             }
         }
@@ -353,11 +239,11 @@ private:
             std::lock_guard<std::mutex> lock(shared_.mutex);
             shared_.foreign = watcher_->waker();
         }
-        return status;
+        return status == 0;
     }
 
     /// Once open: publishes until stopped.
-    void serve()
+    void serve() override
     {
         // a ROS 2 node among them reports the totals (its /diagnostics)
         output_.watch([this] { return totals(); });
@@ -374,13 +260,10 @@ private:
         }
     }
 
-    /// Closes what is open: the RPC port, the watcher, the inputs read
-    /// outside YARP, the ports and the output.
-    Closed close()
+    /// Closes what is open: the watcher, the inputs read outside YARP, the
+    /// ports and the output.
+    Closed close() override
     {
-        if (rpcOpen_) {
-            rpc_->close();
-        }
         const bool watcherStopped = watcher_->stop(std::chrono::milliseconds(300));
         if (feedOpen_) {
             feed_->close();  // before the output, whose node it may share
@@ -389,29 +272,12 @@ private:
         return {closed, watcherStopped};
     }
 
-    /// A thread left closing a port (or the watcher) still uses this bridge:
-    /// its thread never returns; the process exits without it.
-    [[noreturn]] static void hold()
-    {
-        std::fflush(stdout);
-        for (;;) {
-            std::this_thread::sleep_for(std::chrono::hours(1));
-        }
-    }
-
+private:
     /// Closes the ports in a thread of their own; false if that did not end
     /// within `limit`: the ports' names are then unregistered.
     bool closeAll(std::size_t opened, bool outputOpen, std::chrono::milliseconds limit)
     {
-        struct Done
-        {
-            std::mutex mutex;
-            std::condition_variable cv;
-            bool done = false;
-        };
-        auto state = std::make_shared<Done>();
-        std::thread closer([this, opened, outputOpen, state, who = tModule] {
-            tModule = who;
+        const bool closed = finishBy(SteadyClock::now() + limit, [this, opened, outputOpen] {
             for (std::size_t k = 0; k < opened; ++k) {
                 inputs_[k]->interrupt();
             }
@@ -429,18 +295,11 @@ private:
                 output_.close();
             }
             withdrawRos(opened, outputOpen);
-            std::lock_guard<std::mutex> lock(state->mutex);
-            state->done = true;
-            state->cv.notify_all();
+            return true;
         });
-        std::unique_lock<std::mutex> lock(state->mutex);
-        if (state->cv.wait_for(lock, limit, [&state] { return state->done; })) {
-            lock.unlock();
-            closer.join();
+        if (closed) {
             return true;
         }
-        lock.unlock();
-        closer.detach();  // the process ends without it
         for (std::size_t k = 0; k < opened; ++k) {
             if (!inputs_[k]->registered.empty()) {
                 yarp::os::Network::unregisterName(inputs_[k]->registered);
@@ -542,7 +401,7 @@ private:
     }
 
     /// The exit totals, each line headed by `prefix`.
-    std::string totalsText(const std::string& prefix) const
+    std::string totalsText(const std::string& prefix) override
     {
         std::string out = prefix + "totals:\n";
         for (const auto& in : inputs_) {
@@ -575,10 +434,9 @@ private:
     std::size_t opened_ = 0;    // the inputs opened
     bool outputOpen_ = false;
     bool feedOpen_ = false;
-    std::unique_ptr<RpcPort> rpc_;  // a module of its own: its RPC port
-    bool rpcOpen_ = false;
     std::unique_ptr<Watcher> watcher_;
-    std::string failure_;       // why it cannot run
+    std::mutex meterMutex_;
+    RateMeter meter_;           // `stats`: the rate since the previous one
     bool publishing_ = false;  // guarded by Shared::mutex
     std::atomic<std::uint64_t> published_{0};
     std::atomic<std::uint64_t> skippedCycles_{0};
@@ -622,9 +480,6 @@ int run(const BridgeSpec& spec, int argc, char* argv[], MakeMessage make, InputF
 
 namespace {
 
-/// The host of the bridge run by this thread (Host::current()).
-thread_local Host* tHost = nullptr;
-
 /// Does the bridge read or write ROS 1 topics?
 bool usesRos1(const BridgeSpec& spec)
 {
@@ -635,68 +490,27 @@ bool usesRos1(const BridgeSpec& spec)
     return ros1;
 }
 
-/// The bridge in a process of several (ybgc compose): the process holds
-/// the YARP network and the signals, and hears from it (Host).
-int runHosted(Host& host, const BridgeSpec& spec, const Options& options, MessageSink& output, InputFeed* feed,
-              FramePorts frames)
-{
-    std::string why;
-    if (usesRos1(spec) && !ros1Available(why)) {
-        say("cannot use ROS 1 topics: " + why);
-        host.refused("cannot use ROS 1 topics: " + why);
-        return 1;
-    }
-    Bridge bridge(spec, options, output, feed, frames);
-    return bridge.run(host);
-}
-
 }  // namespace
-
-Host* Host::current()
-{
-    return tHost;
-}
-
-void Host::setCurrent(Host* host)
-{
-    tHost = host;
-}
 
 int run(const BridgeSpec& spec, int argc, char* argv[], MessageSink& output, InputFeed* feed, FramePorts frames)
 {
-    Host* host = Host::current();
-    if (host == nullptr) {
-        gModule = spec.module;
-    }
-    Options options;
-    const int status = parseOptions(spec, argc, argv, options);
-    if (status >= 0) {
-        return status;
-    }
-    if (options.rate <= 0 && spec.inputs.empty()) {
-        std::fprintf(stderr, "%s: an event-driven bridge needs at least one input; give --rate\n", spec.module);
-        return 2;
-    }
-    if (host != nullptr) {
-        return host->checking() ? 0 : runHosted(*host, spec, options, output, feed, frames);
-    }
-    SignalWatch signals;  // before YARP starts any thread
-    std::signal(SIGPIPE, SIG_IGN);
-    yarp::os::Network network;
-    if (!yarp::os::Network::checkNetwork(3.0)) {
-        say("cannot reach the YARP name server (is yarpserver running?)");
-        return 1;
-    }
-    std::string why;
-    if (usesRos1(spec) && !ros1Available(why)) {
-        say("cannot use ROS 1 topics: " + why);
-        return 1;
-    }
-    Bridge bridge(spec, options, output, feed, frames);
-    signals.start([&bridge] { bridge.requestStop(); });
-    const int result = bridge.run();
-    signals.finish();
-    return result;
+    Start start;
+    start.options = streamOptions(spec);
+    start.check = [&spec](const Options& options) {
+        if (options.rate <= 0 && spec.inputs.empty()) {
+            std::fprintf(stderr, "%s: an event-driven bridge needs at least one input; give --rate\n", spec.module);
+            return 2;
+        }
+        return -1;
+    };
+    start.usable = [&spec] {
+        std::string why;
+        return usesRos1(spec) && !ros1Available(why) ? "cannot use ROS 1 topics: " + why : std::string();
+    };
+    start.make = [&spec, &output, feed, frames](const Options& options) -> std::unique_ptr<Bridge> {
+        return std::make_unique<Stream>(spec, options, output, feed, frames);
+    };
+    return runBridge(start, argc, argv);
 }
 
 }  // namespace ybgc

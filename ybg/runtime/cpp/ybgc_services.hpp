@@ -23,8 +23,10 @@
 // per service, in `stats` on the module's RPC port and in the exit totals.
 // The texts a caller reads are the compiler's (ybg/lower/services.py),
 // printed into the module; the behaviour is the rclpy node's
-// (ybg/runtime/services.py). ybgc writes this file and ybgc_services.cpp
-// beside a module of commands, with the runtime's ROS 2 side (ybgc_ros2.*).
+// (ybg/runtime/services.py). ybgc writes this file and ybgc_services*.cpp
+// beside a module of commands, with the runtime's ROS 2 side (ybgc_ros2*);
+// the bridge of commands runs in the process shell every kind of bridge runs
+// in, alone or among others (ybgc compose).
 #ifndef YBGC_SERVICES_HPP
 #define YBGC_SERVICES_HPP
 
@@ -44,6 +46,11 @@
 #include <yarp/os/Value.h>
 
 namespace ybgc {
+
+/// The command's first item as a word ("" for none; a vocab as its word, a
+/// number as its text).
+std::string firstWord(const yarp::os::Bottle& command);
+
 namespace services {
 
 // --- the elements of a Bottle: a reply, or a command's arguments -------------------------
@@ -477,8 +484,9 @@ ybgc::ros2::Status status(const Spec& spec, const Counts& c, const std::string& 
 /// What `help` answers on the module's RPC port (when no served port is it).
 extern const char* const kRpcHelp[3];
 
-/// The command's first item as a word ("" for none; a number as its text).
-std::string firstWord(const yarp::os::Bottle& command);
+/// The command's first item as a word ("" for none; a number as its text):
+/// the process shell's (ybgc_shell.cpp).
+using ybgc::firstWord;
 
 // --- running it ----------------------------------------------------------------------------
 

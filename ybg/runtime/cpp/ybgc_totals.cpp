@@ -1,20 +1,17 @@
 // What the C++ runtime says (ybgc_runtime.hpp, ybgc_internal.hpp): the
-// messages printed, each mux printed with --verbose, and the RPC port that
-// answers help, stats (the totals) and quit.
+// messages printed, each mux printed with --verbose, and what a stream's RPC
+// port answers (help, stats: its totals).
 #include "ybgc_internal.hpp"  // ybgc:runtime-import
 
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
-#include <functional>
 #include <mutex>
 #include <string>
-#include <thread>
+#include <vector>
 #include <utility>
 
 #include <yarp/os/Bottle.h>
-#include <yarp/os/ConnectionReader.h>
-#include <yarp/os/ConnectionWriter.h>
 
 namespace ybgc {
 
@@ -66,10 +63,9 @@ void printMux(const char* name, const Rows& rows)
     printLines(out);
 }
 
-// --- the RPC port (the convention of YARP modules) ------------------------------------------
+// --- a stream's RPC port (the convention of YARP modules) -------------------------------------
 
-/// What `help` answers on the RPC port, one line a command.
-const char* const kRpcHelp[] = {
+const std::vector<std::string> kStreamHelp = {
     "help: this list",
     "stats: the totals so far: per input (input SOURCE received N dropped N stale N unused N refused N), "
     "(published N skipped N failures N missed N), (rate ACHIEVED configured HZ|event-driven), and per ROS 2 publisher "
@@ -144,78 +140,6 @@ std::string missedLine(std::uint64_t missed)
 {
     return "readers missed " + std::to_string(missed)
         + " messages (each written while a reader was still taking the one before)";
-}
-
-RpcPort::RpcPort(std::string name, std::function<Totals()> totals, std::function<void()> quit, double rate) :
-        name(std::move(name)), totals_(std::move(totals)), quit_(std::move(quit)), rate_(rate),
-        meter_(SteadyClock::now())
-{
-}
-
-bool RpcPort::open()
-{
-    port_.setReader(*this);
-    return port_.open(name);
-}
-
-void RpcPort::close()
-{
-    if (quitAsked_) {
-        const SteadyClock::time_point deadline = SteadyClock::now() + std::chrono::milliseconds(500);
-        while (reading_ && SteadyClock::now() < deadline) {
-            std::this_thread::sleep_for(std::chrono::milliseconds(1));
-        }
-        std::this_thread::sleep_for(std::chrono::milliseconds(50));  // read() returned: the reply is sent
-    }
-    port_.interrupt();
-    port_.close();
-}
-
-bool RpcPort::read(yarp::os::ConnectionReader& connection)
-{
-    reading_ = true;
-    yarp::os::Bottle command;
-    if (!command.read(connection)) {
-        reading_ = false;
-        return false;
-    }
-    yarp::os::Bottle reply;
-    respond(command, reply);
-    yarp::os::ConnectionWriter* writer = connection.getWriter();
-    if (writer != nullptr) {
-        reply.write(*writer);
-    }
-    reading_ = false;
-    return true;
-}
-
-bool RpcPort::respond(const yarp::os::Bottle& command, yarp::os::Bottle& reply)
-{
-    const std::string word = command.size() > 0 ? command.get(0).toString() : std::string();
-    if (word == "help") {
-        reply.addVocab32("many");
-        for (const char* line : kRpcHelp) {
-            reply.addString(line);
-        }
-    } else if (word == "stats") {
-        const Totals totals = totals_();
-        reply.addVocab32("many");
-        double achieved = 0.0;
-        {
-            std::lock_guard<std::mutex> lock(meterMutex_);
-            achieved = meter_.read(SteadyClock::now(), totals.published);
-        }
-        statsItems(reply, totals, achieved, rate_);
-    } else if (word == "quit" || word == "exit" || word == "bye") {
-        say("asked to quit on the RPC port");
-        quitAsked_ = true;
-        quit_();
-        reply.addVocab32("bye");
-    } else {
-        reply.addString("unknown command '" + word + "'; the commands: help, stats, quit");
-        return false;
-    }
-    return true;
 }
 
 }  // namespace ybgc
