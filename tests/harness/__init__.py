@@ -38,7 +38,8 @@ Behaviour
     reference   what a module must output, for every backend, and the matcher
     geometry_reference   the converters' geometry, from scipy
     properties  hypothesis' profiles: ci (derandomized, the default), fuzz (scripts/fuzz.sh)
-    behaviour, behaviour_ros1   the behaviour tests, written once, run on every backend
+    behaviour, behaviour_values, behaviour_ros1
+                the behaviour tests, written once, run on every backend
 
 Documentation
     markdown    README.md and docs/*.md as the tests read them: sections, fenced
