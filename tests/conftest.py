@@ -21,6 +21,13 @@ Fixtures
                       ``.env`` (YARP and ROS_MASTER_URI/ROS_IP), ``.uri``, ``.port``.
     ros2_domain       function scope: a Ros2Domain with its own ROS_DOMAIN_ID;
                       use ``ros2_domain.env`` for every ROS 2 process.
+    mw                function scope: yarp_server and ros2_domain in one
+                      environment, ``.env`` (and ``.yarp``, ``.ros2``); a test
+                      module with an ``mw`` of its own uses its own.
+    node_logs         the logs of the harness's Nodes (harness.module.Node) a
+                      test started, printed after it (shown when it fails);
+                      a test module asks for it with
+                      ``pytest.mark.usefixtures("node_logs")``.
     update_goldens    bool, true with ``--update-goldens``: golden-file tests
                       rewrite their expected files instead of comparing.
     ybgc              the ybgc command run in-process in ``tmp_path``:
@@ -32,6 +39,7 @@ Fixtures
 """
 import os
 import resource
+from types import SimpleNamespace
 
 import pytest
 
@@ -40,8 +48,9 @@ pytest.register_assert_rewrite("harness")
 
 from harness import env, procs, properties  # noqa: E402
 from harness.build import Builds, session_builds, use_ccache  # noqa: E402
+from harness.module import Node  # noqa: E402
 from harness.ros1 import YarpRosStack  # noqa: E402
-from harness.ros2 import Ros2Domain  # noqa: E402
+from harness.ros2 import Ros2Domain, ros2_environment  # noqa: E402
 from harness.yarp import YarpServer, require_yarp  # noqa: E402
 
 # hypothesis' profile (harness.properties): ci, derandomized, unless
@@ -254,6 +263,21 @@ def yarp_ros_server(yarp):
 def ros2_domain():
     with Ros2Domain() as domain:
         yield domain
+
+
+@pytest.fixture
+def mw(yarp_server, ros2_domain):
+    """One environment with the YARP name server and the ROS 2 domain."""
+    return SimpleNamespace(env=ros2_environment(yarp_server.env, ros2_domain), yarp=yarp_server, ros2=ros2_domain)
+
+
+@pytest.fixture
+def node_logs():
+    """The logs of the nodes a test ran, shown by pytest when it fails."""
+    Node.started.clear()
+    yield
+    for node in Node.started:
+        print(f"---- log of {node.name}:\n{node.log_text()[-4000:]}")
 
 
 @pytest.fixture(scope="session")

@@ -322,7 +322,7 @@ def diff_values(rng: random.Random) -> list:
 
 
 # The ROS 2 side of the native module (its messages, bit for bit, use_sim_time)
-# on today's YARP, as test_backend_ros2's: it depends on no YARP release (as
+# on today's YARP, as test_backend_ros2_node's: it depends on no YARP release (as
 # tests/test_cpp_ros2_qos.py); how each release's Bottles are read into a ROS 2
 # message is TestCppBehaviour::test_config_end_to_end of every config that
 # publishes to ROS 2 (vizzy_rviz_joint_states, imu_ros2 ...), on every release.
@@ -342,7 +342,7 @@ def test_ros2_output_publishes_what_the_ros2_node_publishes(builds, yarp_server,
     assert msgs[0]["location"] == "left" and msgs[0]["header"]["frame_id"] == 'bat "q" ; #'
 
 
-# the message trees on today's YARP, as test_backend_ros2's differential: how
+# the message trees on today's YARP, as test_backend_ros2_node's differential: how
 # each release's Bottles are read is the harness's, on every release
 @pytest.mark.yarp_min((4, 0))
 def test_ros2_output_arrays_of_messages_as_the_ros2_node(builds, yarp_server, ros2_domain, tmp_path):

@@ -643,7 +643,7 @@ class NeverStartsAtAFixedRateOnTodayYarp:
 
 class ModuleCommandLine:
     """The command line of a YARP module (cpp, py): --help and bad options.
-    (The ros2 node takes ROS parameters instead: test_backend_ros2.)"""
+    (The ros2 node takes ROS parameters instead: test_backend_ros2_node.)"""
 
     #: how the backend's --help shows each option
     help_options = ("--prefix", "--rate HZ", "--timeout S", "--verbose", "--help")

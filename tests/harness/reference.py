@@ -2,10 +2,10 @@
 backend: the values a producer writes on an IR input (``input_values``,
 ``topic_values``), the mux values after the converters (``mux_values``), the
 message the module must publish, as Bottle items or as named fields
-(``expected``), and the matcher (``assert_matches``) with placeholders for
+(``expected``), and the matchers: ``assert_matches``, with placeholders for
 what changes from message to message (``COUNTER``, ``TIME``, ``SECONDS``,
-``Envelope``); the converters' geometry from an independent implementation
-(harness/geometry_reference.py).
+``Envelope``), and ``assert_close`` (numbers to ``TOL``); the converters'
+geometry from an independent implementation (harness/geometry_reference.py).
 """
 from __future__ import annotations
 
@@ -368,6 +368,29 @@ def assert_matches(got, want, window: tuple, path: str = "msg", exact_fields: bo
             (path, want, got)
         return
     assert got == want and type(got) is type(want), (path, want, got)
+
+
+#: the tolerance of ``assert_close`` (and of a test's own comparisons to it)
+TOL = 1e-12
+
+
+def assert_close(actual, expected, path="msg"):
+    """Exact structure and strings; numbers to 1e-12."""
+    if isinstance(expected, dict):
+        assert isinstance(actual, dict), f"{path}: {actual!r} is not a message"
+        assert sorted(actual) == sorted(expected), f"{path}: fields {sorted(actual)} != {sorted(expected)}"
+        for k in expected:
+            assert_close(actual[k], expected[k], f"{path}.{k}")
+    elif isinstance(expected, (list, tuple)):
+        assert isinstance(actual, list), f"{path}: {actual!r} is not a list"
+        assert len(actual) == len(expected), f"{path}: {len(actual)} values, expected {len(expected)}"
+        for k, (a, e) in enumerate(zip(actual, expected)):
+            assert_close(a, e, f"{path}[{k}]")
+    elif isinstance(expected, float):
+        assert isinstance(actual, float), f"{path}: {actual!r} is not a float"
+        assert math.isclose(actual, expected, rel_tol=0, abs_tol=TOL), f"{path}: {actual!r} != {expected!r}"
+    else:
+        assert actual == expected and type(actual) is type(expected), f"{path}: {actual!r} != {expected!r}"
 
 
 def exactly(a, b) -> bool:
