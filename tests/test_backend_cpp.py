@@ -293,12 +293,16 @@ def test_builds_with_werror(builds, key):
 
 
 def test_modules_of_one_project_build_the_runtime_once(builds):
-    """Every module of the session is a folder added to one CMake project: the
-    runtime library (ybgc_runtime.cpp beside each) is compiled once, for all."""
+    """Every module of the session is a folder added to one CMake project: each
+    part of the runtime library beside each module (its core, its ROS 2 side)
+    is compiled once, for all of them."""
     builds.exe("relay_bridge")
-    compiled = re.findall(r"Building CXX object \S*ybgc_runtime\.cpp\.o", builds.log)
-    assert len(compiled) == 1, compiled
-    assert f"{runtime_library()}.dir" in compiled[0] and len(builds.programs) > 10
+    for part, source in (("runtime", "ybgc_runtime"), ("ros2", "ybgc_ros2_node")):
+        compiled = re.findall(rf"Building CXX object \S*/{source}\.cpp\.o", builds.log)
+        assert len(compiled) == 1, (part, compiled)
+        assert f"{runtime_library(part)}.dir" in compiled[0], compiled
+    assert len(builds.programs) > 10
+    assert sum(p.output.kind == "ros2" for p in builds.programs.values()) > 5
 
 
 def test_install_rule(builds, tmp_path):

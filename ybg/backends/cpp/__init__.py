@@ -18,7 +18,7 @@ print.
 
 A config of commands (:class:`~ybg.compiler.ir.Commands`: YARP RPC ports and
 ROS 2 services, docs/services.md) is lowered by :mod:`.services` and printed
-by ``services.cpp.j2`` and ``services.CMakeLists.txt.j2``; it runs on the
+by ``services.cpp.j2`` and ``CMakeLists.txt.j2``; it runs on the
 runtime's ``ybgc_services*`` with its ROS 2 side. Each kind of bridge is a
 :class:`~ybg.backends.base.BridgeKind` here (:class:`StreamModule`,
 :class:`CommandsModule`): its view, its template, what it says of itself,
@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import functools
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 import jinja2
@@ -59,11 +60,48 @@ def environment() -> jinja2.Environment:
     })
 
 
-def runtime_library() -> str:
-    """The CMake target of the runtime library beside a module, named with
-    ybgc's version: the modules of one version in one CMake project build it
-    once, and those of another version do not take it for theirs."""
-    return "ybgc_runtime_" + re.sub(r"[^0-9A-Za-z]", "_", VERSION)
+def runtime_library(part: str = "runtime") -> str:
+    """The CMake target of a part of the runtime library beside a module
+    (``runtime``, ``ros2``, ``images``, ``services``), named with ybgc's
+    version: the modules of one version in one CMake project build it once,
+    and those of another version do not take it for theirs."""
+    return f"ybgc_{part}_" + re.sub(r"[^0-9A-Za-z]", "_", VERSION)
+
+
+#: the CMake function, named with ybgc's version, that gives a target rcl and
+#: message packages (``ros2.cmake.j2``)
+ROS2_LINK = "ybgc_link_ros2_" + re.sub(r"[^0-9A-Za-z]", "_", VERSION)
+#: the message packages the runtime's ROS 2 side uses (/diagnostics, /clock, stamps)
+RUNTIME_ROS2_PACKAGES = ("builtin_interfaces", "diagnostic_msgs", "rosgraph_msgs")
+
+
+@dataclass(frozen=True)
+class RuntimeLibrary:
+    """A static library of the runtime beside a module, as its CMakeLists.txt
+    builds it (``runtime.cmake.j2``)."""
+    target: str
+    what: str                          # what it holds, for a comment
+    sources: tuple[str, ...]
+    links: tuple[str, ...]             # PUBLIC: the libraries below it
+    ros2_packages: tuple[str, ...] = ()  # rcl and these, when it speaks ROS 2
+
+
+def runtime_libraries(ros2: bool = False, images: bool = False, services: bool = False) -> tuple:
+    """The runtime's libraries a module (or a composed module) links, each
+    on those before it: the core; its ROS 2 side; camera images; commands."""
+    libs = [RuntimeLibrary(runtime_library(), "the core", CPP_SOURCES,
+                           ("YARP::YARP_os", "YARP::YARP_init", "Threads::Threads"))]
+    if ros2 or images or services:
+        libs.append(RuntimeLibrary(runtime_library("ros2"), "its ROS 2 side", CPP_ROS2_SOURCES,
+                                   (runtime_library(),), RUNTIME_ROS2_PACKAGES))
+    if images:
+        libs.append(RuntimeLibrary(runtime_library("images"), "camera images", CPP_IMAGES_SOURCES,
+                                   (runtime_library("ros2"), "YARP::YARP_sig"),
+                                   RUNTIME_ROS2_PACKAGES + ("sensor_msgs",)))
+    if services:
+        libs.append(RuntimeLibrary(runtime_library("services"), "commands", CPP_SERVICES_SOURCES,
+                                   (runtime_library("ros2"),), RUNTIME_ROS2_PACKAGES))
+    return tuple(libs)
 
 
 class StreamModule(BridgeKind):
@@ -87,10 +125,8 @@ class StreamModule(BridgeKind):
         files = {
             view.filename: env.get_template("module.cpp.j2").render(m=view, rt=rt),
             "CMakeLists.txt": env.get_template("CMakeLists.txt.j2").render(
-                m=view, runtime_sources=list(CPP_SOURCES) if beside else None,
-                runtime_library=runtime_library() if beside else None,
-                ros2_sources=(list(CPP_ROS2_SOURCES) + (list(CPP_IMAGES_SOURCES) if view.images else [])
-                              if beside and ros2 else None), package=pkg,
+                m=view, commands=False, uses_ros2=ros2, images=view.images, ros1=view.ros1, ros2_link=ROS2_LINK,
+                libraries=runtime_libraries(ros2, view.images) if beside else (), package=pkg,
                 project=pkg.package if pkg is not None else view.target,
                 launch_file=f"launch/{launch.launch_file}" if launch else None,
                 launch_file_name=launch.launch_file if launch else None),
@@ -161,11 +197,9 @@ class CommandsModule(BridgeKind):
         launch = services.lower_launch(commands, pkg, view.executable) if pkg is not None else None
         files = {
             view.filename: env.get_template("services.cpp.j2").render(m=view, rt=rt),
-            "CMakeLists.txt": env.get_template("services.CMakeLists.txt.j2").render(
-                m=view, runtime_sources=list(CPP_SOURCES) if beside else None,
-                runtime_library=runtime_library() if beside else None,
-                ros2_sources=list(CPP_ROS2_SOURCES) + list(CPP_SERVICES_SOURCES) if beside else None,
-                package=pkg, project=pkg.package if pkg is not None else view.target,
+            "CMakeLists.txt": env.get_template("CMakeLists.txt.j2").render(
+                m=view, commands=True, uses_ros2=True, images=False, ros1=False, ros2_link=ROS2_LINK,
+                libraries=runtime_libraries(ros2=True, services=True) if beside else (), package=pkg, project=pkg.package if pkg is not None else view.target,
                 launch_file=f"launch/{launch.launch_file}" if launch else None,
                 launch_file_name=launch.launch_file if launch else None),
         }

@@ -31,8 +31,7 @@ from dataclasses import dataclass
 import jinja2
 
 from ybg.backends.base import RenderOptions
-from ybg.backends.runtime import (CPP_COMPOSE_SOURCES, CPP_IMAGES_SOURCES, CPP_ROS2_SOURCES, CPP_SERVICES_SOURCES,
-                                  CPP_SOURCES, VERSION, cpp_files, runtime_view)
+from ybg.backends.runtime import CPP_COMPOSE_SOURCES, VERSION, cpp_files, runtime_view
 from ybg.compiler import ir
 from ybg.lower import yarpmanager
 from ybg.lower.compose import BRIDGES, config_at, config_file, refusal
@@ -130,7 +129,7 @@ def environment() -> jinja2.Environment:
 
 def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> dict[str, str]:
     """The files of the composed module ``name`` of ``programs`` (docs/compose.md)."""
-    from ybg.backends.cpp import CppBackend, runtime_library
+    from ybg.backends.cpp import ROS2_LINK, CppBackend, runtime_libraries
 
     cpp_identifier(name)
     env = environment()
@@ -181,9 +180,8 @@ def compose(programs, name: str, options: RenderOptions = RenderOptions()) -> di
                       bridges=tuple(f"{BRIDGES}/{v.filename}" for _, v in views), ros2_packages=tuple(packages),
                       images=images, ros1=any(v.ros1 for _, v in views), uses_ros2=ros2)
     files["CMakeLists.txt"] = env.get_template("compose.CMakeLists.txt.j2").render(
-        m=build, runtime_sources=list(CPP_SOURCES), runtime_library=runtime_library(),
-        own_sources=list(CPP_COMPOSE_SOURCES) + (list(CPP_ROS2_SOURCES) if ros2 else [])
-        + (list(CPP_IMAGES_SOURCES) if images else []) + (list(CPP_SERVICES_SOURCES) if services else []),
+        m=build, libraries=runtime_libraries(ros2, images, services), ros2_link=ROS2_LINK,
+        own_sources=list(CPP_COMPOSE_SOURCES),
         package=pkg, project=pkg.package if pkg is not None else name,
         launch_file=f"launch/{pkg.launch_file}" if pkg is not None and pkg.nodes else None,
         params_file=f"config/{pkg.params_file}" if pkg is not None and pkg.nodes else None)
