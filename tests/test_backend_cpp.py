@@ -44,7 +44,7 @@ from harness.properties import examples
 from harness.ros2 import Ros2Publisher, ros2_environment, subscriber_for
 from harness.yarp import YarpProducer
 from ybg.backends import get_backend
-from ybg.backends.cpp import CppBackend, runtime_library
+from ybg.backends.cpp import ROS2_LINK, CppBackend, runtime_library
 from ybg.backends.cpp.escape import (CPP_KEYWORDS, cpp_comment, cpp_float, cpp_identifier, cpp_int,
                                      cpp_std_string, cpp_string, mangle)
 from ybg.backends.cpp.lower import WIRE_ROS1, WIRE_YARP, LoweringError
@@ -492,4 +492,6 @@ def test_ros2_output_fills_arrays_of_messages_of_every_kind():
     assert not any("resize(msg.box" in line for line in body)
     assert "ybgc::ros2::resize(msg.none, 0, &my_msgs__msg__Corner__Sequence__init," in body
     assert "#include <my_msgs/msg/corner.h>" in files["shape.cpp"]
-    assert "my_msgs__rosidl_generator_c" in files["CMakeLists.txt"]
+    # the message package linked: its C type support found by the CMakeLists' ROS 2 macro
+    linked = re.search(rf"^{ROS2_LINK}\(shape (.*)\)$", files["CMakeLists.txt"], re.M)[1].split()
+    assert "my_msgs" in linked, linked

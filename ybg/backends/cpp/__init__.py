@@ -68,7 +68,7 @@ def runtime_library(part: str = "runtime") -> str:
     return f"ybgc_{part}_" + re.sub(r"[^0-9A-Za-z]", "_", VERSION)
 
 
-#: the CMake function, named with ybgc's version, that gives a target rcl and
+#: the CMake macro, named with ybgc's version, that gives a target rcl and
 #: message packages (``ros2.cmake.j2``)
 ROS2_LINK = "ybgc_link_ros2_" + re.sub(r"[^0-9A-Za-z]", "_", VERSION)
 #: the message packages the runtime's ROS 2 side uses (/diagnostics, /clock, stamps)
