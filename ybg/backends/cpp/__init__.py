@@ -60,17 +60,21 @@ def environment() -> jinja2.Environment:
     })
 
 
+#: ybgc's version as it stands in a CMake name (``0.2.0`` -> ``0_2_0``)
+_VERSION_ID = re.sub(r"[^0-9A-Za-z]", "_", VERSION)
+
+
 def runtime_library(part: str = "runtime") -> str:
     """The CMake target of a part of the runtime library beside a module
     (``runtime``, ``ros2``, ``images``, ``services``), named with ybgc's
     version: the modules of one version in one CMake project build it once,
     and those of another version do not take it for theirs."""
-    return f"ybgc_{part}_" + re.sub(r"[^0-9A-Za-z]", "_", VERSION)
+    return f"ybgc_{part}_{_VERSION_ID}"
 
 
 #: the CMake macro, named with ybgc's version, that gives a target rcl and
 #: message packages (``ros2.cmake.j2``)
-ROS2_LINK = "ybgc_link_ros2_" + re.sub(r"[^0-9A-Za-z]", "_", VERSION)
+ROS2_LINK = f"ybgc_link_ros2_{_VERSION_ID}"
 #: the message packages the runtime's ROS 2 side uses (/diagnostics, /clock, stamps)
 RUNTIME_ROS2_PACKAGES = ("builtin_interfaces", "diagnostic_msgs", "rosgraph_msgs")
 

@@ -2,7 +2,7 @@
 docs/services.md) for the ``cpp`` backend: a native module of YARP RPC ports
 and ROS 2 services through rcl, on the runtime's ``ybgc_services.hpp``
 (with its ROS 2 side, ``ybgc_ros2.hpp``). ``templates/services.cpp.j2``
-prints the module, ``services.CMakeLists.txt.j2`` its CMakeLists.txt.
+prints the module, ``CMakeLists.txt.j2`` (a stream's too) its CMakeLists.txt.
 
 Each service is a namespace of the module holding its C structs
 (``<pkg>/srv/<name>.h``: ``Request``, ``Response``) and its functions,
