@@ -36,6 +36,7 @@ from hypothesis import strategies as st
 
 from harness.behaviour import BridgeBehaviour, ModuleCommandLine, NeverStartsAtAFixedRateOnTodayYarp, on_today_yarp
 from harness.behaviour_ros1 import Ros1Behaviour
+from harness.build import RUNTIME_FOLDER
 from harness.differential import Differential
 from harness.launchers import CppModules
 from harness.module import EXIT_BOUND, Module
@@ -294,13 +295,20 @@ def test_builds_with_werror(builds, key):
 
 def test_modules_of_one_project_build_the_runtime_once(builds):
     """Every module of the session is a folder added to one CMake project: each
-    part of the runtime library beside each module (its core, its ROS 2 side)
-    is compiled once, for all of them."""
+    part of the runtime library (its core, its ROS 2 side) is compiled once, for
+    all of them, as one translation unit (its sources together: YARP's headers
+    read once). The project adds the runtime's own folder first
+    (``runtime_folder()``); each module's folder defines the same libraries
+    unless defined, so a module's CMakeLists that defined them again would
+    fail to configure."""
     builds.exe("relay_bridge")
-    for part, source in (("runtime", "ybgc_runtime"), ("ros2", "ybgc_ros2_node")):
-        compiled = re.findall(rf"Building CXX object \S*/{source}\.cpp\.o", builds.log)
+    assert f"add_subdirectory({RUNTIME_FOLDER} EXCLUDE_FROM_ALL)" in (builds.root / "src" / "CMakeLists.txt").read_text()
+    for part in ("runtime", "ros2"):
+        compiled = re.findall(rf"Building CXX object (\S*/{runtime_library(part)}\.dir/\S+)", builds.log)
         assert len(compiled) == 1, (part, compiled)
-        assert f"{runtime_library(part)}.dir" in compiled[0], compiled
+        assert "/Unity/" in compiled[0], compiled
+    folder = (builds.root / "src" / "relay_bridge" / "CMakeLists.txt").read_text()
+    assert f"if(NOT TARGET {runtime_library()})" in folder
     assert len(builds.programs) > 10
     assert sum(p.output.kind == "ros2" for p in builds.programs.values()) > 5
 

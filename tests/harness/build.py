@@ -118,6 +118,10 @@ def cmake_build(src: Path, build: Path, install, target: str | None = None,
 # every module of the session in one CMake project
 
 
+#: the folder of a project of many modules that holds the runtime's libraries
+RUNTIME_FOLDER = "ybgc_runtime_libraries"
+
+
 def ros2_wheels_option(ros2_env: Path = VENV) -> str:
     """The CMake option that builds a module publishing to ROS 2 against the
     ROS 2 wheels of a Python environment (docs/ros2-native.md): the test
@@ -179,11 +183,18 @@ class Builds:
             done.write_text(self.log, encoding="utf-8")
 
     def _build(self) -> None:
-        from ybg.backends.cpp import CppBackend, runtime_library
+        from ybg.backends.cpp import CppBackend, runtime_folder, runtime_library
 
         src = self.root / "src"
         src.mkdir(parents=True, exist_ok=True)
         backend = CppBackend()
+        # the runtime's libraries from a folder of their own, added first: the
+        # same paths in every such project, so that ccache compiles them once a
+        # YARP release (each module's folder would be another path)
+        shared = src / RUNTIME_FOLDER
+        shared.mkdir(exist_ok=True)
+        for name, text in runtime_folder().items():
+            (shared / name).write_text(text, encoding="utf-8")
         subdirs = []
         for key, program in sorted(self.programs.items()):
             folder = src / key
@@ -196,12 +207,14 @@ class Builds:
         # costs nothing (found per folder, it takes 2 s each)
         (src / "CMakeLists.txt").write_text(
             "cmake_minimum_required(VERSION 3.16)\nproject(ybgc_cpp_tests CXX)\n"
-            "find_package(YARP REQUIRED COMPONENTS os)\nfind_package(Threads REQUIRED)\n"
+            "find_package(YARP REQUIRED COMPONENTS os sig)\nfind_package(Threads REQUIRED)\n"
+            f"add_subdirectory({RUNTIME_FOLDER} EXCLUDE_FROM_ALL)\n"
             + "".join(f"add_subdirectory({k})\n" for k in subdirs)
             + "".join(f"target_compile_options({self.programs[k].module} PRIVATE -O2)\n"
                       for k in sorted(self.optimized) if k in subdirs)
-            # the runtime library all of them share (built once), optimized as theirs
-            + (f"target_compile_options({runtime_library()} PRIVATE -O2)\n" if self.optimized & set(subdirs) else ""))
+            # the runtime library all of them share (built once), optimized in every
+            # such project (one compile a release for all), as a timed module is
+            + f"target_compile_options({runtime_library()} PRIVATE -O2)\n")
         build = self.root / "build"
         env = dict(os.environ)
         # a build type of no flags at all (the modules default to Release only when none is given)
