@@ -93,6 +93,22 @@ def wait_closed(other: YarpProducer, timeout: float = 30.0) -> None:
     other.wait(lambda: other.output_count() == 0, timeout, f"{OTHER} -> {IN} closed")
 
 
+def refused_after_connecting(server, other: YarpProducer, before: int) -> int:
+    """Connects the other port by hand until the module has refused more
+    than ``before`` of its Bottles: the count then. The module closes the
+    connection at its first Bottle or when its watcher lists it (every
+    0.5 s), whichever comes first: on a busy machine the watcher may close
+    it before the other port wrote on it, nothing came, and nothing is
+    refused; it is connected again then, 10 times at most."""
+    for _ in range(10):
+        connect_by_hand(server)
+        wait_closed(other)
+        refused = refused_by_stats(server)
+        if refused > before:
+            return refused
+    pytest.fail(f"{OTHER} connected by hand 10 times: no Bottle of it refused after the first {before}")
+
+
 def refused_on_diagnostics(diag: QosSubscriber, at_least: int) -> None:
     """The node's /diagnostics status of the input counts ``at_least`` refused."""
     def refused(msg) -> int:
@@ -123,7 +139,8 @@ def test_a_port_connected_by_hand_is_refused(modules, yarp_server):
         module.wait_match(REFUSED)
         wait_closed(other)
         first = refused_by_stats(yarp_server)
-        assert first >= 1
+        if first == 0:  # closed before any of its Bottles came
+            first = refused_after_connecting(yarp_server, other, 0)
         if diag is not None:
             refused_on_diagnostics(diag, first)
         src = stack.enter_context(YarpProducer(env, SRC))
@@ -132,9 +149,7 @@ def test_a_port_connected_by_hand_is_refused(modules, yarp_server):
         for k in range(3):
             src.write([float(k)])
             reader.wait_for(k + 1)
-        connect_by_hand(yarp_server)
-        other.wait(lambda: refused_by_stats(yarp_server) > first, 30, "more Bottles refused")
-        wait_closed(other)
+        refused_after_connecting(yarp_server, other, first)
         for k in range(3, 6):
             src.write([float(k)])
             reader.wait_for(k + 1)
