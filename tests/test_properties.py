@@ -46,3 +46,34 @@ def test_own_settings_inherit_the_profile():
     assert own.database == settings.default.database
     assert properties.deterministic(own) == (settings.get_current_profile_name() == "ci")
     assert own.max_examples == (7 if settings.get_current_profile_name() == "ci" else 7 * properties.FUZZ_FACTOR)
+
+
+def test_ci_draws_do_not_depend_on_the_modules_loaded(tmp_path, monkeypatch):
+    """Hypothesis draws some examples from the constants of the modules
+    loaded in the process: under ci the pool is empty
+    (``properties.without_local_constants``), so that a test draws the same
+    examples whichever test files its pytest-xdist worker loaded before."""
+    ci = settings.get_profile("ci")
+
+    def many() -> list:
+        drawn = []
+
+        @settings(ci, max_examples=200)
+        @given(st.text(max_size=12), st.integers())
+        def test(s, n):
+            drawn.append((s, n))
+
+        test()
+        return drawn
+
+    before = many()
+    (tmp_path / "ybg_constants_probe.py").write_text(
+        "".join(f"WORD_{k} = {('probe-%d' % k)!r}\nNUMBER_{k} = {7919 * k + 13}\n" for k in range(300)),
+        encoding="utf-8")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    __import__("ybg_constants_probe")
+    try:
+        assert many() == before
+    finally:
+        import sys
+        sys.modules.pop("ybg_constants_probe", None)

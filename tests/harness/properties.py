@@ -1,7 +1,8 @@
 """Hypothesis' profiles for the property tests.
 
     ci      the default: derandomized (each test draws the examples it drew
-            on every run before, from a seed of its own source), no example
+            on every run before, from a seed of its own source, whatever
+            modules the tests before it loaded), no example
             database, no deadline and no health check on time (wall-clock
             limits that a busy machine trips). A run fails only on a bug,
             and fails again on the same example.
@@ -41,10 +42,34 @@ settings.register_profile("fuzz", derandomize=False, max_examples=100 * FUZZ_FAC
 def load() -> str:
     """Load the profile ``YBG_HYPOTHESIS_PROFILE`` names, default ci
     (tests/conftest.py, before any test module; hypothesis'
-    ``--hypothesis-profile`` option, when given, wins)."""
+    ``--hypothesis-profile`` option, when given, wins). In the ci profile,
+    without the modules' constants (``without_local_constants``)."""
     name = os.environ.get(PROFILE_VARIABLE, "ci")
     settings.load_profile(name)
+    if name == "ci":
+        without_local_constants()
     return name
+
+
+def without_local_constants() -> bool:
+    """Hypothesis draws some examples from the constants of the project's
+    modules loaded in the process (those it finds in sys.modules, at each
+    draw): derandomized, a test's examples then depend on which modules the
+    tests before it, in that pytest-xdist worker, happened to load, and
+    change from run to run. With none (this empty pool), a test's examples
+    depend on the test alone. False if this hypothesis keeps no such pool
+    (another version): nothing to do."""
+    try:
+        from hypothesis.internal.conjecture import providers
+    except ImportError:  # pragma: no cover - another hypothesis
+        return False
+    pool = getattr(providers, "_get_local_constants", None)
+    empty = getattr(providers, "Constants", None)
+    if pool is None or empty is None:  # pragma: no cover - another hypothesis
+        return False
+    none = empty()
+    providers._get_local_constants = lambda: none
+    return True
 
 
 def examples(n: int) -> int:
