@@ -141,6 +141,7 @@ class Builds:
         self.optimized: set[str] = set()
         self.built = False
         self.log = ""
+        self.alone: dict[str, subprocess.CompletedProcess] = {}  # configure_alone's, by key
 
     def add(self, key: str, program: Program, optimize: bool = False) -> None:
         # one CMake project holds every module: a module named as one added
@@ -160,12 +161,15 @@ class Builds:
         return needs_ros1(self.programs[key]) and self.install.key >= (4,)
 
     def configure_alone(self, key: str) -> subprocess.CompletedProcess:
-        """Configures the module's own folder by itself, as its user would."""
-        self.build()
-        folder = self.root / "src" / key
-        return subprocess.run(["cmake", "-S", str(folder), "-B", str(self.root / f"alone_{key}_{os.getpid()}"),
-                               f"-DCMAKE_PREFIX_PATH={self.install.cmake_prefix_path()}"],
-                              capture_output=True, text=True)
+        """Configures the module's own folder by itself, as its user would
+        (once a process: what it answered is kept for the next test that asks)."""
+        if key not in self.alone:
+            self.build()
+            folder = self.root / "src" / key
+            self.alone[key] = subprocess.run(
+                ["cmake", "-S", str(folder), "-B", str(self.root / f"alone_{key}_{os.getpid()}"),
+                 f"-DCMAKE_PREFIX_PATH={self.install.cmake_prefix_path()}"], capture_output=True, text=True)
+        return self.alone[key]
 
     def build(self) -> None:
         if self.built:
