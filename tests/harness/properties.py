@@ -63,11 +63,9 @@ def without_local_constants() -> bool:
         from hypothesis.internal.conjecture import providers
     except ImportError:  # pragma: no cover - another hypothesis
         return False
-    pool = getattr(providers, "_get_local_constants", None)
-    empty = getattr(providers, "Constants", None)
-    if pool is None or empty is None:  # pragma: no cover - another hypothesis
-        return False
-    none = empty()
+    if not hasattr(providers, "_get_local_constants") or not hasattr(providers, "Constants"):
+        return False  # pragma: no cover - another hypothesis
+    none = providers.Constants()
     providers._get_local_constants = lambda: none
     return True
 
