@@ -37,7 +37,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from harness.build import held, ros2_wheels_option, run_folder
+from harness.build import find_once_option, held, ros2_wheels_option, run_folder
 from harness.compose import (ICUB, IMAGE_TOPIC, DIAGNOSTICS_PERIOD, bridge_stats, bridge_totals, check_isolation,
                              check_one_process, check_stats_and_quit, check_values, composed_stats, graph,
                              start_peers)
@@ -86,7 +86,7 @@ def build(tmp_path_factory) -> Path:
             shutil.copytree(fresh, src)
             install = yarp_install("3.5")
             cfg = subprocess.run(["cmake", "-S", str(src), "-B", str(out),
-                                  f"-DCMAKE_PREFIX_PATH={install.cmake_prefix_path()}", ros2_wheels_option(),
+                                  f"-DCMAKE_PREFIX_PATH={install.cmake_prefix_path()}", find_once_option(), ros2_wheels_option(),
                                   "-DCMAKE_BUILD_TYPE=Tests", "-DCMAKE_CXX_FLAGS=-Werror"],
                                  capture_output=True, text=True, timeout=300)
             assert cfg.returncode == 0, cfg.stdout[-3000:] + cfg.stderr[-3000:]

@@ -28,6 +28,7 @@ import time
 
 import pytest
 
+from harness.build import find_once_option
 from harness.env import ROOT, VENV
 from harness.generated import generate
 from harness.module import EXIT_BOUND, Module, totals
@@ -65,7 +66,7 @@ def native(yarp, tmp_path_factory):
     src = generate(tmp, CONFIG, "contract_native", "cpp")
     build = tmp / "build"
     for argv in (["cmake", "-S", str(src), "-B", str(build), f"-DCMAKE_PREFIX_PATH={yarp.cmake_prefix_path()}",
-                  f"-DYBGC_ROS2_PYTHON_ENV={VENV}"],
+                  find_once_option(), f"-DYBGC_ROS2_PYTHON_ENV={VENV}"],
                  ["cmake", "--build", str(build), "-j2"]):
         r = subprocess.run(argv, capture_output=True, text=True, timeout=900)
         assert r.returncode == 0, (r.stdout + r.stderr)[-4000:]
@@ -87,7 +88,7 @@ def native_ament(yarp, tmp_path_factory):
               f"-L{sysconfig.get_config_var('LIBDIR')} -lpython{sysconfig.get_python_version()}"]
     env = dict(os.environ, AMENT_PREFIX_PATH=str(VENV))
     for argv in (["cmake", "-S", str(src), "-B", str(build),
-                  f"-DCMAKE_PREFIX_PATH={yarp.cmake_prefix_path()};{VENV}",
+                  f"-DCMAKE_PREFIX_PATH={yarp.cmake_prefix_path()};{VENV}", find_once_option(),
                   f"-DPython3_EXECUTABLE={VENV / 'bin' / 'python'}",
                   f"-DCMAKE_PROJECT_INCLUDE={ROOT / 'scripts' / 'msgpkg_wheels.cmake'}",
                   f"-DCMAKE_EXE_LINKER_FLAGS={' '.join(flags)}"],

@@ -23,6 +23,7 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
+from harness.build import find_once_option
 from harness.env import VENV_PYTHON
 from harness.procs import Proc
 from harness.properties import examples
@@ -168,7 +169,7 @@ def modules(tmp_path_factory, yarp):
         built[tag] = out
     build = built["cpp"] / "build"
     for cmd in (["cmake", "-S", str(built["cpp"]), "-B", str(build), f"-DCMAKE_PREFIX_PATH={yarp.cmake_prefix_path()}",
-                 "-DCMAKE_CXX_FLAGS=-Werror", "-DCMAKE_BUILD_TYPE=Release"],
+                 find_once_option(), "-DCMAKE_CXX_FLAGS=-Werror", "-DCMAKE_BUILD_TYPE=Release"],
                 ["cmake", "--build", str(build), "-j2"]):
         r = subprocess.run(cmd, capture_output=True, text=True)
         assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]

@@ -17,6 +17,7 @@ from pathlib import Path
 import pytest
 
 import ybg
+from harness.build import find_once_option
 from harness.generated import ybgc
 from harness.env import VENV
 from harness.ros2 import require_ros2
@@ -29,7 +30,7 @@ SOURCE = Path(__file__).resolve().parent / "runtime"
 def cmake_build(src: Path, build: Path, install, target: str | None = None,
                 options: tuple = ()) -> subprocess.CompletedProcess:
     r = subprocess.run(["cmake", "-S", str(src), "-B", str(build),
-                        f"-DCMAKE_PREFIX_PATH={install.cmake_prefix_path()}", *options],
+                        f"-DCMAKE_PREFIX_PATH={install.cmake_prefix_path()}", find_once_option(), *options],
                        capture_output=True, text=True, timeout=300)
     if r.returncode != 0:
         return r

@@ -19,6 +19,7 @@ from types import SimpleNamespace
 
 import pytest
 
+from harness.build import find_once_option
 from harness.env import DEFAULT_YARP, VENV
 from harness.ros2 import require_ros2
 from harness.yarp import require_yarp
@@ -229,7 +230,8 @@ def driver(tmp_path_factory) -> Path:
     require_ros2()
     build = tmp_path_factory.mktemp("services_runtime") / "build"
     r = subprocess.run(["cmake", "-S", str(SOURCE), "-B", str(build),
-                        f"-DCMAKE_PREFIX_PATH={DEFAULT_YARP.cmake_prefix_path()}", f"-DYBGC_ROS2_PYTHON_ENV={VENV}"],
+                        f"-DCMAKE_PREFIX_PATH={DEFAULT_YARP.cmake_prefix_path()}", find_once_option(),
+                        f"-DYBGC_ROS2_PYTHON_ENV={VENV}"],
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stdout[-4000:] + r.stderr[-4000:]
     r = subprocess.run(["cmake", "--build", str(build), "-j2"], capture_output=True, text=True, timeout=900)
