@@ -281,13 +281,14 @@ class YarpReader(Peer):
     """Records every Bottle arriving on a YARP port (strict, nothing dropped).
     With ``source`` it keeps ``source -> port`` connected by itself (checks
     every ``poll`` s and connects again), so a late or restarted source is
-    picked up."""
+    picked up. With ``head``, it keeps the first ``head`` values of each
+    Bottle and not its text (large Bottles counted, not read)."""
 
     script = "yarp_reader.py"
 
     def __init__(self, env: dict, port: str, source: Optional[str] = None,
-                 carrier: str = "", poll: float = 0.2):
-        super().__init__(env, {"port": port, "source": source, "carrier": carrier, "poll": poll},
+                 carrier: str = "", poll: float = 0.2, head: Optional[int] = None):
+        super().__init__(env, {"port": port, "source": source, "carrier": carrier, "poll": poll, "head": head},
                          name=f"reader{port.replace('/', '_')}")
         self.port = port
         self.source = source

@@ -96,10 +96,10 @@ def value_to_py(v):
     return v.toString(), "unknown"
 
 
-def to_py(bottle):
-    """(data, types) of a yarp.Bottle."""
+def to_py(bottle, head=None):
+    """(data, types) of a yarp.Bottle (of its first ``head`` values only, if given)."""
     data, types = [], []
-    for i in range(bottle.size()):
+    for i in range(bottle.size() if head is None else min(head, bottle.size())):
         d, t = value_to_py(bottle.get(i))
         data.append(d)
         types.append(t)

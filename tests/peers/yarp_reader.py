@@ -1,13 +1,15 @@
 """YARP Bottle reader peer (venv python with the yarp bindings).
 
 Config: {"port": "/name", "source": "/port" or null, "carrier": "tcp" or "",
-         "poll": 0.2}
+         "poll": 0.2, "head": null or N}
 Opens a BufferedPortBottle (strict: keeps every Bottle). With a source, the
 reader keeps the connection source -> port alive: every `poll` seconds it
 connects it again if it is missing (so a source that starts late, or is killed
 and restarted, is picked up).
 Events: ready; connected / disconnected (source); bottle with t (receive time,
-time.time()), data, types, stamp ([seq, time] or null), text.
+time.time()), data, types, stamp ([seq, time] or null), text; with a head,
+data and types of the first N values only and no text (large Bottles counted,
+not read).
 """
 import time
 
@@ -31,6 +33,7 @@ def main():
     src = cfg.get("source")
     carrier = cfg.get("carrier") or ""
     poll = float(cfg.get("poll") or 0.2)
+    head = cfg.get("head")
     # the connection is looked for with its carrier: YARP 4 does not count a
     # fast_tcp connection as one of the default carrier, and connecting again
     # replaces it (what is in flight is lost)
@@ -66,13 +69,13 @@ def main():
                 break
             got = True
             t = time.time()
-            data, types = bottle_codec.to_py(b)
+            data, types = bottle_codec.to_py(b, head)
             st = None
             stamp = yarp.Stamp()
             if port.getEnvelope(stamp) and stamp.isValid():
                 st = [stamp.getCount(), stamp.getTime()]
             peer_io.emit("bottle", t=t, data=data, types=types, stamp=st,
-                         text=b.toString())
+                         text="" if head else b.toString())
         if not got:
             time.sleep(0.0005)
 
