@@ -86,7 +86,8 @@ def build(tmp_path_factory) -> Path:
             shutil.copytree(fresh, src)
             install = yarp_install("3.5")
             cfg = subprocess.run(["cmake", "-S", str(src), "-B", str(out),
-                                  f"-DCMAKE_PREFIX_PATH={install.cmake_prefix_path()}", find_once_option(), ros2_wheels_option(),
+                                  f"-DCMAKE_PREFIX_PATH={install.cmake_prefix_path()}", find_once_option(),
+                                  ros2_wheels_option(),
                                   "-DCMAKE_BUILD_TYPE=Tests", "-DCMAKE_CXX_FLAGS=-Werror"],
                                  capture_output=True, text=True, timeout=300)
             assert cfg.returncode == 0, cfg.stdout[-3000:] + cfg.stderr[-3000:]
