@@ -59,27 +59,105 @@ std::set<std::string> Names::open()
     return taken;
 }
 
-// --- Link ----------------------------------------------------------------------------------------------
+// --- YarpCaller and its links --------------------------------------------------------------------
 
-void Link::run(std::shared_ptr<Link> self)
+YarpCaller::YarpCaller(CommandsBridge& bridge, std::string local, std::string remote, double timeout) :
+        bridge_(bridge),
+        remote_(std::move(remote)),
+        timeout_(timeout),
+        names_(std::make_shared<Names>()),
+        calls_(std::make_shared<Calls>())
+{
+    names_->base = std::move(local);
+}
+
+void YarpCaller::start()
+{
+    thread_ = bridgeThread([this] { watch(); });
+}
+
+void YarpCaller::submit(Job job)
+{
+    {
+        std::lock_guard<std::mutex> lock(calls_->mutex);
+        if (!calls_->stopping) {
+            calls_->queue.push_back(job);
+            if (calls_->link == nullptr) {
+                startLink();
+            }
+            calls_->work.notify_all();
+            return;
+        }
+    }
+    const Service& s = bridge_.spec().services[job.service];
+    bridge_.answer(job, Failure::TimedOut, bridge_.stoppedText(s), nullptr, nullptr);
+}
+
+void YarpCaller::stop()
+{
+    {
+        std::lock_guard<std::mutex> lock(calls_->mutex);
+        calls_->stopping = true;
+    }
+    calls_->watch.notify_all();  // the call in flight is answered now
+    calls_->work.notify_all();
+}
+
+void YarpCaller::startLink()
+{
+    Calls& c = *calls_;
+    // the links given up that have closed their ports are forgotten
+    c.given.erase(std::remove_if(c.given.begin(), c.given.end(),
+                                 [](const std::shared_ptr<Link>& l) { return l->finished; }),
+                  c.given.end());
+    auto link = std::make_shared<Link>();
+    link->name = names_->take();
+    link->remote = remote_;
+    link->timeout = timeout_;
+    link->names = names_;
+    c.link = link;
+    bridgeThread([link, calls = calls_, caller = this] { run(link, calls, caller); }).detach();
+}
+
+void YarpCaller::run(std::shared_ptr<Link> self, std::shared_ptr<Calls> calls, YarpCaller* caller)
 {
     Link& l = *self;
+    Calls& c = *calls;
     yarp::os::Port port;
     port.setTimeout(static_cast<float>(l.timeout));  // YARP gives up a connection or a write after it
     bool open = false;
-    bool broken = false;
     for (;;) {
-        yarp::os::Bottle command;
-        TimePoint deadline;
+        Job job;
+        bool late = false;
         {
-            std::unique_lock<std::mutex> lock(l.mutex);
-            l.cv.wait(lock, [&l] { return l.state == State::Busy || l.quit || l.abandoned; });
-            if (l.state != State::Busy || l.quit || l.abandoned) {
-                break;
+            std::unique_lock<std::mutex> lock(c.mutex);
+            c.work.wait(lock, [&c, &l] { return !c.queue.empty() || c.stopping || l.abandoned || l.quit; });
+            if (c.stopping || l.abandoned || l.quit) {
+                break;  // the calls waiting are answered by the watch
             }
-            command = l.command;
-            deadline = l.deadline;
+            job = c.queue.front();
+            c.queue.pop_front();
+            ++c.busy;
+            late = Clock::now() >= job.deadline;
+            if (!late) {
+                c.inflight = true;
+                c.job = job;
+                // the watch is woken only when it would sleep past this deadline
+                if (!c.watching || job.deadline < c.watched) {
+                    c.watch.notify_all();
+                }
+            }
         }
+        const Service& s = caller->bridge_.spec().services[job.service];
+        if (late) {
+            caller->bridge_.answer(job, Failure::TimedOut, s.spec.reasons.waited, nullptr, nullptr);
+            std::lock_guard<std::mutex> lock(c.mutex);
+            --c.busy;
+            c.work.notify_all();
+            continue;
+        }
+        yarp::os::Bottle command;
+        s.functions.command(job.request, command);
         bool ok = false;
         yarp::os::Bottle reply;
         if (!open) {
@@ -98,17 +176,27 @@ void Link::run(std::shared_ptr<Link> self)
             }
             ok = connected && port.write(command, reply);
         }
-        broken = !ok;
         {
-            std::lock_guard<std::mutex> lock(l.mutex);
-            l.ok = ok;
-            l.failure = ok ? Failure::None : Clock::now() >= deadline ? Failure::TimedOut : Failure::NoServer;
-            l.reply = reply;
-            l.state = State::Done;
-            l.cv.notify_all();
-            if (broken || l.abandoned) {
+            std::lock_guard<std::mutex> lock(c.mutex);
+            if (l.abandoned) {
+                --c.busy;  // answered by the watch, which gave this link up
+                c.work.notify_all();
                 break;
             }
+            c.inflight = false;
+        }
+        const Failure failure = ok ? Failure::None : Clock::now() >= job.deadline ? Failure::TimedOut : Failure::NoServer;
+        caller->called(job, ok, failure, command, reply);
+        {
+            std::lock_guard<std::mutex> lock(c.mutex);
+            --c.busy;
+            c.work.notify_all();
+        }
+        if (!ok && open) {
+            // no server or the connection lost: the next call opens the port again
+            port.interrupt();
+            port.close();
+            open = false;
         }
     }
     if (open) {
@@ -116,162 +204,91 @@ void Link::run(std::shared_ptr<Link> self)
         port.close();
     }
     l.names->release(l.name);
-    std::lock_guard<std::mutex> lock(l.mutex);
-    l.state = State::Ended;
+    std::lock_guard<std::mutex> lock(c.mutex);
     l.finished = true;
-    l.cv.notify_all();
+    c.work.notify_all();
 }
 
-// --- YarpCaller --------------------------------------------------------------------------------------
-
-YarpCaller::YarpCaller(CommandsBridge& bridge, std::string local, std::string remote, double timeout) :
-        bridge_(bridge), remote_(std::move(remote)), timeout_(timeout), names_(std::make_shared<Names>())
+void YarpCaller::called(Job& job, bool ok, Failure failure, const yarp::os::Bottle& command,
+                        const yarp::os::Bottle& reply)
 {
-    names_->base = std::move(local);
-}
-
-void YarpCaller::start()
-{
-    thread_ = bridgeThread([this] { dispatch(); });
-}
-
-void YarpCaller::submit(Job job)
-{
-    {
-        std::lock_guard<std::mutex> lock(mutex_);
-        if (!stopping_) {
-            queue_.push_back(job);
-            cv_.notify_all();
-            return;
-        }
-    }
     const Service& s = bridge_.spec().services[job.service];
-    bridge_.answer(job, Failure::TimedOut, bridge_.stoppedText(s), nullptr, nullptr);
-}
-
-void YarpCaller::stop()
-{
-    std::shared_ptr<Link> link;
-    {
-        std::lock_guard<std::mutex> lock(mutex_);
-        stopping_ = true;
-        link = link_;
-    }
-    cv_.notify_all();
-    if (link != nullptr) {
-        std::lock_guard<std::mutex> lock(link->mutex);
-        link->cv.notify_all();  // the call waiting on it ends now
+    if (ok) {
+        bridge_.answer(job, Failure::None, "", &command, &reply);
+    } else {
+        bridge_.answer(job, failure, failure == Failure::TimedOut ? s.spec.reasons.timedOut : s.spec.reasons.noServer,
+                       &command, nullptr);
     }
 }
 
-void YarpCaller::dispatch()
+void YarpCaller::watch()
 {
-    for (;;) {
-        Job job;
-        bool stopping = false;
-        {
-            std::unique_lock<std::mutex> lock(mutex_);
-            cv_.wait(lock, [this] { return !queue_.empty() || stopping_; });
-            if (queue_.empty()) {
-                break;  // stopping, every call answered
-            }
-            job = queue_.front();
-            queue_.pop_front();
-            stopping = stopping_;
-        }
-        const Service& s = bridge_.spec().services[job.service];
-        if (stopping) {
-            bridge_.answer(job, Failure::TimedOut, bridge_.stoppedText(s), nullptr, nullptr);
+    Calls& c = *calls_;
+    std::unique_lock<std::mutex> lock(c.mutex);
+    while (!c.stopping) {
+        if (!c.inflight) {
+            c.watching = false;
+            c.watch.wait(lock, [&c] { return c.inflight || c.stopping; });
             continue;
         }
-        if (Clock::now() >= job.deadline) {
-            bridge_.answer(job, Failure::TimedOut, s.spec.reasons.waited, nullptr, nullptr);
+        if (Clock::now() < c.job.deadline) {
+            // asleep until this call's deadline, though it may end and others
+            // start meanwhile: the link wakes it for an earlier deadline only
+            c.watching = true;
+            c.watched = c.job.deadline;
+            c.watch.wait_until(lock, c.watched);
             continue;
         }
-        yarp::os::Bottle command;
-        s.functions.command(job.request, command);
-        yarp::os::Bottle reply;
-        Failure failure = Failure::None;
-        bool stopped = false;
-        if (call(command, job.deadline, reply, failure, stopped)) {
-            bridge_.answer(job, Failure::None, "", &command, &reply);
-        } else if (stopped) {
-            bridge_.answer(job, Failure::TimedOut, bridge_.stoppedText(s), &command, nullptr);
-        } else {
-            bridge_.answer(job, failure,
-                           failure == Failure::TimedOut ? s.spec.reasons.timedOut : s.spec.reasons.noServer, &command,
-                           nullptr);
+        // no answer by the deadline: the link is given up, the calls after it go on a new one
+        Job job = c.job;
+        c.inflight = false;
+        c.link->abandoned = true;
+        c.given.push_back(c.link);
+        c.link = nullptr;
+        if (!c.queue.empty()) {
+            startLink();
         }
-    }
-}
-
-bool YarpCaller::call(const yarp::os::Bottle& command, TimePoint deadline, yarp::os::Bottle& reply,
-                      Failure& failure, bool& stopped)
-{
-    std::shared_ptr<Link> link;
-    {
-        std::lock_guard<std::mutex> lock(mutex_);
-        // the links given up that have closed their ports are forgotten
-        given_.erase(std::remove_if(given_.begin(), given_.end(),
-                                    [](const std::shared_ptr<Link>& l) {
-                                        std::lock_guard<std::mutex> guard(l->mutex);
-                                        return l->finished;
-                                    }),
-                     given_.end());
-        if (link_ == nullptr) {
-            link_ = std::make_shared<Link>();
-            link_->name = names_->take();
-            link_->remote = remote_;
-            link_->timeout = timeout_;
-            link_->names = names_;
-            bridgeThread([link = link_] { Link::run(link); }).detach();
-        }
-        link = link_;
-    }
-    std::unique_lock<std::mutex> lock(link->mutex);
-    link->command = command;
-    link->deadline = deadline;
-    link->state = Link::State::Busy;
-    link->cv.notify_all();
-    const bool done = link->cv.wait_until(lock, deadline, [this, &link] {
-        if (link->state == Link::State::Done || link->state == Link::State::Ended) {
-            return true;
-        }
-        std::lock_guard<std::mutex> guard(mutex_);
-        return stopping_;
-    });
-    if (done && link->state == Link::State::Done) {
-        link->state = Link::State::Idle;
-        failure = link->failure;
-        const bool ok = link->ok;
-        if (ok) {
-            reply = link->reply;
-        }
+        c.work.notify_all();
+        ++c.busy;
         lock.unlock();
-        if (!ok) {
-            std::lock_guard<std::mutex> guard(mutex_);
-            link_ = nullptr;  // its thread closes the port
-        }
-        return ok;
+        // a server that left the name server while the call waited (it quit) is no server,
+        // whether or not its leaving broke the connection before the deadline (the Python
+        // runtime says the same); one that is still registered did not answer in time
+        const Failure failure = serverRegistered() ? Failure::TimedOut : Failure::NoServer;
+        called(job, false, failure, yarp::os::Bottle(), yarp::os::Bottle());
+        lock.lock();
+        --c.busy;
+        c.work.notify_all();
     }
-    // no answer by the deadline (or the module stops): the link is given up
-    link->abandoned = true;
-    link->cv.notify_all();
-    const bool ended = link->state == Link::State::Ended;
+    // stopping: the call in flight (given up) and those waiting are answered
+    std::vector<Job> stopped;
+    Job late{};
+    bool pastDeadline = false;
+    if (c.inflight) {
+        c.inflight = false;
+        if (Clock::now() < c.job.deadline) {
+            stopped.push_back(c.job);
+        } else {
+            late = c.job;
+            pastDeadline = true;
+        }
+        c.link->abandoned = true;
+        c.given.push_back(c.link);
+        c.link = nullptr;
+    }
+    for (; !c.queue.empty(); c.queue.pop_front()) {
+        stopped.push_back(c.queue.front());
+    }
+    c.work.notify_all();
     lock.unlock();
-    {
-        std::lock_guard<std::mutex> guard(mutex_);
-        stopped = stopping_ && Clock::now() < deadline;
-        link_ = nullptr;
-        if (!ended) {
-            given_.push_back(link);
-        }
+    if (pastDeadline) {
+        const Failure failure = serverRegistered() ? Failure::TimedOut : Failure::NoServer;
+        called(late, false, failure, yarp::os::Bottle(), yarp::os::Bottle());
     }
-    // a server that left the name server while the call waited (it quit) is no server,
-    // whether or not its leaving broke the connection before the deadline (the Python
-    // runtime says the same); one that is still registered did not answer in time
-    failure = !stopped && !serverRegistered() ? Failure::NoServer : Failure::TimedOut;
-    return false;
+    for (Job& job : stopped) {
+        const Service& s = bridge_.spec().services[job.service];
+        bridge_.answer(job, Failure::TimedOut, bridge_.stoppedText(s), nullptr, nullptr);
+    }
 }
 
 bool YarpCaller::serverRegistered() const
@@ -282,24 +299,22 @@ bool YarpCaller::serverRegistered() const
 bool YarpCaller::close(TimePoint deadline)
 {
     if (thread_.joinable()) {
-        thread_.join();  // never waits for YARP: its calls wait until their deadlines at most
+        thread_.join();  // never waits for YARP: it answers each call by its deadline
     }
-    std::vector<std::shared_ptr<Link>> links;
-    {
-        std::lock_guard<std::mutex> lock(mutex_);
-        links = given_;
-        if (link_ != nullptr) {
-            links.push_back(link_);
-        }
+    Calls& c = *calls_;
+    std::unique_lock<std::mutex> lock(c.mutex);
+    std::vector<std::shared_ptr<Link>> links = c.given;
+    if (c.link != nullptr) {
+        links.push_back(c.link);
     }
-    bool closed = true;
     for (const std::shared_ptr<Link>& l : links) {
-        std::unique_lock<std::mutex> lock(l->mutex);
         l->quit = true;
-        l->cv.notify_all();
-        closed = l->cv.wait_until(lock, deadline, [&l] { return l->finished; }) && closed;
     }
-    return closed;
+    c.work.notify_all();
+    return c.work.wait_until(lock, deadline, [&c, &links] {
+        return c.busy == 0
+            && std::all_of(links.begin(), links.end(), [](const std::shared_ptr<Link>& l) { return l->finished; });
+    });
 }
 
 // --- RosClient ----------------------------------------------------------------------------------------

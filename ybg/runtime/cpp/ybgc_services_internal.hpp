@@ -56,40 +56,6 @@ struct Names
     std::set<std::string> open();
 };
 
-/// One client port and the thread that makes its blocking calls (open,
-/// connect, write and wait for the reply), one at a time. Its caller waits
-/// for each call until the call's deadline, never longer: a call still
-/// running then is given up (`abandoned`), and the thread closes the port
-/// as soon as YARP gives the write up (the port's timeout), so that its
-/// late reply is never read as another call's. A call that fails (no
-/// server, the connection lost) ends the port too: the next call opens a
-/// fresh one and connects again.
-struct Link
-{
-    enum class State { Idle, Busy, Done, Ended };
-
-    std::mutex mutex;
-    std::condition_variable cv;
-    State state = State::Idle;
-    bool abandoned = false;  // given up by the caller: close when the call returns
-    bool quit = false;       // closing: no more calls
-    yarp::os::Bottle command;
-    TimePoint deadline;
-    // the outcome of the last call
-    bool ok = false;
-    Failure failure = Failure::None;
-    yarp::os::Bottle reply;
-    bool finished = false;  // the thread ended (its port closed)
-
-    std::string name;
-    std::string remote;
-    double timeout = 1.0;
-    std::shared_ptr<Names> names;
-
-    /// The thread of the port (detached: it may outlive the bridge's wait for it).
-    static void run(std::shared_ptr<Link> self);
-};
-
 /// A request of a ROS 2 service served by the bridge, waiting for its call.
 struct Job
 {
@@ -99,9 +65,54 @@ struct Job
     TimePoint deadline;        // arrival + the service's timeout
 };
 
+/// One client port and the thread that makes its blocking calls (open,
+/// connect, write and wait for the reply), one at a time, taking them from
+/// its caller's queue and answering each itself: a call goes from the ROS 2
+/// thread that took its request to this one, and its response back from
+/// here. The caller's watch gives a call still running at its deadline up
+/// (`abandoned`) and answers it; the thread closes the port as soon as YARP
+/// gives the write up (the port's timeout), so that its late reply is never
+/// read as another call's, and a new link takes the calls after it. A call
+/// that fails (no server, the connection lost) closes the port: the next one
+/// opens it again and connects again.
+struct Link
+{
+    // under Calls::mutex
+    bool abandoned = false;  // given up by the caller's watch: close when the call returns
+    bool quit = false;       // closing: no more calls
+    bool finished = false;   // the thread ended (its port closed)
+
+    std::string name;
+    std::string remote;
+    double timeout = 1.0;
+    std::shared_ptr<Names> names;
+};
+
+/// What a YARP caller shares with the threads of its links (which may
+/// outlive it, held by a write that does not return): the calls waiting, the
+/// one in flight, the links.
+struct Calls
+{
+    std::mutex mutex;
+    std::condition_variable work;   // the current link waits for a call; close() for the links
+    std::condition_variable watch;  // the caller's watch waits for the deadline of the call in flight
+    std::deque<Job> queue;
+    bool stopping = false;
+    std::shared_ptr<Link> link;                 // the current connection (nullptr: none)
+    std::vector<std::shared_ptr<Link>> given;  // links given up, closing by themselves
+    bool inflight = false;  // `job` is being called on `link`
+    Job job{};
+    bool watching = false;  // the watch sleeps until `watched`
+    TimePoint watched;
+    int busy = 0;  // links using the bridge (a command being built, a call being answered)
+};
+
 /// One YARP RPC port called by the bridge: its calls made one after
-/// another, in the order they came, by one thread, each answered by its
-/// deadline whatever the server does (a Link a connection).
+/// another, in the order they came, by the thread of one link, each
+/// answered by its deadline whatever the server does (a Link a connection).
+/// Its own thread watches the deadline of the call in flight; it is woken
+/// when a call starts only if it sleeps past that call's deadline, or not
+/// at all.
 class YarpCaller
 {
 public:
@@ -110,7 +121,7 @@ public:
     bool serverRegistered() const;
 
     void start();
-    /// A request to call it with: answered by the bridge once the call ends.
+    /// A request to call it with: answered once the call ends.
     void submit(Job job);
     /// Closing: the calls not answered yet are answered (reason `stopped`).
     void stop();
@@ -120,23 +131,21 @@ public:
     std::set<std::string> openNames() const { return names_->open(); }
 
 private:
-    void dispatch();
-    /// Makes the call of `job` on the current link (a new one if none);
-    /// false, with the failure, when it did not answer by the deadline.
-    bool call(const yarp::os::Bottle& command, TimePoint deadline, yarp::os::Bottle& reply, Failure& failure,
-              bool& stopped);
+    /// The thread of the caller: the deadline of the call in flight.
+    void watch();
+    /// A new current link and its thread (under calls_->mutex).
+    void startLink();
+    /// The thread of a link (detached: it may outlive the bridge's wait for
+    /// it); it uses `caller` only while it counts in Calls::busy.
+    static void run(std::shared_ptr<Link> link, std::shared_ptr<Calls> calls, YarpCaller* caller);
+    /// Answers `job`, whose call ended (`ok`: with `reply`) or did not.
+    void called(Job& job, bool ok, Failure failure, const yarp::os::Bottle& command, const yarp::os::Bottle& reply);
 
     CommandsBridge& bridge_;
     std::string remote_;
     double timeout_;
     std::shared_ptr<Names> names_;
-    std::shared_ptr<Link> link_;  // the current connection (nullptr: none)
-    std::vector<std::shared_ptr<Link>> given_;  // links given up, closing by themselves
-
-    std::mutex mutex_;
-    std::condition_variable cv_;
-    std::deque<Job> queue_;
-    bool stopping_ = false;
+    std::shared_ptr<Calls> calls_;
     std::thread thread_;
 };
 
