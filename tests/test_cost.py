@@ -1,5 +1,6 @@
 """The cost guard: what one message of the benchmark's workload costs each
-backend's module, counted in units that do not depend on the machine's load
+backend's module (and what a call costs the C++ module of commands),
+counted in units that do not depend on the machine's load
 (threads woken and context switches per tick; the Python modules' calls,
 and of them the calls into YARP's bindings; the C++ module's system calls
 and heap allocations), and held to the budgets of tests/cost_budget.json.
@@ -32,7 +33,7 @@ def workdir(tmp_path_factory):
 def measure(name, workdir, request, launch=None):
     subject = cost.SUBJECTS[name]
     env = None
-    if subject.topic:
+    if subject.topic or subject.service:
         env = ros2_environment({}, request.getfixturevalue("ros2_domain"))
     return cost.measure(subject, workdir, ros2_env=env, launch=launch)
 

@@ -10,6 +10,10 @@ of it. A driver (tests/peers/cost_driver.py) writes a tick only once the
 message of the one before has reached its reader, so that each tick is
 handled alone: what a module does for it is then the same on a quiet and on
 a busy machine, and counted over a few hundred ticks, with no timing.
+For a module of commands (examples/home_arm_trigger.ini, the services
+benchmark's), a tick is one call of its ROS 2 service, made once the one
+before was answered (tests/peers/service_client.py), answered by a YARP RPC
+server (tests/peers/rpc_server.py).
 
 Units, per tick:
     threads woken     the module's threads that had to wake for it (their
@@ -59,7 +63,6 @@ from harness.generated import ybgc
 from harness.procs import Peer, Proc, wait_until
 from harness.yarp import YarpServer
 
-BENCH_CONFIGS = ROOT / "bench" / "configs"
 BUDGET_FILE = ROOT / "tests" / "cost_budget.json"
 SHIM_SOURCE = Path(__file__).with_name("count_allocations.c")
 
@@ -80,10 +83,12 @@ class Subject:
     driver uses, and the units counted."""
     name: str
     backend: str
-    config: str
+    config: str                    # relative to the repository
     units: tuple
     output: Optional[str] = None   # the YARP port it writes
     topic: Optional[str] = None    # the ROS 2 topic it publishes
+    service: Optional[str] = None  # the ROS 2 service it serves (a module of commands)
+    rpc: Optional[str] = None      # the YARP RPC port its service calls
     sources: tuple = ("/bench/src0:o", "/bench/src1:o")
     width: int = 15
 
@@ -92,12 +97,17 @@ class Subject:
 NATIVE = ("threads woken", "voluntary switches", "system calls", "allocations")
 
 SUBJECTS = {
-    "cpp": Subject("cpp", "cpp", "joints_2x15.ini", NATIVE, output="/bench_joints/out:o"),
-    "cpp-ros2": Subject("cpp-ros2", "cpp", "joints_2x15_ros2.ini", NATIVE, topic="/bench/joint_states"),
-    "py": Subject("py", "py", "joints_2x15.ini", ("threads woken", "voluntary switches", "python calls", "yarp calls"),
-                  output="/bench_joints/out:o"),
-    "ros2": Subject("ros2", "ros2", "joints_2x15_ros2.ini", ("threads woken", "voluntary switches", "python calls", "yarp calls"),
-                    topic="/bench/joint_states"),
+    "cpp": Subject("cpp", "cpp", "bench/configs/joints_2x15.ini", NATIVE, output="/bench_joints/out:o"),
+    "cpp-ros2": Subject("cpp-ros2", "cpp", "bench/configs/joints_2x15_ros2.ini", NATIVE,
+                        topic="/bench/joint_states"),
+    "py": Subject("py", "py", "bench/configs/joints_2x15.ini",
+                  ("threads woken", "voluntary switches", "python calls", "yarp calls"), output="/bench_joints/out:o"),
+    "ros2": Subject("ros2", "ros2", "bench/configs/joints_2x15_ros2.ini",
+                    ("threads woken", "voluntary switches", "python calls", "yarp calls"), topic="/bench/joint_states"),
+    # a call of a ROS 2 service, answered by a YARP RPC port: its hand-overs
+    "cpp-commands": Subject("cpp-commands", "cpp", "examples/home_arm_trigger.ini",
+                            ("threads woken", "voluntary switches"), service="/icub/left_arm/home",
+                            rpc="/icub/left_arm/homing/rpc:i"),
 }
 
 
@@ -240,9 +250,9 @@ def module_argv(subject: Subject, workdir: Path) -> list:
     cpp, built) from its config into ``workdir``."""
     out = workdir / f"{subject.name}_module"
     if not out.exists():
-        r = ybgc(BENCH_CONFIGS / subject.config, "--backend", subject.backend, "-o", out)
+        r = ybgc(ROOT / subject.config, "--backend", subject.backend, "-o", out)
         assert r.returncode == 0, r.stdout + r.stderr
-    if subject.backend == "cpp" and subject.topic:
+    if subject.backend == "cpp" and (subject.topic or subject.service):
         # through rcl: built against the ROS 2 wheels of the venv
         r = cmake_build(out, out / "build", active_yarp(), options=(ros2_wheels_option(),))
         assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
@@ -275,11 +285,59 @@ def measure(subject: Subject, workdir: Path, ticks: int = TICKS, ros2_env: Optio
     if launch is not None:
         argv = launch(argv)
     measured = Measured(subject, ticks)
+    if subject.service:
+        _run_commands(subject, argv, ticks, ros2_env, measured)
+        return measured
     _run(subject, argv, workdir, ticks, ros2_env, measured, count_calls=False)
     if "python calls" in subject.units:
         _run(subject, argv, workdir, ticks, ros2_env, measured, count_calls=True)
     measured.counts = {unit: measured.counts[unit] for unit in subject.units}
     return measured
+
+
+def count_switches(pid: int, ticks: int, tick: Callable[[], None]) -> tuple[int, int]:
+    """The threads of ``pid`` woken and their voluntary switches over
+    ``ticks`` calls of ``tick`` (which returns once the module has handled
+    it). A tick at a time, the threads' switches read after each: a thread
+    that had to wake for the tick switched at least once in it, however
+    many more times it waited (for the interpreter lock, a mutex another
+    thread held: the machine's timing)."""
+    before = switches(pid)
+    woken = switched = 0
+    for _ in range(ticks):
+        tick()
+        after = switches(pid)
+        delta = [n - before.get(t, 0) for t, n in after.items()]
+        woken += sum(1 for d in delta if d > 0)
+        switched += sum(d for d in delta if d > 0)
+        before = after
+    return woken, switched
+
+
+def _run_commands(subject: Subject, argv: list, ticks: int, ros2_env: Optional[dict], measured: Measured) -> None:
+    """A module of commands: ``ticks`` calls of its service, one after another."""
+    from harness.services import RpcServer, ServiceClient
+
+    with YarpServer() as server:
+        env = dict(server.env, **(ros2_env or {}))
+        with RpcServer(env, subject.rpc, [{"match": "", "reply": ["ok"]}]) as rpc, \
+                Proc(argv, env=env, name=f"cost_{subject.name}") as module, \
+                ServiceClient(env, {subject.service: "std_srvs/srv/Trigger"}, name="cost_client") as client:
+            client.wait_service(subject.service, timeout=60)
+
+            def call():
+                r = client.call(subject.service, timeout=30)
+                assert r.response is not None and r.response["success"], \
+                    f"a call was not answered: {r}; log:\n{module.log_text()[-3000:]}"
+            for _ in range(WARM_TICKS):
+                call()
+            pid = module.pid
+            cpu0 = cpu_ns(pid)
+            woken, switched = count_switches(pid, ticks, call)
+            measured.cpu_us = (cpu_ns(pid) - cpu0) / 1000 / ticks
+            measured.counts = {"threads woken": woken, "voluntary switches": switched}
+            assert module.alive, module.log_text()[-3000:]
+            assert len(rpc.commands) == WARM_TICKS + ticks
 
 
 def _run(subject: Subject, argv: list, workdir: Path, ticks: int, ros2_env: Optional[dict],
@@ -308,21 +366,11 @@ def _run(subject: Subject, argv: list, workdir: Path, ticks: int, ros2_env: Opti
             assert warm["lost"] < WARM_TICKS, f"no message of the warm-up came out; log:\n{module.log_text()[-3000:]}"
             pid = module.pid
             calls0, cpu0, allocations0 = read_counter(calls, 3), cpu_ns(pid), read_counter(allocations, 1)
-            before = switches(pid)
-            woken = switched = 0
-            for _ in range(ticks):
-                # a tick at a time, the threads' switches read after each:
-                # a thread that had to wake for the tick switched at least
-                # once in it, however many more times it waited (for the
-                # interpreter lock, a mutex another thread held: the
-                # machine's timing)
+
+            def tick():
                 ran = driver.run(1)
                 assert ran["lost"] == 0, f"a tick gave no message; log:\n{module.log_text()[-3000:]}"
-                after = switches(pid)
-                delta = [n - before.get(t, 0) for t, n in after.items()]
-                woken += sum(1 for d in delta if d > 0)
-                switched += sum(d for d in delta if d > 0)
-                before = after
+            woken, switched = count_switches(pid, ticks, tick)
             calls1, cpu1, allocations1 = read_counter(calls, 3), cpu_ns(pid), read_counter(allocations, 1)
             if count_calls:
                 measured.counts["python calls"] = calls1[0] - calls0[0]
