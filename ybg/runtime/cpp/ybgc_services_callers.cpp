@@ -89,8 +89,7 @@ void YarpCaller::submit(Job job)
             return;
         }
     }
-    const Service& s = bridge_.spec().services[job.service];
-    bridge_.answer(job, Failure::TimedOut, bridge_.stoppedText(s), nullptr, nullptr);
+    answerStopped(job);
 }
 
 void YarpCaller::stop()
@@ -240,22 +239,14 @@ void YarpCaller::watch()
             continue;
         }
         // no answer by the deadline: the link is given up, the calls after it go on a new one
-        Job job = c.job;
-        c.inflight = false;
-        c.link->abandoned = true;
-        c.given.push_back(c.link);
-        c.link = nullptr;
+        Job job = giveUp();
         if (!c.queue.empty()) {
             startLink();
         }
         c.work.notify_all();
         ++c.busy;
         lock.unlock();
-        // a server that left the name server while the call waited (it quit) is no server,
-        // whether or not its leaving broke the connection before the deadline (the Python
-        // runtime says the same); one that is still registered did not answer in time
-        const Failure failure = serverRegistered() ? Failure::TimedOut : Failure::NoServer;
-        called(job, false, failure, yarp::os::Bottle(), yarp::os::Bottle());
+        answerUnanswered(job);
         lock.lock();
         --c.busy;
         c.work.notify_all();
@@ -265,16 +256,13 @@ void YarpCaller::watch()
     Job late{};
     bool pastDeadline = false;
     if (c.inflight) {
-        c.inflight = false;
-        if (Clock::now() < c.job.deadline) {
-            stopped.push_back(c.job);
+        Job job = giveUp();
+        pastDeadline = Clock::now() >= job.deadline;
+        if (pastDeadline) {
+            late = job;
         } else {
-            late = c.job;
-            pastDeadline = true;
+            stopped.push_back(job);
         }
-        c.link->abandoned = true;
-        c.given.push_back(c.link);
-        c.link = nullptr;
     }
     for (; !c.queue.empty(); c.queue.pop_front()) {
         stopped.push_back(c.queue.front());
@@ -282,13 +270,36 @@ void YarpCaller::watch()
     c.work.notify_all();
     lock.unlock();
     if (pastDeadline) {
-        const Failure failure = serverRegistered() ? Failure::TimedOut : Failure::NoServer;
-        called(late, false, failure, yarp::os::Bottle(), yarp::os::Bottle());
+        answerUnanswered(late);
     }
     for (Job& job : stopped) {
-        const Service& s = bridge_.spec().services[job.service];
-        bridge_.answer(job, Failure::TimedOut, bridge_.stoppedText(s), nullptr, nullptr);
+        answerStopped(job);
     }
+}
+
+Job YarpCaller::giveUp()
+{
+    Calls& c = *calls_;
+    c.inflight = false;
+    c.link->abandoned = true;
+    c.given.push_back(c.link);
+    c.link = nullptr;
+    return c.job;
+}
+
+void YarpCaller::answerUnanswered(Job& job)
+{
+    // a server that left the name server while the call waited (it quit) is no server,
+    // whether or not its leaving broke the connection before the deadline (the Python
+    // runtime says the same); one that is still registered did not answer in time
+    const Failure failure = serverRegistered() ? Failure::TimedOut : Failure::NoServer;
+    called(job, false, failure, yarp::os::Bottle(), yarp::os::Bottle());
+}
+
+void YarpCaller::answerStopped(Job& job)
+{
+    const Service& s = bridge_.spec().services[job.service];
+    bridge_.answer(job, Failure::TimedOut, bridge_.stoppedText(s), nullptr, nullptr);
 }
 
 bool YarpCaller::serverRegistered() const

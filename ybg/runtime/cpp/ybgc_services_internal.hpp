@@ -140,6 +140,12 @@ private:
     static void run(std::shared_ptr<Link> link, std::shared_ptr<Calls> calls, YarpCaller* caller);
     /// Answers `job`, whose call ended (`ok`: with `reply`) or did not.
     void called(Job& job, bool ok, Failure failure, const yarp::os::Bottle& command, const yarp::os::Bottle& reply);
+    /// The call in flight given up with its link (under calls_->mutex): its job, to answer.
+    Job giveUp();
+    /// Answers a call given up at its deadline: timed out, or no server if the port's server left.
+    void answerUnanswered(Job& job);
+    /// Answers a call the bridge's stop ended (reason `stopped`).
+    void answerStopped(Job& job);
 
     CommandsBridge& bridge_;
     std::string remote_;
