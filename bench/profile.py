@@ -5,6 +5,8 @@ bench/findings.md come from this).
     .venv/bin/python bench/profile.py cpp  ...      (perf, cpu-clock, call graphs)
     .venv/bin/python bench/profile.py relay-strict ...   (the floor, perf likewise)
     .venv/bin/python bench/profile.py ros2 ...
+    .venv/bin/python bench/profile.py py --perf ...   (a Python module under perf: every thread,
+                                          the kernel and the bindings' C++ with the interpreter)
     .venv/bin/python bench/profile.py cpp --callgrind [--rate 100] [--seconds 3]
                                           (C++: the instructions a tick costs, counted)
 
@@ -91,6 +93,8 @@ def main() -> int:
     ap.add_argument("--seconds", type=float, default=5.0)
     ap.add_argument("--fixed", action="store_true", help="run the module at --rate (fixed rate)")
     ap.add_argument("--top", type=int, default=25)
+    ap.add_argument("--perf", action="store_true",
+                    help="a Python module: perf (every thread, kernel and the bindings' C++ too) instead of py-spy")
     ap.add_argument("--callgrind", action="store_true",
                     help="C++: count the instructions per tick under callgrind (use a low --rate)")
     ap.add_argument("--variant", type=Path, metavar="EXE",
@@ -124,7 +128,7 @@ def main() -> int:
             time.sleep(1.0)
             pid = rig.module.pid
             stem = out_dir / f"{args.subject}_{args.shape}_{args.rate}"
-            if args.subject in ("py", "ros2"):
+            if args.subject in ("py", "ros2") and not args.perf:
                 spy = shutil.which("py-spy") or str(mw.VENV / "bin" / "py-spy")
                 raw = stem.with_suffix(".pyspy.txt")
                 subprocess.run([spy, "record", "--pid", str(pid), "--duration", str(int(args.seconds)),
