@@ -284,6 +284,28 @@ def config_accept_option(cell: str) -> None:
     assert not module_options().accept
 
 
+def init_robot(cell: str) -> None:
+    """Without --robot, every port the name server lists (the prefix /)."""
+    from ybg.init.survey import under
+    assert cell.startswith("`/`") and parsed("init").robot == "/"
+    assert under("/icub/head/state:o", parsed("init").robot.rstrip("/"))
+
+
+def init_output(cell: str) -> None:
+    """Without -o, a folder named as the robot: ./icub for --robot /icub."""
+    from ybg.init.plan import robot_name
+    assert cell.startswith("`./<robot>`") and parsed("init").output is None
+    assert robot_name("/icub") == "icub" and robot_name("/") == "robot"
+
+
+def init_seconds(cell: str) -> None:
+    assert parsed("init").seconds == float(cell)
+
+
+def init_format(cell: str) -> None:
+    assert parsed("init").format == cell
+
+
 TABLE_CHECKS: dict[tuple[str, str, str], Callable[[str], None]] = {
     ("docs/config.md", "`[module]` (optional)", "`name`"): module_name,
     ("docs/config.md", "`[module]` (optional)", "`distro`"): module_distro,
@@ -309,6 +331,10 @@ TABLE_CHECKS: dict[tuple[str, str, str], Callable[[str], None]] = {
     ("docs/runtime.md", "Command line", "`--timeout S`"): config_timeout_option,
     ("docs/runtime.md", "Command line", "`--verbose`"): config_verbose_option,
     ("docs/runtime.md", "Command line", "`--accept [PORT=]OTHER`"): config_accept_option,
+    ("docs/init.md", "Options", "`--robot PREFIX`"): init_robot,
+    ("docs/init.md", "Options", "`-o DIR`"): init_output,
+    ("docs/init.md", "Options", "`--seconds S`"): init_seconds,
+    ("docs/init.md", "Options", "`--format json`"): init_format,
 }
 
 
@@ -337,7 +363,7 @@ def test_each_default_of_a_table_is_the_codes(doc, heading, key, cell):
 def test_every_check_of_a_table_has_its_row():
     rows = {(doc, heading, key) for doc, heading, key, _ in default_rows()}
     assert set(TABLE_CHECKS) <= rows, sorted(set(TABLE_CHECKS) - rows)
-    assert {doc for doc, _ in default_tables()} == {"docs/config.md", "docs/runtime.md"}
+    assert {doc for doc, _ in default_tables()} == {"docs/config.md", "docs/runtime.md", "docs/init.md"}
 
 
 # --------------------------------------------------------------------------
@@ -554,6 +580,7 @@ PROSE: list[tuple[str, str, Callable]] = [
     ("docs/ros2-native.md", r"\(`queue` in\s+\[output\], (\d+) by default\)", queue_only),
     ("docs/ros2-native.md", r"its port up to (\d+) unread", lambda n: queue_and_backlog(n)),
     ("docs/probe.md", r"\(`--wait`, default ([\d.]+) s\)", probe_wait),
+    ("README.md", r"written into `DIR` \(default `\./<robot>`\)", lambda: init_output("`./<robot>`")),
     ("docs/probe.md", r"`<prefix>` is `(/<module>)`, or what\s+`--prefix` says", probe_prefix),
     ("docs/probe.md", r"its inputs (best effort, newest only)", input_qos_newest),
     ("docs/services.md", r"timeout = 5\.0 +# seconds \(default ([\d.]+)\)", service_timeout),

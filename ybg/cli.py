@@ -33,7 +33,7 @@ from ybg import __version__
 from ybg.backends import REGISTRY, backend_names
 from ybg.graph import FORMATS, SUFFIXES
 
-COMMANDS = ("check", "fmt", "ir", "generate", "compose", "graph", "probe")
+COMMANDS = ("check", "fmt", "ir", "generate", "compose", "graph", "probe", "init")
 #: the config a command takes when none is named
 FOLDER_CONFIG = "ybgc.ini"
 EXIT_OK, EXIT_PROBLEMS, EXIT_USAGE = 0, 1, 2
@@ -156,6 +156,18 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--format", choices=("text", "json", "github"), default="text")
     r.add_argument("-v", "--verbose", action="store_true", help="also print notes")
     _common(r)
+
+    n = sub.add_parser("init", help="from a running robot: a config for each bridge a ROS user would want, "
+                                    "checked, in a new folder (docs/init.md)")
+    n.add_argument("--robot", default="/", metavar="PREFIX",
+                   help="the robot's port prefix, e.g. /icub (default: every port the name server lists)")
+    n.add_argument("-o", "--output", metavar="DIR", help="the folder to write (default: ./<robot>); "
+                                                         "no file in it is ever written over")
+    n.add_argument("--seconds", type=float, default=2.0, metavar="S",
+                   help="how long each port is read, to see its layout and rate (default 2)")
+    n.add_argument("--dry-run", action="store_true", help="print what was found and would be written; write nothing")
+    n.add_argument("--format", choices=("text", "json"), default="text",
+                   help="json: what was found and made, for scripts (on the standard output)")
     return p
 
 
@@ -605,6 +617,12 @@ def cmd_probe(args) -> int:
     return EXIT_OK
 
 
+def cmd_init(args) -> int:
+    """Configs from a running robot (ybg.init, docs/init.md)."""
+    from ybg.init import run
+    return run(args)
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     # `ybgc config.ini --backend cpp` is `ybgc generate config.ini --backend cpp`
@@ -619,7 +637,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return EXIT_USAGE
     handler = {"check": cmd_check, "fmt": cmd_fmt, "ir": cmd_ir, "generate": cmd_generate,
-               "compose": cmd_compose, "graph": cmd_graph, "probe": cmd_probe}[args.command]
+               "compose": cmd_compose, "graph": cmd_graph, "probe": cmd_probe, "init": cmd_init}[args.command]
     try:
         return handler(args)
     except KeyboardInterrupt:
