@@ -50,13 +50,9 @@ def wrench(k, n):
     return -(k + 1) - 0.001 * (n % 1000)
 
 
-class Controlboard(yarp.PortReader):
-    """The RPC side of a controlboard: axes and their names."""
-
-    def __init__(self, names, axes):
-        yarp.PortReader.__init__(self)
-        self.names = names
-        self.axes = axes
+class Responder(yarp.PortReader):
+    """An RPC port's reader: each command read, answered (``answer``), and
+    the reply written back, in YARP's thread of the connection."""
 
     def read(self, connection):
         try:
@@ -64,27 +60,7 @@ class Controlboard(yarp.PortReader):
             if not cmd.read(connection):
                 return False
             reply = yarp.Bottle()
-            answered = True
-            words = [cmd.get(k) for k in range(cmd.size())]
-            verb = yarp.decode(words[0].asVocab32()) if words and words[0].isVocab32() else ""
-            what = yarp.decode(words[1].asVocab32()) if len(words) > 1 and words[1].isVocab32() else ""
-            if self.names is not None and verb == "get" and what == "axes":
-                reply.addVocab32("is")
-                reply.add(words[1])
-                reply.addInt32(self.axes)
-            elif self.names is not None and verb == "get" and what == "name" and len(words) > 2 \
-                    and 0 <= words[2].asInt32() < self.axes:
-                reply.addVocab32("is")
-                reply.add(words[1])
-                reply.addString(self.names[words[2].asInt32()])
-            else:
-                answered = False
-                reply.addVocab32("fail")
-            if answered:
-                stamp = reply.addList()
-                stamp.addInt32(1)
-                stamp.addFloat64(time.time())
-                reply.addVocab32("ok")
+            self.answer(cmd, reply)
             writer = connection.getWriter()
             if writer is not None:
                 reply.write(writer)
@@ -94,28 +70,48 @@ class Controlboard(yarp.PortReader):
             return False
 
 
-class Helpful(yarp.PortReader):
+class Controlboard(Responder):
+    """The RPC side of a controlboard: axes and their names."""
+
+    def __init__(self, names, axes):
+        Responder.__init__(self)
+        self.names = names
+        self.axes = axes
+
+    def answer(self, cmd, reply):
+        answered = True
+        words = [cmd.get(k) for k in range(cmd.size())]
+        verb = yarp.decode(words[0].asVocab32()) if words and words[0].isVocab32() else ""
+        what = yarp.decode(words[1].asVocab32()) if len(words) > 1 and words[1].isVocab32() else ""
+        if self.names is not None and verb == "get" and what == "axes":
+            reply.addVocab32("is")
+            reply.add(words[1])
+            reply.addInt32(self.axes)
+        elif self.names is not None and verb == "get" and what == "name" and len(words) > 2 \
+                and 0 <= words[2].asInt32() < self.axes:
+            reply.addVocab32("is")
+            reply.add(words[1])
+            reply.addString(self.names[words[2].asInt32()])
+        else:
+            answered = False
+            reply.addVocab32("fail")
+        if answered:
+            stamp = reply.addList()
+            stamp.addInt32(1)
+            stamp.addFloat64(time.time())
+            reply.addVocab32("ok")
+
+
+class Helpful(Responder):
     """An RPC port that lists its commands on `help`."""
 
-    def read(self, connection):
-        try:
-            cmd = yarp.Bottle()
-            if not cmd.read(connection):
-                return False
-            reply = yarp.Bottle()
-            if cmd.get(0).asString() == "help":
-                reply.addVocab32("many")
-                reply.addString("home all: every part to its home position")
-                reply.addString("home <part>: one part")
-            else:
-                reply.addString("nack")
-            writer = connection.getWriter()
-            if writer is not None:
-                reply.write(writer)
-            return True
-        except Exception as e:
-            peer_io.emit("error", message=repr(e))
-            return False
+    def answer(self, cmd, reply):
+        if cmd.get(0).asString() == "help":
+            reply.addVocab32("many")
+            reply.addString("home all: every part to its home position")
+            reply.addString("home <part>: one part")
+        else:
+            reply.addString("nack")
 
 
 def open_port(name, reader=None, output=True):

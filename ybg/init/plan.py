@@ -161,11 +161,16 @@ def _joints(plan: Plan, port: str, s, answers, prefix: str, used: set) -> Bridge
     return Bridge(f"{_ident(part)}.ini", "joints", module, [port], text)
 
 
-def _imu(plan: Plan, port: str, s, prefix: str, used: set) -> Bridge:
+def _names(plan: Plan, port: str, prefix: str, used: set) -> tuple[str, str, str, str]:
+    """A sensor's part (its path below the prefix), module name, the path its
+    topic goes under (the port's folder) and frame id."""
     part = _part(port, prefix)
-    module = _unique(f"{plan.robot}_{_ident(part)}", used)
-    base = port.rsplit("/", 1)[0] or ""
-    frame = f"{_ident(part)}_frame"
+    return (part, _unique(f"{plan.robot}_{_ident(part)}", used), port.rsplit("/", 1)[0],
+            f"{_ident(part)}_frame")
+
+
+def _imu(plan: Plan, port: str, s, prefix: str, used: set) -> Bridge:
+    part, module, base, frame = _names(plan, port, prefix, used)
     how = [f"{port} sent Bottles of 12 numbers ({nice_rate(s.rate())}), and its name says inertial",
            "the layout read as iCub's inertial sensor's: roll pitch yaw (deg), accelerometer (m/s^2), "
            "gyroscope (deg/s), magnetometer"]
@@ -181,10 +186,7 @@ def _imu(plan: Plan, port: str, s, prefix: str, used: set) -> Bridge:
 
 
 def _wrench(plan: Plan, port: str, s, prefix: str, used: set) -> Bridge:
-    part = _part(port, prefix)
-    module = _unique(f"{plan.robot}_{_ident(part)}", used)
-    base = port.rsplit("/", 1)[0] or ""
-    frame = f"{_ident(part)}_frame"
+    part, module, base, frame = _names(plan, port, prefix, used)
     how = [f"{port} sent Bottles of 6 numbers ({nice_rate(s.rate())}), and its name says a force/torque sensor",
            "read as fx fy fz (N) then tx ty tz (N m), as YARP's analog sensors send them"]
     confirm = [f"the frame id ({frame}): the sensor's link in the URDF"]
@@ -202,9 +204,7 @@ def _camera(plan: Plan, port: str, s, prefix: str, used: set) -> Bridge | Report
     if encoding is None:
         return Reported(port, f"YARP images of the pixel code `{code}`, which has no ROS encoding ybgc converts "
                               f"(it converts {', '.join(sorted(ENCODINGS))})")
-    part = _part(port, prefix)
-    module = _unique(f"{plan.robot}_{_ident(part)}", used)
-    frame = f"{_ident(part)}_frame"
+    part, module, _, frame = _names(plan, port, prefix, used)
     how = [f"{port} sent {width}x{height} images of pixel code `{code}` ({nice_rate(s.rate())})"]
     confirm = [f"the frame id ({frame}): the camera's optical frame in the URDF"]
     text = _header([f"The camera {port} as a sensor_msgs/Image ({encoding})."], how, confirm)

@@ -23,8 +23,8 @@ import threading
 import time
 from dataclasses import dataclass, field
 
-from ybg.probe.plan import Unavailable
-from ybg.probe.yarp_graph import _yarp, element
+from ybg.probe.layout import seen as layout_text
+from ybg.probe.yarp_graph import _yarp, element, name_server
 
 #: a registration in the name server's answer to `list`
 _REGISTRATION = re.compile(r"registration name (\S+) ip ")
@@ -128,13 +128,8 @@ def survey(prefix: str, seconds: float, wait: float = 3.0) -> Survey:
     os.dup2(2, 1)
     yarp.Network.init()
     try:
-        server = yarp.Network.getNameServerName()
-        if not (yarp.Network.checkNetwork(min(max(wait, 0.5), 5.0)) and yarp.Network.exists(server, True)):
-            raise Unavailable(f"no YARP name server answers (as {server})",
-                              "start the robot's yarpserver, or point ybgc at it (yarp conf <ip> <port>; "
-                              "yarp detect --write finds it on the network)")
-        found = Survey(prefix, server, seconds)
-        found.ports = [p for p in list_ports(yarp, wait) if under(p, prefix) and p != server
+        found = Survey(prefix, name_server(yarp, wait), seconds)
+        found.ports = [p for p in list_ports(yarp, wait) if under(p, prefix) and p != found.server
                        and not p.startswith("/ybgc/")]
         streams = [p for p in found.ports if not is_input(p) and not is_rpc(p)]
         found.sampled = _sample(yarp, streams, seconds)
@@ -172,7 +167,6 @@ class _Counter:
                 s.first_at = now
                 s.first = elements
                 s.image = image
-            from ybg.probe.layout import seen as layout_text
             s.layouts.add(f"image {image[0]} {image[1]}x{image[2]}" if image else layout_text(elements))
         return True
 
@@ -191,25 +185,23 @@ def _image(b) -> tuple[str, int, int] | None:
 
 
 def _sample(yarp, names: list[str], seconds: float) -> dict[str, Sampled]:
+    class Reader(yarp.PortReader):
+        def __init__(self, counter):
+            yarp.PortReader.__init__(self)
+            self.counter = counter
+
+        def read(self, connection):
+            try:
+                return self.counter.read(connection)
+            except Exception:  # never an exception into YARP's thread
+                return False
+
     out = {n: Sampled(n) for n in names}
     ports, readers = {}, []
     try:
         for k, name in enumerate(names):
             seen = out[name]
-            counter = _Counter(yarp, seen)
-
-            class Reader(yarp.PortReader):
-                def __init__(self, counter):
-                    yarp.PortReader.__init__(self)
-                    self.counter = counter
-
-                def read(self, connection):
-                    try:
-                        return self.counter.read(connection)
-                    except Exception:  # never an exception into YARP's thread
-                        return False
-
-            reader = Reader(counter)
+            reader = Reader(_Counter(yarp, seen))
             readers.append(reader)
             port = yarp.Port()
             port.setReader(reader)

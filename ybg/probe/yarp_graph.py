@@ -59,6 +59,17 @@ def element(yarp, v) -> tuple[str, object]:
     return ("blob" if v.isBlob() else "unknown"), None
 
 
+def name_server(yarp, wait: float) -> str:
+    """The name server's name, once it answers within ``wait`` seconds (at
+    least 0.5, at most 5); else :class:`Unavailable`."""
+    server = yarp.Network.getNameServerName()
+    if not (yarp.Network.checkNetwork(min(max(wait, 0.5), 5.0)) and yarp.Network.exists(server, True)):
+        raise Unavailable(f"no YARP name server answers (as {server})",
+                          "start yarpserver, or point ybgc at the robot's (yarp conf <ip> <port>; "
+                          "yarp detect --write finds it on the network)")
+    return server
+
+
 def observe(plan: Plan, wait: float) -> YarpSeen:
     """Ask the name server about every port of ``plan``, and read one Bottle
     from each input port that answers, all at once, for ``wait`` seconds at
@@ -66,11 +77,7 @@ def observe(plan: Plan, wait: float) -> YarpSeen:
     yarp = _yarp()
     yarp.Network.init()
     try:
-        server = yarp.Network.getNameServerName()
-        if not (yarp.Network.checkNetwork(min(max(wait, 0.5), 5.0)) and yarp.Network.exists(server, True)):
-            raise Unavailable(f"no YARP name server answers (as {server})",
-                              "start yarpserver, or point ybgc at the robot's (yarp conf <ip> <port>; "
-                              "yarp detect --write finds it on the network)")
+        name_server(yarp, wait)
         seen = YarpSeen()
         for name in dict.fromkeys([o.name for o in plan.opens] + [r.name for r in plan.reads]):
             seen.answers[name] = bool(yarp.Network.exists(name, True))
