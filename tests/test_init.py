@@ -111,6 +111,8 @@ def test_a_config_per_bridge_each_checks_clean(robot):
             assert '"torso_joint_0", "torso_joint_1", "torso_joint_2"' in text
             assert "To confirm" in text and "/sim/torso/rpc:i did not answer" in text
     # what is reported, not guessed
+    torso = next(x for x in r.stdout.splitlines() if x.startswith("/sim/torso/rpc:i "))
+    assert "no answer" in torso, r.stdout  # a [fail] to help is no answer
     for port, why in (("/sim/silent:o", "sent nothing"), ("/sim/odd:o", "changing layouts"),
                       ("/sim/head/command:i", "an input port")):
         line = next(x for x in r.stdout.splitlines() if x.startswith(port + " "))

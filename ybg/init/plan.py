@@ -153,7 +153,7 @@ def _joints(plan: Plan, port: str, s, answers, prefix: str, used: set) -> Bridge
             why = f"{rpc} did not answer `get axes` and `get name j`"
         confirm.append(f"the joint names: numbered here ({why}); name them as the robot's URDF does")
     module = _unique(f"{plan.robot}_{_ident(part)}", used)
-    text = _header([f"{part}'s joints on /joint_states (robot_state_publisher merges the parts),",
+    text = _header([f"The joints of {part} on /joint_states (robot_state_publisher merges the parts),",
                     "in radians, stamped with the port's envelope, one message a Bottle."], how, confirm)
     text += (f"\n[module]\nname = {module}\n\n[output]\ntopic = /joint_states\ntype = sensor_msgs/JointState\n"
              f"\n[mux joints]\nports = {port} ({layout})\nconvert = deg_to_rad\n"

@@ -26,6 +26,9 @@ from dataclasses import dataclass, field
 from ybg.probe.layout import seen as layout_text
 from ybg.probe.yarp_graph import _yarp, element, name_server
 
+#: the one-word replies that refuse a command (YARP's devices answer [fail])
+REFUSALS = ("fail", "failed", "nack", "no", "error", "unknown")
+
 #: a registration in the name server's answer to `list`
 _REGISTRATION = re.compile(r"registration name (\S+) ip ")
 
@@ -121,11 +124,13 @@ def survey(prefix: str, seconds: float, wait: float = 3.0) -> Survey:
     streaming one for ``seconds`` (all at once), and ask each RPC port."""
     yarp = _yarp()
     # the bindings print on the standard output (SWIG's "memory leak" notes
-    # for the port readers' types), where --format json goes: to stderr
-    # while YARP is in use
+    # for the port readers' types), where the table and --format json go:
+    # dropped while YARP is in use (YARP's own messages go to stderr)
     sys.stdout.flush()
     saved = os.dup(1)
-    os.dup2(2, 1)
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 1)
+    os.close(devnull)
     yarp.Network.init()
     try:
         found = Survey(prefix, name_server(yarp, wait), seconds)
@@ -246,7 +251,9 @@ def _call(yarp, name: str, words: list, wait: float):
 def _ask(yarp, name: str, controlboard: bool, wait: float) -> Answers:
     got = Answers()
     reply = _call(yarp, name, ["help"], wait)
-    if reply is not None and reply.size():
+    # a refusal (YARP's [fail], a nack) is no answer to help
+    if reply is not None and reply.size() and not (
+            reply.size() == 1 and reply.get(0).toString().strip("[]").lower() in REFUSALS):
         got.help = reply.toString()
     if not controlboard:
         return got
