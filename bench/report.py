@@ -82,6 +82,16 @@ def targets(data: dict) -> list:
         rows.append({"target": target, "workload": workload, "measured": measured,
                      "limit": limit, "ratio": ratio, "met": met, "note": note})
 
+    def against(target, workload, a, b, key, limit):
+        """A row of ``a``'s figure over ``b``'s (``key``: median_us or
+        cpu_pct), when both have it."""
+        if not (a.get(key) and b.get(key)):
+            return
+        r = a[key] / b[key]
+        shown = (f"{us(a[key])} / {us(b[key])} us" if key == "median_us"
+                 else f"{pct(a[key])} / {pct(b[key])} %")
+        row(target, workload, shown, f"{limit:g}", r, r <= limit)
+
     def missing(*names):
         return ", ".join(n for n in names if not get.get(n)) + " not measured"
 
@@ -127,26 +137,14 @@ def targets(data: dict) -> list:
         # the stream path's cost against the same work done by hand (issue of
         # the Python module's CPU doubling unseen): the stricter targets
         if "1khz" in wl and cpp and strict:
-            r = cpp["median_us"] / strict["median_us"]
-            row("C++ median <= 1.05 x strict relay", wl,
-                f"{us(cpp['median_us'])} / {us(strict['median_us'])} us", "1.05", r, r <= 1.05)
-            if cpp.get("cpu_pct") and strict.get("cpu_pct"):
-                r = cpp["cpu_pct"] / strict["cpu_pct"]
-                row("C++ CPU <= 1.05 x strict relay", wl,
-                    f"{pct(cpp['cpu_pct'])} / {pct(strict['cpu_pct'])} %", "1.05", r, r <= 1.05)
+            against("C++ median <= 1.05 x strict relay", wl, cpp, strict, "median_us", 1.05)
+            against("C++ CPU <= 1.05 x strict relay", wl, cpp, strict, "cpu_pct", 1.05)
         if wl == "joints_1khz" and cpp and py:
-            r = py["median_us"] / cpp["median_us"]
-            row("Python median <= 1.5 x C++ (2 x 15 at 1 kHz)", wl,
-                f"{us(py['median_us'])} / {us(cpp['median_us'])} us", "1.5", r, r <= 1.5)
-            if py.get("cpu_pct") and cpp.get("cpu_pct"):
-                r = py["cpu_pct"] / cpp["cpu_pct"]
-                row("Python CPU <= 2 x C++ (2 x 15 at 1 kHz)", wl,
-                    f"{pct(py['cpu_pct'])} / {pct(cpp['cpu_pct'])} %", "2", r, r <= 2.0)
+            against("Python median <= 1.5 x C++ (2 x 15 at 1 kHz)", wl, py, cpp, "median_us", 1.5)
+            against("Python CPU <= 2 x C++ (2 x 15 at 1 kHz)", wl, py, cpp, "cpu_pct", 2.0)
         if get["cpp-ros2"] and get["rcl-relay"]:
-            native, floor = get["cpp-ros2"], get["rcl-relay"]
-            r = native["median_us"] / floor["median_us"]
-            row("native ROS 2 median <= 1.05 x the rcl relay", wl,
-                f"{us(native['median_us'])} / {us(floor['median_us'])} us", "1.05", r, r <= 1.05)
+            against("native ROS 2 median <= 1.05 x the rcl relay", wl, get["cpp-ros2"], get["rcl-relay"],
+                    "median_us", 1.05)
         if wl == "joints_1khz":
             if py:
                 row("Python no loss at 1 kHz (2 x 15)", wl, f"{py['delivered']}/{py['sent']} delivered",
