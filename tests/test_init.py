@@ -130,7 +130,8 @@ def test_the_configs_compose_into_a_module_that_carries_the_robots_values(robot,
     joints = Ros2Subscriber(env, "/joint_states", "sensor_msgs/msg/JointState", node="init_joints", depth=1000)
     imu = subscriber_for(env, programs["sim_inertial"])
     ft = subscriber_for(env, programs["sim_left_arm_analog"])
-    image = ImagePeer(env, {"mode": "ros2_sub", "topic": "/sim/cam/left/image_raw", "node": "init_image"})
+    image = ImagePeer(env, {"mode": "ros2_sub", "topic": "/sim/cam/left/image_raw", "node": "init_image",
+                            "info_topic": "/sim/cam/left/camera_info"})
     peers = [joints, imu, ft, image]
     # the image subscriber is reliable: the camera's publisher (best effort, as
     # cameras offer) made so by a parameter of its node
@@ -168,6 +169,9 @@ def test_the_configs_compose_into_a_module_that_carries_the_robots_values(robot,
         got = image.wait_event("frame", timeout=60)
         assert (got["width"], got["height"], got["pixel"]) == (WIDTH, HEIGHT, "rgb8")
         assert got["sha"] == image_data.sha(WIDTH, HEIGHT, 3, 7)
+        # its CameraInfo: the size, and no calibration (k all zeros: ROS's uncalibrated camera)
+        info = image.wait_event("info", timeout=60)
+        assert (info["width"], info["height"]) == (WIDTH, HEIGHT) and not any(info["k"]), info
     finally:
         node.stop()
         for p in peers:

@@ -205,12 +205,16 @@ def _camera(plan: Plan, port: str, s, prefix: str, used: set) -> Bridge | Report
         return Reported(port, f"YARP images of the pixel code `{code}`, which has no ROS encoding ybgc converts "
                               f"(it converts {', '.join(sorted(ENCODINGS))})")
     part, module, _, frame = _names(plan, port, prefix, used)
-    how = [f"{port} sent {width}x{height} images of pixel code `{code}` ({nice_rate(s.rate())})"]
-    confirm = [f"the frame id ({frame}): the camera's optical frame in the URDF"]
-    text = _header([f"The camera {port} as a sensor_msgs/Image ({encoding})."], how, confirm)
+    how = [f"{port} sent {width}x{height} images of pixel code `{code}` ({nice_rate(s.rate())})",
+           "its CameraInfo says the size and no calibration (k all zeros: ROS's uncalibrated camera)"]
+    confirm = [f"the frame id ({frame}): the camera's optical frame in the URDF",
+               "the calibration: the robot's camera calibration file in [camera_info] "
+               "(calibration = \"<file>\", <group>; docs/config.md)"]
+    text = _header([f"The camera {port} as a sensor_msgs/Image ({encoding}) and its CameraInfo."], how, confirm)
     text += (f"\n[module]\nname = {module}\n\n[mux image]\nports = {port} (image {encoding})\n"
              f"\n[output]\ntopic = {port}/image_raw\ntype = sensor_msgs/Image\n"
-             f"\n[message]\nheader.frame_id = \"{frame}\"\ndata = image\n")
+             f"\n[message]\nheader.frame_id = \"{frame}\"\ndata = image\n"
+             f"\n[camera_info]\nwidth = {width}\nheight = {height}\n")
     return Bridge(f"{_ident(part)}.ini", "camera", module, [port], text)
 
 
