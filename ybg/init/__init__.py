@@ -16,22 +16,18 @@ from pathlib import Path
 from ybg.init.plan import Plan, make
 
 
-def checked(plan: Plan, options=None) -> list[str]:
-    """The problems of the plan's configs, as ``file:line:col: code message``
-    (none: each checks clean, alone and with the others)."""
+def checked(plan: Plan, options=None) -> list:
+    """The errors and warnings of the plan's configs (diagnostics; none: each
+    checks clean, alone and with the others)."""
     from ybg.compiler.across import check_across
+    from ybg.compiler.diagnostics import Severity
     from ybg.compiler.pipeline import compile_text
 
     results = [compile_text(b.text, b.file, options) for b in plan.bridges if not b.draft]
-    problems = []
-    for r in results:
-        problems += [f"{d.file}:{d.span.line}:{d.span.column}: {d.code} {d.message}" for d in r.diagnostics
-                     if d.severity.name in ("ERROR", "WARNING")]
-    if not problems:
-        problems += [f"{d.file}:{d.span.line}:{d.span.column}: {d.code} {d.message}"
-                     for d in check_across([r for r in results if r.program is not None])
-                     if d.severity.name in ("ERROR", "WARNING")]
-    return problems
+    problems = [d for r in results for d in r.diagnostics]
+    if not any(d.severity in (Severity.ERROR, Severity.WARNING) for d in problems):
+        problems = check_across([r for r in results if r.program is not None])
+    return [d for d in problems if d.severity in (Severity.ERROR, Severity.WARNING)]
 
 
 def as_json(survey, plan: Plan) -> str:
@@ -133,9 +129,10 @@ def run(args) -> int:
     outdir = Path(args.output or plan.robot)
     problems = checked(plan)
     if problems:  # a config init wrote that does not check: never written
-        sys.stderr.write("ybgc: error: a config ybgc init made does not check clean:\n"
-                         + "".join(f"    {p}\n" for p in problems)
-                         + "    hint: report this with the --format json output of --dry-run\n")
+        from ybg.report import report_text
+        report_text(problems, {b.file: b.text for b in plan.bridges}, sys.stderr)
+        sys.stderr.write("ybgc: error: a config ybgc init made does not check clean (above)\n"
+                         "    hint: report this with the --format json output of --dry-run\n")
         return EXIT_PROBLEMS
     if args.format == "json":
         sys.stdout.write(as_json(found, plan))

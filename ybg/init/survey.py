@@ -223,8 +223,6 @@ def _sample(yarp, names: list[str], seconds: float) -> dict[str, Sampled]:
         for name, port in ports.items():
             yarp.Network.disconnect(name, port.getName(), True)
             port.close()
-    for s in out.values():  # a snapshot: no connection writes any more
-        s.layouts = set(s.layouts)
     return out
 
 
