@@ -125,18 +125,25 @@ def generate(out: Path = OUT) -> dict[Path, str]:
                 pkg, typ = name.split("/")
                 files[Path(distro, pkg, f"{typ}.msg")] = text
     counts = {d: sum(1 for p in files if p.parts[0] == d) for d in DISTRO_STORES}
-    files[Path("README.md")] = readme(counts, file_counts(out, "srv"))
+    files[Path("README.md")] = readme(counts, file_counts(out, "srv"), file_counts(out, "action"))
     return files
 
 
+COPIED = ("control_msgs",)
+"""Packages whose files ``scripts/vendor_srvs.py`` copies from upstream, messages and all."""
+
+
 def file_counts(out: Path, ext: str) -> dict[str, int]:
-    """How many ``*.<ext>`` files each distro's folder of ``out`` holds."""
-    return {d: sum(1 for _ in (out / d).rglob(f"*.{ext}")) for d in DISTRO_STORES}
+    """How many ``*.<ext>`` files each distro's folder of ``out`` holds (of
+    messages, those this script writes: not the :data:`COPIED` packages')."""
+    return {d: sum(1 for p in (out / d).rglob(f"*.{ext}") if ext != "msg" or p.parent.name not in COPIED)
+            for d in DISTRO_STORES}
 
 
-def readme(msg_counts: dict[str, int], srv_counts: dict[str, int]) -> str:
-    """The text of ``ybg/msgs/README.md``: ``srv_counts`` are the services that
-    ``scripts/vendor_srvs.py`` writes (both scripts write this file)."""
+def readme(msg_counts: dict[str, int], srv_counts: dict[str, int], action_counts: dict[str, int] = {}) -> str:
+    """The text of ``ybg/msgs/README.md``: ``srv_counts`` and ``action_counts``
+    are the services and actions that ``scripts/vendor_srvs.py`` writes (both
+    scripts write this file)."""
     lines = [
         "# Vendored ROS message definitions",
         "",
@@ -144,11 +151,15 @@ def readme(msg_counts: dict[str, int], srv_counts: dict[str, int]) -> str:
         "Layout: `<distro>/<pkg>/<Name>.msg`, in the spelling of the distro's ROS version.",
         "Services: `<distro>/<pkg>/<Name>.srv`, exact copies of upstream's files, written by",
         "`scripts/vendor_srvs.py` (its docstring names their sources).",
+        "Actions: `<distro>/<pkg>/<Name>.action`, and the messages of `control_msgs` they need,",
+        "exact copies of upstream's files, written by `scripts/vendor_srvs.py` too.",
         "",
     ]
     for d, n in msg_counts.items():
         services = f", {srv_counts[d]} services" if srv_counts.get(d) else ""
-        lines.append(f"- {d} ({DISTRO_STORES[d][0]}): {n} messages{services}")
+        n_act = action_counts.get(d, 0)
+        actions = f", {n_act} action{'s' if n_act > 1 else ''}" if n_act else ""
+        lines.append(f"- {d} ({DISTRO_STORES[d][0]}): {n} messages{services}{actions}")
     return "\n".join(lines) + "\n"
 
 
@@ -157,7 +168,7 @@ def existing(out: Path) -> set[Path]:
     for distro in DISTRO_STORES:
         base = out / distro
         if base.is_dir():
-            found |= {p.relative_to(out) for p in base.rglob("*.msg")}
+            found |= {p.relative_to(out) for p in base.rglob("*.msg") if p.parent.name not in COPIED}
     return found
 
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Write the ROS 2 service definitions shipped in ``ybg/msgs``, copied from upstream.
+"""Write the ROS 2 service and action definitions shipped in ``ybg/msgs``, copied from upstream.
 
 Each service becomes ``ybg/msgs/<distro>/<pkg>/<Name>.srv``, a byte-for-byte
 copy of upstream's file: ``std_srvs``, and the services of the message
@@ -16,9 +16,16 @@ packages ybgc ships (``scripts/vendor_msgs.py``'s ``PACKAGES``). The sources:
   distro's release, from a clone of it (``--geometry2 DIR``). For Kilted the
   tag is Rolling's 0.39.1, from before Kilted branched off Rolling: the file
   has not changed since 2013.
+- The actions: ``control_msgs/FollowJointTrajectory`` (what MoveIt sends a
+  robot) and the two messages it needs (``JointTolerance``,
+  ``JointComponentTolerance``), which have no wheel: ros-controls/control_msgs
+  at the release each distro's rosdistro names (``CONTROL_MSGS_REFS``: Kilted
+  has the feedback's ``index`` fields, Jazzy and Humble not), from a clone of
+  it (``--control-msgs DIR``), written as ``<distro>/control_msgs/<Name>.action``
+  and ``.msg``.
 
-    scripts/vendor_srvs.py --common-interfaces DIR --geometry2 DIR           write them
-    scripts/vendor_srvs.py --common-interfaces DIR --geometry2 DIR --check   exit 1 if the committed files differ
+    scripts/vendor_srvs.py --common-interfaces DIR --geometry2 DIR --control-msgs DIR           write them
+    scripts/vendor_srvs.py --common-interfaces DIR --geometry2 DIR --control-msgs DIR --check   exit 1 if the committed files differ
 
 It also writes ``ybg/msgs/README.md`` (with ``scripts/vendor_msgs.py``'s text,
 which counts the services): run it with the development dependencies
@@ -53,6 +60,12 @@ COMMON_INTERFACES_REFS = {"humble": "4.2.4"}
 
 GEOMETRY2_REFS = {"humble": "0.25.8", "jazzy": "0.36.4", "kilted": "0.39.1"}
 """ros2/geometry2 (tf2_msgs): a release tag of each distro."""
+
+CONTROL_MSGS_REFS = {"humble": "4.8.0", "jazzy": "5.8.0", "kilted": "6.8.0"}
+"""ros-controls/control_msgs: the release tag of each distro."""
+
+CONTROL_MSGS_FILES = ("action/FollowJointTrajectory.action", "msg/JointTolerance.msg", "msg/JointComponentTolerance.msg")
+"""The actions shipped, and the messages of control_msgs they need."""
 
 DISTROS = ("humble", "jazzy", "kilted")
 
@@ -102,8 +115,15 @@ def from_git(repo: Path, ref: str, packages: set[str]) -> dict[str, bytes]:
     return out
 
 
-def generate(common_interfaces: Path, geometry2: Path, wheels: Path) -> dict[Path, bytes]:
-    """Every vendored service file, relative to ``ybg/msgs``, with its bytes."""
+def from_control_msgs(repo: Path, ref: str) -> dict[Path, bytes]:
+    """``{control_msgs/<Name>.<ext>: text}`` of :data:`CONTROL_MSGS_FILES` at ``ref``."""
+    return {Path("control_msgs", PurePosixPath(f).name): _git(repo, "show", f"{ref}:control_msgs/{f}")
+            for f in CONTROL_MSGS_FILES}
+
+
+def generate(common_interfaces: Path, geometry2: Path, wheels: Path, control_msgs: Path) -> dict[Path, bytes]:
+    """Every vendored service and action file (and the messages of
+    control_msgs), relative to ``ybg/msgs``, with its bytes."""
     packages = wanted_packages()
     files: dict[Path, bytes] = {}
     for distro in DISTROS:
@@ -115,19 +135,24 @@ def generate(common_interfaces: Path, geometry2: Path, wheels: Path) -> dict[Pat
         for name, text in services.items():
             pkg, srv = name.split("/")
             files[Path(distro, pkg, f"{srv}.srv")] = text
+        for rel, text in from_control_msgs(control_msgs, CONTROL_MSGS_REFS[distro]).items():
+            files[Path(distro) / rel] = text
     return files
 
 
 def existing(out: Path) -> set[Path]:
-    return {p.relative_to(out) for d in DISTROS if (out / d).is_dir() for p in (out / d).rglob("*.srv")}
+    found = {p.relative_to(out) for d in DISTROS if (out / d).is_dir() for p in (out / d).rglob("*.srv")}
+    found |= {p.relative_to(out) for d in DISTROS if (out / d).is_dir() for p in (out / d).rglob("*.action")}
+    return found | {p.relative_to(out) for d in DISTROS for p in (out / d / "control_msgs").glob("*.msg")}
 
 
 def readme(out: Path, files: dict[Path, bytes]) -> bytes:
     """``ybg/msgs/README.md`` with these services, as ``scripts/vendor_msgs.py`` writes it."""
     vendor_msgs = _vendor_msgs()
     msgs = vendor_msgs.file_counts(out, "msg")
-    srvs = {d: sum(1 for p in files if p.parts[0] == d) for d in msgs}
-    return vendor_msgs.readme(msgs, srvs).encode("utf-8")
+    srvs = {d: sum(1 for p in files if p.parts[0] == d and p.suffix == ".srv") for d in msgs}
+    actions = {d: sum(1 for p in files if p.parts[0] == d and p.suffix == ".action") for d in msgs}
+    return vendor_msgs.readme(msgs, srvs, actions).encode("utf-8")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -135,12 +160,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--common-interfaces", type=Path, required=True,
                     help="a clone of ros2/common_interfaces (for Humble)")
     ap.add_argument("--geometry2", type=Path, required=True, help="a clone of ros2/geometry2 (for tf2_msgs)")
+    ap.add_argument("--control-msgs", type=Path, required=True, help="a clone of ros-controls/control_msgs")
     ap.add_argument("--wheels", type=Path, help="where the wheels are downloaded (default: a temporary folder)")
     ap.add_argument("--out", type=Path, default=OUT, help="output folder (default ybg/msgs)")
     ap.add_argument("--check", action="store_true", help="only compare with the files on disk")
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
-        files = generate(args.common_interfaces, args.geometry2, args.wheels or Path(tmp))
+        files = generate(args.common_interfaces, args.geometry2, args.wheels or Path(tmp), args.control_msgs)
     files[Path("README.md")] = readme(args.out, files)
     stale = existing(args.out) - files.keys()
     changed = [p for p, data in files.items() if not (args.out / p).exists() or (args.out / p).read_bytes() != data]
@@ -155,7 +181,7 @@ def main(argv: list[str] | None = None) -> int:
         (args.out / p).write_bytes(files[p])
     for p in stale:
         os.remove(args.out / p)
-    counts = ", ".join(f"{d} {sum(1 for p in files if p.parts[0] == d)}" for d in DISTROS)
+    counts = ", ".join(f"{d} {sum(1 for p in files if p.parts[0] == d and p.suffix == '.srv')}" for d in DISTROS)
     print(f"services: {counts}; {len(changed)} files written, {len(stale)} removed in {args.out}")
     return 0
 

@@ -416,22 +416,67 @@ class SrvDef:
     path: str | None = None
 
 
+def _parse_parts(text: str, name: str, ros: str, path: str | None, parts: tuple[str, ...]
+                 ) -> tuple[list[MsgDef], list[MsgProblem]]:
+    """The messages ``name_<part>`` of a file of ``len(parts)`` messages
+    separated by ``---`` lines (a .srv: request, response; an .action: goal,
+    result, feedback). A missing ``---`` is a problem; the parts it leaves
+    out are empty."""
+    lines = text.splitlines()
+    cuts = [k for k, line in enumerate(lines) if line.startswith("---") and not line.strip().strip("-")]
+    where = path if path is not None else f"<{name}>"
+    problems: list[MsgProblem] = []
+    if len(cuts) < len(parts) - 1:
+        missing = parts[len(cuts)], parts[len(cuts) + 1]
+        problems.append(MsgProblem(where, max(1, len(lines)), 1,
+                                   f"no '---' line between the {missing[0].lower()} and the {missing[1].lower()}"))
+    elif len(cuts) > len(parts) - 1:
+        k = cuts[len(parts) - 1]
+        problems.append(MsgProblem(where, k + 1, 1, f"a {len(parts)}th '---' line: a file of this kind has "
+                                   f"{len(parts)} parts ({', '.join(p.lower() for p in parts)})"))
+        cuts = cuts[:len(parts) - 1]
+    bounds = [-1] + cuts + [len(lines)] * (len(parts) - len(cuts))
+    out = []
+    for i, part in enumerate(parts):
+        first = bounds[i] + 1
+        body = "\n" * first + "\n".join(lines[first:bounds[i + 1]]) if first <= len(lines) else ""
+        msg, found = parse_msg(body, f"{name}_{part}", ros, path)
+        out.append(msg)
+        problems += found
+    return out, problems
+
+
 def parse_srv(text: str, name: str, ros: str, path: str | None = None
               ) -> tuple[SrvDef, list[MsgProblem]]:
     """Parse the text of the service ``name`` (``pkg/Name``): the request's
     lines, a ``---`` line, the response's. Never raises on bad input."""
-    lines = text.splitlines()
-    cut = next((k for k, line in enumerate(lines)
-                if line.startswith("---") and not line.strip().strip("-")), None)
-    where = path if path is not None else f"<{name}>"
-    problems: list[MsgProblem] = []
-    if cut is None:
-        problems.append(MsgProblem(where, max(1, len(lines)), 1,
-                                   "no '---' line between the request and the response"))
-        cut = len(lines)
-    request, p1 = parse_msg("\n".join(lines[:cut]), f"{name}_Request", ros, path)
-    response, p2 = parse_msg("\n" * (cut + 1) + "\n".join(lines[cut + 1:]), f"{name}_Response", ros, path)
-    return SrvDef(name, request, response, path), problems + p1 + p2
+    (request, response), problems = _parse_parts(text, name, ros, path, ("Request", "Response"))
+    return SrvDef(name, request, response, path), problems
 
 
-__all__ = ["PRIMITIVES", "Value", "MsgProblem", "MsgField", "MsgConstant", "MsgDef", "normalize_name", "IDENTIFIER", "parse_msg", "SrvDef", "parse_srv"]
+@dataclass(frozen=True)
+class ActionDef:
+    """An action: ``name`` is ``pkg/Name``; its ``goal``, ``result`` and
+    ``feedback`` are messages named ``pkg/Name_Goal``, ``pkg/Name_Result``
+    and ``pkg/Name_Feedback``, as rosidl names them."""
+
+    name: str
+    goal: MsgDef
+    result: MsgDef
+    feedback: MsgDef
+    path: str | None = None
+
+    @property
+    def parts(self) -> tuple[MsgDef, MsgDef, MsgDef]:
+        return (self.goal, self.result, self.feedback)
+
+
+def parse_action(text: str, name: str, ros: str, path: str | None = None
+                 ) -> tuple[ActionDef, list[MsgProblem]]:
+    """Parse the text of the action ``name`` (``pkg/Name``): the goal's lines,
+    ``---``, the result's, ``---``, the feedback's. Never raises on bad input."""
+    (goal, result, feedback), problems = _parse_parts(text, name, ros, path, ("Goal", "Result", "Feedback"))
+    return ActionDef(name, goal, result, feedback, path), problems
+
+
+__all__ = ["PRIMITIVES", "Value", "MsgProblem", "MsgField", "MsgConstant", "MsgDef", "normalize_name", "IDENTIFIER", "parse_msg", "SrvDef", "parse_srv", "ActionDef", "parse_action"]

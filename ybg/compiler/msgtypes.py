@@ -24,8 +24,8 @@ from typing import Iterable, Mapping
 
 from .ir import NUMERIC_TYPES
 # the definitions' model and parser, here for every module that knows them from here
-from .msgdef import (IDENTIFIER, PRIMITIVES, MsgConstant, MsgDef, MsgField, MsgProblem, SrvDef,  # noqa: F401
-                     Value, normalize_name, parse_msg, parse_srv)  # noqa: F401
+from .msgdef import (IDENTIFIER, PRIMITIVES, ActionDef, MsgConstant, MsgDef, MsgField, MsgProblem,  # noqa: F401
+                     SrvDef, Value, normalize_name, parse_action, parse_msg, parse_srv)  # noqa: F401
 
 DISTROS = {"noetic": "ros1", "humble": "ros2", "jazzy": "ros2", "kilted": "ros2"}
 """Distros with vendored definitions, and the dialect of each."""
@@ -152,8 +152,8 @@ class TypeStore:
         """Problems of the files parsed so far (each file's once)."""
         self._index: dict[str, str] | None = None
         self._cache: dict[str, MsgDef | None] = {}
-        self._srv_index: dict[str, str] | None = None
-        self._srv_cache: dict[str, SrvDef | None] = {}
+        self._iface_index: dict[str, dict[str, str]] = {}
+        self._iface_cache: dict[tuple[str, str], SrvDef | ActionDef | None] = {}
 
     @property
     def search_paths(self) -> list[str]:
@@ -213,18 +213,26 @@ class TypeStore:
                     f" (field {f.name!r})"))
         return msgdef
 
-    def _services(self) -> dict[str, str]:
-        if self._srv_index is None:
+    def _interfaces(self, ext: str) -> dict[str, str]:
+        """``{pkg/Name: path}`` of the ``.srv`` or ``.action`` files (``ext``)."""
+        if ext not in self._iface_index:
             index: dict[str, str] = {}
             for kind, folder in self.roots:
-                for name, path in _SCANNERS[kind](folder, "srv"):
+                for name, path in _SCANNERS[kind](folder, ext):
                     index.setdefault(name, path)
-            self._srv_index = index
-        return self._srv_index
+            self._iface_index[ext] = index
+        return self._iface_index[ext]
+
+    def _services(self) -> dict[str, str]:
+        return self._interfaces("srv")
+
+    @staticmethod
+    def _key(name: str, ext: str) -> str | None:
+        return normalize_name(name.replace(f"/{ext}/", "/msg/", 1) if name.count("/") == 2 else name)
 
     def service_path(self, name: str) -> str | None:
         """The file that defines the service ``name`` (``pkg/Name`` or ``pkg/srv/Name``)."""
-        key = normalize_name(name.replace("/srv/", "/msg/", 1) if name.count("/") == 2 else name)
+        key = self._key(name, "srv")
         return None if key is None else self._services().get(key)
 
     def resolve_service(self, name: str) -> SrvDef | None:
@@ -232,12 +240,31 @@ class TypeStore:
         ``None`` when no file defines it or its file has problems (then in
         :attr:`problems`). Its request and response then resolve as the
         messages ``pkg/Name_Request`` and ``pkg/Name_Response``."""
-        key = normalize_name(name.replace("/srv/", "/msg/", 1) if name.count("/") == 2 else name)
+        return self._resolve_interface("srv", name)
+
+    def action_path(self, name: str) -> str | None:
+        """The file that defines the action ``name`` (``pkg/Name`` or ``pkg/action/Name``)."""
+        key = self._key(name, "action")
+        return None if key is None else self._interfaces("action").get(key)
+
+    def resolve_action(self, name: str) -> ActionDef | None:
+        """The definition of the action ``pkg/Name`` (or ``pkg/action/Name``);
+        ``None`` when no file defines it or its file has problems (then in
+        :attr:`problems`). Its goal, result and feedback then resolve as the
+        messages ``pkg/Name_Goal``, ``pkg/Name_Result``, ``pkg/Name_Feedback``."""
+        return self._resolve_interface("action", name)
+
+    def action_names(self) -> list[str]:
+        """Every known action ``pkg/Name`` (sorted)."""
+        return sorted(self._interfaces("action"))
+
+    def _resolve_interface(self, ext: str, name: str):
+        key = self._key(name, ext)
         if key is None:
             return None
-        if key in self._srv_cache:
-            return self._srv_cache[key]
-        path = self._services().get(key)
+        if (ext, key) in self._iface_cache:
+            return self._iface_cache[ext, key]
+        path = self._interfaces(ext).get(key)
         result = None
         if path is not None:
             try:
@@ -247,9 +274,10 @@ class TypeStore:
                 self.problems.append(MsgProblem(path, 0, 0, f"cannot read: {e}"))
                 text = None
             if text is not None:
-                srv, problems = parse_srv(text, key, self.ros, path)
+                parsed, problems = (parse_srv if ext == "srv" else parse_action)(text, key, self.ros, path)
+                parts = (parsed.request, parsed.response) if ext == "srv" else parsed.parts
                 index = self._names()
-                for part in (srv.request, srv.response):
+                for part in parts:
                     for f in part.fields:
                         if f.type.is_message and f.type.base not in index:
                             problems.append(MsgProblem(path, f.line, f.column, f"unknown message type "
@@ -257,10 +285,10 @@ class TypeStore:
                 if problems:
                     self.problems.extend(problems)
                 else:
-                    result = srv
-                    self._cache[srv.request.name] = srv.request
-                    self._cache[srv.response.name] = srv.response
-        self._srv_cache[key] = result
+                    result = parsed
+                    for part in parts:
+                        self._cache[part.name] = part
+        self._iface_cache[ext, key] = result
         return result
 
     def service_names(self) -> list[str]:
