@@ -24,7 +24,7 @@ venv=${YBG_VENV:-$root/.venv}
 vpy=$venv/bin/python
 jobs=${YBG_BUILD_JOBS:-$(nproc)}
 # bump when the build settings below change: every cached prefix is rebuilt
-recipe=2
+recipe=4
 
 log() { printf '\033[1m[yarp %s]\033[0m %s\n' "$version" "$*" >&2; }
 die() { printf 'error: %s\n' "$*" >&2; exit 1; }
@@ -89,7 +89,10 @@ if [ -z "$prefix_path" ]; then
   prefix_path=$("$vpy" -c 'import ycm_cmake_modules, os; print(os.path.dirname(ycm_cmake_modules.__file__))' 2>/dev/null || true)
 fi
 # What the tests never load is left out: the device and port-monitor plugins
-# (a bridge reads and writes ports; it opens no device), YARP_math,
+# (a bridge reads and writes ports; it opens no device) but the fake robot's
+# (fakeMotionControl behind controlBoard_nws_yarp, fakeFrameGrabber behind
+# frameGrabber_nws_yarp, each pair joined by deviceBundler: `yarpdev` runs them
+# for tests/test_init.py), YARP_math,
 # robotinterface and the tools built on them. A plugin is turned off by its
 # ENABLE_ option only where its CMakeLists honours it (some test another
 # name, and configure then fails on their missing files): those few stay.
@@ -97,10 +100,13 @@ fi
 # the Python bindings are built, at -O1: these builds serve the tests' YARP
 # matrix, where compile time counts and the modules' speed is measured on
 # PyPI's YARP (bench/). About half the time of the full Release build.
+kept=(deviceBundler fakeMotionControl fakeFrameGrabber frameGrabber_nws_yarp controlBoard_nws_yarp)
 skipped=()
+for n in "${kept[@]}"; do skipped+=("-DENABLE_yarpmod_$n=ON"); done
 for kind in devices:yarpmod portmonitors:yarppm; do
   while IFS= read -r f; do
     for n in $(grep -hoE "yarp_prepare_plugin\(\s*[A-Za-z0-9_]+" "$f" | sed -E 's/yarp_prepare_plugin\(\s*//'); do
+      [[ " ${kept[*]} " == *" $n "* ]] && continue
       grep -q "SKIP_$n\b" "$f" && skipped+=("-DENABLE_${kind#*:}_$n=OFF")
     done
   done < <(grep -rlE "yarp_prepare_plugin\(" "$src/src/${kind%%:*}" --include=CMakeLists.txt)
@@ -126,6 +132,9 @@ step install cmake --install "$work/build"
 site=$(ls -d "$prefix"/lib/python3*/site-packages 2>/dev/null | head -n1)
 [ -n "$site" ] && [ -x "$prefix/bin/yarpserver" ] && [ -x "$prefix/bin/yarprun" ] && [ -x "$prefix/bin/yarpmanager-console" ] && [ -f "$prefix/lib/cmake/YARP/YARPConfig.cmake" ] \
   || die "YARP $version installed without its tools (yarpserver, yarprun, yarpmanager-console), CMake config or Python bindings in $prefix"
+for n in "${kept[@]}"; do
+  [ -f "$prefix/lib/yarp/yarp_$n.so" ] || die "YARP $version installed without its $n device ($prefix/lib/yarp/yarp_$n.so)"
+done
 PYTHONPATH="$site" "$vpy" -c 'import yarp' \
   || die "the Python bindings of YARP $version in $site do not import"
 echo "$want" >"$prefix/.ybg-built"

@@ -136,6 +136,8 @@ def _joints(plan: Plan, port: str, s, answers, prefix: str, used: set) -> Bridge
     n = len(s.first)
     part = _part(port, prefix).rsplit("/", 1)[0] or "joints"
     rpc = port[: -len("state:o")] + "rpc:i"
+    if rpc not in answers and port[: -len("state:o")] + "nws/rpc:i" in answers:
+        rpc = port[: -len("state:o")] + "nws/rpc:i"  # YARP 4.0's controlboard server
     got = answers.get(rpc)
     how = [f"{port} sent Bottles of {n} numbers ({nice_rate(s.rate())}, {s.bottles} in the sampling time)",
            "YARP's controlboards give joint positions in degrees: deg_to_rad makes them radians"]
@@ -150,7 +152,8 @@ def _joints(plan: Plan, port: str, s, answers, prefix: str, used: set) -> Bridge
         elif got.axes is not None and got.axes != n:
             why = f"{rpc} says {got.axes} axes, the state port sends {n} values"
         else:
-            why = f"{rpc} did not answer `get axes` and `get name j`"
+            why = (f"{rpc} is YARP 4's controlboard server, which gives them in its thrift service: not asked"
+                   if got.asked == "getAxesRPC" else f"{rpc} did not answer `get axes` and `get name j`")
         confirm.append(f"the joint names: numbered here ({why}); name them as the robot's URDF does")
     module = _unique(f"{plan.robot}_{_ident(part)}", used)
     text = _header([f"The joints of {part} on /joint_states (robot_state_publisher merges the parts),",

@@ -11,8 +11,13 @@ What it touches on the robot, and nothing else:
   closed;
 - each RPC port: `help`; a controlboard's (``<part>/rpc:i`` beside a
   ``<part>/state:o``) also `get axes` and `get name <j>` for each axis, the
-  questions YARP's own remote controlboard asks (IAxisInfo). These only
-  read; nothing is written to any other port."""
+  questions YARP's own remote controlboard asks (IAxisInfo). From YARP 4.0
+  a controlboard server answers them on ``<part>/nws/rpc:i``, in its
+  thrift service (ControlBoardMsgs: `getAxesRPC`, `getAxisNameRPC j`),
+  which `yarp rpc` gets answers from but a Bottle written by the bindings
+  does not (no reply, tried in 4.0.0): that port is known as the
+  controlboard's and not asked; its joints are numbered, said to confirm.
+  These only read; nothing is written to any other port."""
 
 from __future__ import annotations
 
@@ -67,6 +72,8 @@ class Answers:
     help: str | None = None
     axes: int | None = None
     names: list | None = None
+    #: how the axes are asked: "get axes" (YARP 3); "getAxesRPC": YARP 4's thrift service, not asked
+    asked: str = "get axes"
 
 
 @dataclass
@@ -95,8 +102,12 @@ def is_input(name: str) -> bool:
 
 
 def controlboard_rpc(name: str, ports) -> bool:
-    """An RPC port of a controlboard: ``<part>/rpc:i`` with ``<part>/state:o`` listed."""
-    return name.endswith("/rpc:i") and name[: -len("rpc:i")] + "state:o" in ports
+    """An RPC port of a controlboard: ``<part>/rpc:i`` (YARP 4.0:
+    ``<part>/nws/rpc:i``) with ``<part>/state:o`` listed."""
+    for tail in ("/nws/rpc:i", "/rpc:i"):
+        if name.endswith(tail):
+            return name[: -len(tail)] + "/state:o" in ports
+    return False
 
 
 def list_ports(yarp, timeout: float = 3.0) -> list[str]:
@@ -254,6 +265,9 @@ def _ask(yarp, name: str, controlboard: bool, wait: float) -> Answers:
             reply.size() == 1 and reply.get(0).toString().strip("[]").lower() in REFUSALS):
         got.help = reply.toString()
     if not controlboard:
+        return got
+    if name.endswith("/nws/rpc:i"):
+        got.asked = "getAxesRPC"  # YARP 4.0's thrift service: not asked (see the module's docstring)
         return got
     get = ("vocab", "get")
     reply = _call(yarp, name, [get, ("vocab", "axes")], wait)
