@@ -172,9 +172,12 @@ fi
 "$vpy" -c 'import lark, sys; sys.exit(int(lark.__version__.split(".")[0]) < 1)' \
   || { echo "lark 1.x is not importable in $venv" >&2; exit 1; }
 # Message packages PyPI has no wheel for, built from their definitions with
-# the wheels' rosidl into the venv (about 15 s the first time, then cached):
-# tf2_msgs (ROS 2's geometry2) and the original tool's tutorial message.
-YBG_VENV=$venv "$root/scripts/build_msgpkg.sh" "$root/msgpkgs/ybg_demo_msgs" "$root/msgpkgs/tf2_msgs"
+# the wheels' rosidl into the venv (about a minute the first time, then
+# cached): tf2_msgs (ROS 2's geometry2), control_msgs' FollowJointTrajectory
+# (what MoveIt sends a robot: docs/actions.md) and the original tool's
+# tutorial message.
+YBG_VENV=$venv "$root/scripts/build_msgpkg.sh" "$root/msgpkgs/ybg_demo_msgs" "$root/msgpkgs/tf2_msgs" \
+  "$root/msgpkgs/control_msgs"
 for v in ${extra_yarp//,/ }; do
   "$root/scripts/build_yarp.sh" "$v"
 done

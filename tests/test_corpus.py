@@ -17,7 +17,7 @@ from ybg.compiler import ir
 from ybg.compiler.options import Options
 from ybg.compiler.fmt import format_document
 from ybg.compiler.parser import parse_text
-from ybg.compiler.diagnostics import CODES, Sink
+from ybg.compiler.diagnostics import CODES, PROBE_CODES, Sink
 from ybg.compiler.pipeline import compile_path, compile_text
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -50,6 +50,7 @@ def test_every_code_is_documented_and_shown():
     doc = (ROOT / "docs" / "diagnostics.md").read_text(encoding="utf-8")
     rows = dict(re.findall(r"^\| ([EWN][0-9]{3}) \| ([^|]+?) \|", doc, re.M))
     assert rows == CODES, "docs/diagnostics.md and CODES disagree"
+    assert not set(CODES) & set(PROBE_CODES), "a code of `ybgc check` is also one of `ybgc probe`"
     shown = {p.name[:4] for p in INVALID + INVALID_FOLDERS}
     assert set(CODES) - shown == {"E001"}  # E001 (unreadable file) is shown by test_cli
 

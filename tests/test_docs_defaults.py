@@ -306,7 +306,55 @@ def init_format(cell: str) -> None:
     assert parsed("init").format == cell
 
 
+ACTION = {"serve": "/arm/follow_joint_trajectory (control_msgs/FollowJointTrajectory)",
+          "joints": '"shoulder", "elbow"', "state": "/robot/arm/state:o (float64 x2)",
+          "command": "/robot/arm/setpoints:i"}
+
+
+def action_text(drop: str = "") -> str:
+    return "[action follow]\n" + "".join(f"{k} = {v}\n" for k, v in ACTION.items() if k != drop)
+
+
+def action_required(key: str) -> Callable[[str], None]:
+    def check(cell: str) -> None:
+        assert cell == "(required)"
+        r = compile_text(action_text(drop=key), "a.ini")
+        assert any(d.code == "E204" and f"`{key}`" in d.message for d in r.errors), r.errors
+    return check
+
+
+def action_default(attr: str, pattern: str, value) -> Callable[[str], None]:
+    def check(cell: str) -> None:
+        m = matched(pattern, cell)
+        [a] = program(action_text(), "a.ini").actions
+        want = value if value is not None or not m.groups() else None
+        if m.groups():
+            want = float(m.group(1))
+        assert getattr(a, attr) == want, (attr, getattr(a, attr), want)
+    return check
+
+
+def action_convert(cell: str) -> None:
+    from ybg.lower.actions import joint_conversions
+    matched(r"none: the encoders are in the goal's units", cell)
+    [a] = program(action_text(), "a.ini").actions
+    assert a.converters == () and joint_conversions(a) == ((1.0, 0.0), (1.0, 0.0))
+
+
+_ACTIONS = ("docs/actions.md", "FollowJointTrajectory from an arm's ports")
+
 TABLE_CHECKS: dict[tuple[str, str, str], Callable[[str], None]] = {
+    (*_ACTIONS, "`serve`"): action_required("serve"),
+    (*_ACTIONS, "`joints`"): action_required("joints"),
+    (*_ACTIONS, "`state`"): action_required("state"),
+    (*_ACTIONS, "`command`"): action_required("command"),
+    (*_ACTIONS, "`convert`"): action_convert,
+    (*_ACTIONS, "`rate`"): action_default("rate", r"^(\d+)$", None),
+    (*_ACTIONS, "`feedback_rate`"): action_default("feedback_rate", r"^(\d+)$", None),
+    (*_ACTIONS, "`path_tolerance`"): action_default("path_tolerance", r"^none: not checked$", None),
+    (*_ACTIONS, "`goal_tolerance`"): action_default("goal_tolerance", r"^none: not checked$", None),
+    (*_ACTIONS, "`goal_time_tolerance`"): action_default("goal_time_tolerance", r"^(\d+)$", None),
+    (*_ACTIONS, "`stale`"): action_default("stale", r"^([\d.]+)$", None),
     ("docs/config.md", "`[module]` (optional)", "`name`"): module_name,
     ("docs/config.md", "`[module]` (optional)", "`distro`"): module_distro,
     ("docs/config.md", "`[output]`", "`via`"): output_via,
@@ -363,7 +411,8 @@ def test_each_default_of_a_table_is_the_codes(doc, heading, key, cell):
 def test_every_check_of_a_table_has_its_row():
     rows = {(doc, heading, key) for doc, heading, key, _ in default_rows()}
     assert set(TABLE_CHECKS) <= rows, sorted(set(TABLE_CHECKS) - rows)
-    assert {doc for doc, _ in default_tables()} == {"docs/config.md", "docs/runtime.md", "docs/init.md"}
+    assert {doc for doc, _ in default_tables()} == {"docs/config.md", "docs/runtime.md", "docs/init.md",
+                                                    "docs/actions.md"}
 
 
 # --------------------------------------------------------------------------

@@ -76,11 +76,28 @@ def expected_commands(program: ir.Commands):
     return nodes, edges
 
 
+def expected_actions(program: ir.Actions):
+    nodes, edges = set(), set()
+    for a in program.actions:
+        served, state, goal = ("input", a.action), ("input", a.state), ("mux", f"action {a.name}")
+        nodes |= {served, state, goal, ("output", a.command)}
+        edges |= {(served, goal), (state, goal)}
+        last = goal
+        for c in a.converters:
+            nodes.add(("converter", c.name))
+            edges.add((last, ("converter", c.name)))
+            last = ("converter", c.name)
+        edges.add((last, ("output", a.command)))
+    return nodes, edges
+
+
 def expected(program: ir.Program):
     """The nodes, as (stage, name), and the edges between them that the
     IR implies."""
     if isinstance(program, ir.Commands):
         return expected_commands(program)
+    if isinstance(program, ir.Actions):
+        return expected_actions(program)
     nodes, edges = set(), set()
     out = ("output", program.output.name)
     nodes.add(out)

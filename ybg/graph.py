@@ -138,6 +138,16 @@ def _overlaps(ref: ir.MuxRef, conv: ir.Converter) -> bool:
     return conv.start < stop and start < (math.inf if conv.stop is None else conv.stop)
 
 
+def _adder(nodes: list):
+    """``add(stage, name, detail)``: a node appended to ``nodes``, numbered
+    by its stage; its id."""
+    def add(stage: str, name: str, detail: str) -> str:
+        node = Node(f"{_PREFIX[stage]}{sum(n.stage == stage for n in nodes)}", stage, name, _short(detail))
+        nodes.append(node)
+        return node.id
+    return add
+
+
 def _output_node(program: ir.Program) -> Node:
     out = program.output
     where = {"yarp": "YARP port", "ros1": "ROS 1 topic", "ros2": "ROS 2 topic"}[out.kind]
@@ -152,10 +162,7 @@ def build(program: ir.Program) -> Graph:
     nodes: list[Node] = []
     edges: list[tuple[str, str]] = []
 
-    def add(stage: str, name: str, detail: str) -> str:
-        node = Node(f"{_PREFIX[stage]}{sum(n.stage == stage for n in nodes)}", stage, name, _short(detail))
-        nodes.append(node)
-        return node.id
+    add = _adder(nodes)
 
     def edge(a: str, b: str) -> None:
         if (a, b) not in edges:
@@ -221,10 +228,7 @@ def build_commands(program: ir.Commands) -> Graph:
     nodes: list[Node] = []
     edges: list[tuple[str, str]] = []
 
-    def add(stage: str, name: str, detail: str) -> str:
-        node = Node(f"{_PREFIX[stage]}{sum(n.stage == stage for n in nodes)}", stage, name, _short(detail))
-        nodes.append(node)
-        return node.id
+    add = _adder(nodes)
 
     served: dict[str, str] = {}
     for svc in program.services:
@@ -245,6 +249,30 @@ def build_commands(program: ir.Commands) -> Graph:
             fid = add("field", ("response." if svc.serves == "ros2" else "request.") + fill.ref.dotted,
                       _fill_text(fill, bottle))
             edges += [(callee, fid)] if svc.serves == "ros2" else [(caller, fid), (fid, made)]
+    return Graph(program.module, program.source, tuple(nodes), tuple(edges))
+
+
+def build_actions(program: ir.Actions) -> Graph:
+    """The graph of a config of actions: for each, the ROS 2 action served
+    and the encoders' port into the goal it carries out, its converters, and
+    the port its set points go to."""
+    nodes: list[Node] = []
+    edges: list[tuple[str, str]] = []
+
+    add = _adder(nodes)
+
+    for a in program.actions:
+        served = add("input", a.action, f"ROS 2 action served, {a.action_type}")
+        state = add("input", a.state, f"encoders, {a.width} values" if a.width is not None else "encoders")
+        goal = add("mux", f"action {a.name}", f"{len(a.joints)} joints: {', '.join(a.joints)}")
+        edges += [(served, goal), (state, goal)]
+        last = goal
+        for c in a.converters:
+            conv = add("converter", c.name, "encoders to the goal's units; set points back")
+            edges.append((last, conv))
+            last = conv
+        out = add("output", a.command, f"set points at {a.rate:g} Hz")
+        edges.append((last, out))
     return Graph(program.module, program.source, tuple(nodes), tuple(edges))
 
 
@@ -280,12 +308,12 @@ def build_robot(name: str, source: str, programs) -> Graph:
     return Graph(name, source, tuple(nodes), tuple(edges), tuple(bridges))
 
 
-def _graph_of(program: ir.Program | ir.Commands) -> Graph:
+def _graph_of(program: ir.Bridge) -> Graph:
     return _BUILDERS[program.kind](program)
 
 
 #: kind of bridge -> its graph
-_BUILDERS = {"stream": build, "commands": build_commands}
+_BUILDERS = {"stream": build, "commands": build_commands, "actions": build_actions}
 
 
 # --------------------------------------------------------------------------

@@ -238,6 +238,17 @@ def is_commands(path: Path) -> bool:
     return re.search(r"(?m)^\[service ", path.read_text(encoding="utf-8")) is not None
 
 
+def is_actions(path: Path) -> bool:
+    """Is the config at ``path`` one of actions ([action] sections), which
+    tests/test_actions.py runs, not the stream harness?"""
+    return re.search(r"(?m)^\[action ", path.read_text(encoding="utf-8")) is not None
+
+
+def is_stream(path: Path) -> bool:
+    """Is the config at ``path`` a stream's (neither commands nor actions)?"""
+    return not is_commands(path) and not is_actions(path)
+
+
 def command_examples() -> list[Path]:
     """The examples of commands ([service] sections)."""
     return [p for p in sorted(EXAMPLES.glob("*.ini")) if is_commands(p)]
@@ -253,8 +264,8 @@ def command_program(path: Path, backend: str):
 
 
 def config_paths() -> list[Path]:
-    """Every example and legacy config of a stream (not of commands)."""
-    return [p for p in sorted(EXAMPLES.glob("*.ini")) + sorted(LEGACY_DIR.glob("*.ini")) if not is_commands(p)]
+    """Every example and legacy config of a stream (not of commands or actions)."""
+    return [p for p in sorted(EXAMPLES.glob("*.ini")) + sorted(LEGACY_DIR.glob("*.ini")) if is_stream(p)]
 
 
 @functools.lru_cache(maxsize=None)
@@ -323,7 +334,7 @@ def ros2_examples() -> tuple[str, ...]:
     """Stems of the examples that compile for the ros2 backend and involve ROS 2."""
     out = []
     for p in sorted(EXAMPLES.glob("*.ini")):
-        if is_commands(p):
+        if not is_stream(p):
             continue
         result = check_result(compile_path(str(p)), "ros2")
         if result.ok and _targets_ros2(result.program) and not uses_images(result.program):

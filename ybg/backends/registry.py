@@ -43,6 +43,8 @@ REGISTRY: dict[str, BackendInfo] = {
             why={("ros2", "rows"): "a ROS 2 message is not filled from rows",
                  ("ros1", "image"): "camera images are bridged to and from ROS 2"},
             kinds=frozenset({"stream", "commands"}),
+            why_not={"actions": "the C++ module does not serve ROS 2 actions yet (rcl_action is to come); the "
+                                "ros2 backend's node does"},
             composes=frozenset({"stream", "commands"}),
         )),
     "py": BackendInfo(
@@ -60,7 +62,8 @@ REGISTRY: dict[str, BackendInfo] = {
                  ("yarp", "image"): "a camera image goes to or comes from ROS 2, which the py module does not "
                                     "speak"},
             why_not={"commands": "a command goes between a YARP RPC port and a ROS 2 service, and the py module "
-                                 "speaks no ROS 2"},
+                                 "speaks no ROS 2",
+                     "actions": "an action is served on ROS 2, and the py module speaks no ROS 2"},
             composes=frozenset({"stream"}),
         )),
     "ros2": BackendInfo(
@@ -72,8 +75,9 @@ REGISTRY: dict[str, BackendInfo] = {
             features={"yarp": frozenset({"fixed_array", "message_array", "rows", "image"}),
                       "ros2": frozenset({"fixed_array", "message_array", "image"})},
             why={("ros2", "rows"): "a ROS 2 message is not filled from rows"},
-            kinds=frozenset({"stream", "commands"}),
+            kinds=frozenset({"stream", "commands", "actions"}),
             composes=frozenset({"stream", "commands"}),
+            why_not_composed={"actions": "a node of actions runs alone for now: generate it on its own"},
         )),
 }
 

@@ -33,7 +33,7 @@ CPP_DIR = RUNTIME_DIR / "cpp"
 PY_PACKAGE = "ybgc_runtime"
 #: the Python runtime's modules, in the order they are inlined
 PY_MODULES = ("geometry", "base", "core", "connections", "yarp_inputs", "shell", "yarp_io", "images", "compose",
-              "ros2_shell", "ros2_events", "ros2_io", "commands", "callers", "services")
+              "ros2_shell", "ros2_events", "ros2_io", "commands", "callers", "services", "trajectory", "actions")
 #: the modules a YARP module of a stream bridge (the py backend's) runs on,
 #: which --single-file inlines
 PY_STREAM_MODULES = ("geometry", "base", "core", "connections", "yarp_inputs", "shell", "yarp_io")
@@ -41,6 +41,8 @@ PY_STREAM_MODULES = ("geometry", "base", "core", "connections", "yarp_inputs", "
 PY_NODE_MODULES = PY_STREAM_MODULES + ("images", "ros2_shell", "ros2_events", "ros2_io")
 #: ... an rclpy node of commands (the ros2 backend's)
 PY_COMMANDS_MODULES = ("base", "shell", "ros2_shell", "commands", "callers", "services")
+#: ... an rclpy node of actions (the ros2 backend's)
+PY_ACTIONS_MODULES = ("base", "connections", "shell", "ros2_shell", "trajectory", "actions")
 #: the C++ runtime's files: the header a module includes, the header its
 #: sources share (not for modules), and its sources, one concern a file, in
 #: the order they are built and inlined
@@ -176,7 +178,7 @@ def runtime_text_filter(text) -> str:
 
 
 __all__ = ["RuntimeView", "runtime_view", "runtime_text_filter", "VERSION", "PY_PACKAGE", "PY_MODULES",
-           "PY_STREAM_MODULES", "PY_NODE_MODULES", "PY_COMMANDS_MODULES", "CPP_HEADER",
+           "PY_STREAM_MODULES", "PY_NODE_MODULES", "PY_COMMANDS_MODULES", "PY_ACTIONS_MODULES", "CPP_HEADER",
            "CPP_INTERNAL_HEADER", "CPP_SOURCES", "CPP_ROS2_HEADER", "CPP_ROS2_SOURCES", "CPP_IMAGES_HEADER",
            "CPP_IMAGES_SOURCES", "CPP_SERVICES_HEADER", "CPP_SERVICES_INTERNAL_HEADER", "CPP_SERVICES_SOURCES",
            "CPP_COMPOSE_HEADER",

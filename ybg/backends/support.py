@@ -63,7 +63,7 @@ def check(program: "Program", backend: str, sink: Sink, legacy: bool = False) ->
 
 
 #: how a refusal names a kind of bridge
-_KINDS = {"stream": "streams", "commands": "commands"}
+_KINDS = {"stream": "streams", "commands": "commands", "actions": "actions"}
 
 
 def _check_stream(program: "Program", backend: str, builds, sink: Sink, legacy: bool) -> None:

@@ -75,7 +75,7 @@ def _norm(name: str | None) -> str | None:
     return None if name is None else name.replace("/msg/", "/").replace("/srv/", "/")
 
 
-def _ends(path: str, program: ir.Program | ir.Commands, document: ast.Document | None):
+def _ends(path: str, program: ir.Bridge, document: ast.Document | None):
     """(kind, name, end) of everything ``program`` opens or uses."""
     yield "module", program.module, _End(path, _module_span(document), "is named")
     yield from _ENDS[program.kind](path, program, document)
@@ -117,8 +117,17 @@ def _stream_ends(path: str, program: ir.Program, document: ast.Document | None):
                                                       i.subscription_qos if i.kind == "ros2" else None)
 
 
+def _actions_ends(path: str, program: ir.Actions, document: ast.Document | None):
+    """A config of actions': the actions it serves, and the ports it writes set points to."""
+    for a in program.actions:
+        yield "action", a.action, _End(path, _value_span(document, "action", a.name, "serve", a.span), "serves",
+                                       a.action_type, type_span=a.type_span)
+        yield "setpoints", a.command, _End(path, _value_span(document, "action", a.name, "command", a.span),
+                                           "writes set points to")
+
+
 #: kind of bridge -> what a bridge of it opens or uses on the robot's graph
-_ENDS = {"stream": _stream_ends, "commands": _commands_ends}
+_ENDS = {"stream": _stream_ends, "commands": _commands_ends, "actions": _actions_ends}
 
 
 def qos_mismatch(offered: ir.QoS, requested: ir.QoS) -> tuple[str, str, str] | None:
@@ -212,6 +221,17 @@ def check_across(results: Iterable) -> list[Diagnostic]:
                         say("E363", a, other, f"the ROS 2 service {name}: this bridge {a.what} it as {a.type}, "
                                               f"another {other.what} it as {other.type}",
                             "one service has one type: a call of the other type is never answered", at_type=True)
+        elif kind in ("action", "setpoints"):
+            for a in ends:
+                other = next((b for b in ends if b is not a and b.file != a.file), None)
+                if other is None:
+                    continue
+                if kind == "action":
+                    say("E385", a, other, f"the ROS 2 action {name} is served by another bridge too",
+                        "an action has one server: a goal goes to either")
+                else:
+                    say("E385", a, other, f"another bridge writes set points to {name} too",
+                        "one joint, one commander: two writers of set points fight over the joints")
     return sorted(out, key=Diagnostic.sort_key)
 
 

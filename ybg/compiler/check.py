@@ -15,7 +15,7 @@ from __future__ import annotations
 from ybg.compiler import ast, ir
 from ybg.compiler.diagnostics import Sink
 from ybg.compiler.options import Options
-from ybg.compiler.passes import (bottles, converters, cuts, dialect, inputs, message, output, program,
+from ybg.compiler.passes import (actions, bottles, converters, cuts, dialect, inputs, message, output, program,
                                  images, sections, services, spans, typed)
 from ybg.compiler.passes.context import Context
 
@@ -26,6 +26,8 @@ PASSES = (
 )
 #: the passes of a config of commands ([service] sections), after ``sections``
 COMMAND_PASSES = (dialect.run, services.run)
+#: the passes of a config of actions ([action] sections), after ``sections``
+ACTION_PASSES = (dialect.run, actions.run)
 
 
 def check_named(doc: ast.Document, source: str, sink: Sink, options: Options,
@@ -37,6 +39,7 @@ def check_named(doc: ast.Document, source: str, sink: Sink, options: Options,
         legacy = any(d.code == "N601" for d in sink.items)
     ctx = Context(doc, source, sink, options, module_default, legacy)
     sections.run(ctx)
-    for run in COMMAND_PASSES if ctx.service_sections else PASSES[1:]:
+    kind = COMMAND_PASSES if ctx.service_sections else ACTION_PASSES if ctx.action_sections else PASSES[1:]
+    for run in kind:
         run(ctx)
     return ctx.program

@@ -148,7 +148,14 @@ CODES: dict[str, str] = {
     "E351": "no answer for a failed call",
     "E352": "a service bridges a ROS 2 service and a YARP port",
     "E353": "command or service given twice, or a command the port answers itself",
-    "E354": "commands and a stream in one config",
+    "E354": "two kinds of bridge in one config",
+    # actions (E380-E389)
+    "E380": "unknown action type",
+    "E381": "an action type no module carries out",
+    "E382": "joints the state port cannot give",
+    "E383": "converter with no inverse for set points",
+    "E384": "tolerance not a number, or negative",
+    "E385": "action or set-point port given twice",
 
     "E360": "one topic with two message types across configs",
     "E361": "one YARP port opened by two configs",

@@ -323,8 +323,16 @@ def _commands_type_hashes(ir_dict: dict[str, Any], store: TypeStore | None) -> d
     return ir_dict
 
 
+def _actions_type_hashes(ir_dict: dict[str, Any], store: TypeStore | None) -> dict[str, Any]:
+    """Actions: no hash yet (an action's type description holds its goal,
+    result and feedback, and the services and the message rcl_action makes
+    of them); the IR as it is."""
+    return ir_dict
+
+
 #: kind of bridge (the IR dict's ``bridge``) -> its ends' type hashes
-_WITH_TYPE_HASHES = {"stream": _stream_type_hashes, "commands": _commands_type_hashes}
+_WITH_TYPE_HASHES = {"stream": _stream_type_hashes, "commands": _commands_type_hashes,
+                     "actions": _actions_type_hashes}
 
 
 __all__ = [

@@ -31,7 +31,7 @@ def split_type(msg_type: str, interface: str = "msg") -> tuple[str, str]:
         parts = [parts[0], parts[2]]
     if len(parts) != 2 or not _PKG.match(parts[0]) or not _MSG_NAME.match(parts[1]) \
             or keyword.iskeyword(parts[0]):
-        what = "service" if interface == "srv" else "message"
+        what = {"srv": "service", "action": "action"}.get(interface, "message")
         raise LoweringError(f"{msg_type!r} is not a ROS {what} type name (pkg/Name)")
     return parts[0], parts[1]
 
@@ -128,11 +128,27 @@ def _commands_parameters(commands: ir.Commands) -> tuple[tuple[str, object], ...
     return (("prefix", "/" + commands.module), ("verbose", False), ("diagnostics", True))
 
 
-#: kind of bridge -> each of the above
-_NODE_NAME = {"stream": _stream_node_name, "commands": _commands_node_name}
-_USED_PACKAGES = {"stream": _stream_packages, "commands": _commands_packages}
-_NODE_PARAMETERS = {"stream": _stream_parameters, "commands": _commands_parameters}
+def split_action(action_type: str) -> tuple[str, str]:
+    """``pkg/Name`` or ``pkg/action/Name`` -> (pkg, Name), both checked."""
+    return split_type(action_type, "action")
 
 
-__all__ = ["identifier", "split_type", "split_srv", "srv_type_name", "ros2_type_name", "snake_case", "package_name", "node_name",
+def action_type_name(action_type: str) -> str:
+    """``pkg/Name`` -> ``pkg/action/Name``."""
+    pkg, name = split_action(action_type)
+    return f"{pkg}/action/{name}"
+
+
+def _actions_packages(actions: ir.Actions) -> tuple[str, ...]:
+    return tuple(sorted({split_action(a.action_type)[0] for a in actions.actions}))
+
+
+#: kind of bridge -> each of the above (a node of actions is named and
+#: takes its parameters as a node of commands)
+_NODE_NAME = {"stream": _stream_node_name, "commands": _commands_node_name, "actions": _commands_node_name}
+_USED_PACKAGES = {"stream": _stream_packages, "commands": _commands_packages, "actions": _actions_packages}
+_NODE_PARAMETERS = {"stream": _stream_parameters, "commands": _commands_parameters, "actions": _commands_parameters}
+
+
+__all__ = ["identifier", "split_type", "split_srv", "srv_type_name", "split_action", "action_type_name", "ros2_type_name", "snake_case", "package_name", "node_name",
            "used_packages", "node_parameters"]

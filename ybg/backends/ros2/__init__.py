@@ -11,7 +11,10 @@ every decision; the templates only print.
 
 A config of commands (:class:`~ybg.compiler.ir.Commands`: YARP RPC ports and
 ROS 2 services, docs/services.md) is lowered by :mod:`.services` and printed
-by ``services_node.py.j2``; it runs on the runtime's ``services`` module.
+by ``services_node.py.j2``; it runs on the runtime's ``services`` module. A
+config of actions (:class:`~ybg.compiler.ir.Actions`, docs/actions.md) is
+lowered by :mod:`.actions` and printed by ``actions_node.py.j2``, on the
+runtime's ``actions`` module.
 """
 
 from __future__ import annotations
@@ -23,10 +26,10 @@ from pathlib import Path
 import jinja2
 
 from ybg.backends.base import Backend, BridgeKind, RenderOptions
-from ybg.backends.ros2 import services
+from ybg.backends.ros2 import actions, services
 from ybg.backends.ros2.lower import lower, lower_package
-from ybg.backends.runtime import (PY_COMMANDS_MODULES, PY_NODE_MODULES, PY_PACKAGE, python_files,
-                                  runtime_text_filter, runtime_view)
+from ybg.backends.runtime import (PY_ACTIONS_MODULES, PY_COMMANDS_MODULES, PY_NODE_MODULES, PY_PACKAGE,
+                                  python_files, runtime_text_filter, runtime_view)
 from ybg.lower.errors import LoweringError
 from ybg.lower.package import launch_file
 from ybg.lower.python import PYTHON_FILTERS
@@ -143,9 +146,29 @@ class CommandsNode(StreamNode):
                                         for s in commands.services)
 
 
+class ActionsNode(StreamNode):
+    """A node of actions (``actions_node.py.j2``, :mod:`.actions`)."""
+
+    template = "actions_node.py.j2"
+    modules = PY_ACTIONS_MODULES
+
+    @staticmethod
+    def view(bridge):
+        return actions.lower(bridge)
+
+    @staticmethod
+    def package(bridge, view):
+        return actions.lower_package(bridge, view)
+
+    @staticmethod
+    def describe(bridge) -> str:
+        """What it serves, for a comment."""
+        return "actions: " + ", ".join(a.action for a in bridge.actions)
+
+
 class Ros2Backend(Backend):
     name = "ros2"
-    bridge_kinds = {"stream": StreamNode(), "commands": CommandsNode()}
+    bridge_kinds = {"stream": StreamNode(), "commands": CommandsNode(), "actions": ActionsNode()}
 
     def compose(self, programs, name: str, options: RenderOptions = RenderOptions()) -> dict[str, str]:
         """One process of the programs' nodes (.compose, docs/compose.md)."""

@@ -37,9 +37,10 @@ from typing import Union
 
 from ybg.compiler.ir.streams import *  # noqa: F401,F403
 from ybg.compiler.ir.commands import *  # noqa: F401,F403
+from ybg.compiler.ir.actions import *  # noqa: F401,F403
 from ybg.compiler.ir.serial import *  # noqa: F401,F403
 
 #: the kinds of bridge: kind -> the IR class of its checked program
-BRIDGE_KINDS = {cls.kind: cls for cls in (Program, Commands)}  # noqa: F405
+BRIDGE_KINDS = {cls.kind: cls for cls in (Program, Commands, Actions)}  # noqa: F405
 #: a checked program of any kind
-Bridge = Union[Program, Commands]  # noqa: F405
+Bridge = Union[Program, Commands, Actions]  # noqa: F405

@@ -8,6 +8,7 @@ import json
 from typing import Any
 
 from ybg.compiler.diagnostics import Span
+from ybg.compiler.ir.actions import Actions, TrajectoryAction
 from ybg.compiler.ir.commands import BottleItem, Commands, FieldRef, Fill, Service
 from ybg.compiler.ir.streams import (IR_VERSION, CameraInfo, Converter, Counter, Default, ElementGroup, ExprConverter,
                                      ExprNode, Field, GeometryConverter, ImageFrame, Input, Literal, MessageArray, Mux,
@@ -58,7 +59,7 @@ def _encode(obj: Any) -> Any:
     return obj
 
 
-def to_dict(program: "Program | Commands") -> dict[str, Any]:
+def to_dict(program: "Program | Commands | Actions") -> dict[str, Any]:
     """The JSON object of ``program``; ``bridge`` says its kind, but for a
     stream (the first kind, whose programs had no ``bridge``)."""
     d = _encode(program)
@@ -67,7 +68,7 @@ def to_dict(program: "Program | Commands") -> dict[str, Any]:
     return {"ir_version": IR_VERSION, **d}
 
 
-def to_json(program: "Program | Commands") -> str:
+def to_json(program: "Program | Commands | Actions") -> str:
     return json.dumps(to_dict(program), indent=2, ensure_ascii=False) + "\n"
 
 
@@ -134,11 +135,23 @@ def _commands(d: dict[str, Any]) -> Commands:
     return Commands(d["module"], d["source"], _tuple(d["services"], service), d["distro"], d["ros"])
 
 
-def from_dict(d: dict[str, Any]) -> "Program | Commands":
+def _actions(d: dict[str, Any]) -> Actions:
+    def action(x):
+        layout = None if x["layout"] is None else _tuple(x["layout"], lambda g: ElementGroup(**g))
+        return TrajectoryAction(
+            x["name"], x["action"], x["action_type"], tuple(x["joints"]), x["state"], x["command"], layout,
+            _tuple(x["converters"], lambda c: Converter(**{**c, "span": _span(c)})), x["rate"], x["feedback_rate"],
+            x["path_tolerance"], x["goal_tolerance"], x["goal_time_tolerance"], x["stale"], _span(x),
+            _span(x, "type_span"))
+
+    return Actions(d["module"], d["source"], _tuple(d["actions"], action), d["distro"], d["ros"])
+
+
+def from_dict(d: dict[str, Any]) -> "Program | Commands | Actions":
     """Inverse of :func:`to_dict`."""
     if d.get("ir_version") != IR_VERSION:
         raise ValueError(f"unsupported ir_version {d.get('ir_version')!r}")
-    read = {Program.kind: _program, Commands.kind: _commands}.get(d.get("bridge", Program.kind))
+    read = {Program.kind: _program, Commands.kind: _commands, Actions.kind: _actions}.get(d.get("bridge", Program.kind))
     if read is None:
         raise ValueError(f"unknown kind of bridge {d.get('bridge')!r}")
     return read(d)
@@ -188,7 +201,7 @@ def _program(d: dict[str, Any]) -> Program:
     )
 
 
-def from_json(text: str) -> "Program | Commands":
+def from_json(text: str) -> "Program | Commands | Actions":
     return from_dict(json.loads(text))
 
 

@@ -19,4 +19,8 @@ A config of commands ([service] sections, docs/services.md) runs
 ``sections``, ``dialect`` and then::
 
     services    each command, between a YARP RPC port and a ROS 2 service -> Commands
+
+and a config of actions ([action] sections, docs/actions.md)::
+
+    actions     each ROS 2 action, carried out on the robot's ports -> Actions
 """

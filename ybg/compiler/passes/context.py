@@ -57,8 +57,10 @@ class Context:
     module_keys: dict[str, ast.Entry] = field(default_factory=dict)
     output_keys: dict[str, ast.Entry] = field(default_factory=dict)
     mux_keys: dict[str, dict[str, ast.Entry]] = field(default_factory=dict)
-    # sections: the [service <name>] sections of a config of commands, by name
+    # sections: the [service <name>] sections of a config of commands, and
+    # the [action <name>] sections of a config of actions, by name
     service_sections: dict[str, ast.Section] = field(default_factory=dict)
+    action_sections: dict[str, ast.Section] = field(default_factory=dict)
 
     # dialect: the module name, where the output lives (None: not said),
     # where each mux's topics live, the config's ROS version and its
@@ -93,7 +95,7 @@ class Context:
 
     # program (services, for a config of commands): the checked program, None
     # when there are errors
-    program: ir.Program | ir.Commands | None = None
+    program: ir.Program | ir.Commands | ir.Actions | None = None
 
     def __post_init__(self) -> None:
         self.stores = Stores(self.options)

@@ -39,8 +39,9 @@ def run(ctx: Context) -> None:
         mux_via[name] = choice(keys["via"], s, CHOICES["via"]) if "via" in keys else None
         if mux_via[name] == "yarp" and "topics" in keys:
             s.error("E208", "topics are read from ROS: `via` is ros1 or ros2", keys["via"].span)
-    # commands bridge ROS 2 services
-    ros = "ros2" if via == "ros2" or "ros2" in mux_via.values() or ctx.service_sections else "ros1"
+    # commands bridge ROS 2 services; actions serve ROS 2 actions
+    ros = "ros2" if via == "ros2" or "ros2" in mux_via.values() or ctx.service_sections or ctx.action_sections \
+        else "ros1"
     # topics of a mux without `via` live where the output does, or in the config's ROS
     ctx.mux_via = {name: v or (via if via in ("ros1", "ros2") else ros) for name, v in mux_via.items()}
 

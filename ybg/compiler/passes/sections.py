@@ -1,12 +1,13 @@
 """Pass ``sections``: the sections of a named-form config and their keys.
 
 Checks: entries outside a section (E107), unknown sections (E201), the
-name of [mux <name>] and [service <name>] and that other sections have none
-(E104), duplicate sections (E205), missing [output] or [message] (E203), a
-stream's sections in a config of commands (E354), and unknown or duplicate
+name of [mux <name>], [service <name>] and [action <name>] and that other
+sections have none (E104), duplicate sections (E205), missing [output] or
+[message] (E203), sections of two kinds of bridge in one config (E354), and
+unknown or duplicate
 keys of [module], [output] and each mux (E202, E206).
 Reads the document. Sets ``sections``, ``mux_sections``, ``service_sections``,
-``module_keys``, ``output_keys`` and ``mux_keys``.
+``action_sections``, ``module_keys``, ``output_keys`` and ``mux_keys``.
 """
 
 from __future__ import annotations
@@ -27,6 +28,8 @@ SECTION_KEYS: dict[str, tuple[str, ...]] = {
     "camera_info": (),
     # a command between a YARP RPC port and a ROS 2 service: checked by the services pass
     "service": (),
+    # a ROS 2 action carried out on a robot's ports: checked by the actions pass
+    "action": (),
 }
 #: the sections of a config of streams, which a config of commands has none of
 STREAM_SECTIONS = ("output", "mux", "message", "camera_info")
@@ -50,23 +53,27 @@ def run(ctx: Context) -> None:
                 "put it under a header such as `[output]`")
     out: dict[str, ast.Section] = {}
     muxes: dict[str, ast.Section] = {}
-    services: dict[str, ast.Section] = {}
+    named: dict[str, dict[str, ast.Section]] = {"service": {}, "action": {}}
     for sec in ctx.doc.sections:
         if sec.name not in SECTION_KEYS:
             s.error("E201", f"unknown section [{sec.title}]", sec.span,
                     did_you_mean(sec.name, SECTION_KEYS) or "sections: [module], [output], [mux <name>], [message], "
-                                                            "[camera_info]; for commands [service <name>]")
+                                                            "[camera_info]; for commands [service <name>]; for "
+                                                            "actions [action <name>]")
             continue
-        if sec.name == "service":
+        if sec.name in named:
+            seen = named[sec.name]
             if sec.label is None:
-                s.error("E104", "a service section needs a name: `[service <name>]`", sec.span,
-                        "e.g. `[service home]`; on a YARP port the module serves, the name is the command's word")
+                s.error("E104", f"a{'n' if sec.name == 'action' else ''} {sec.name} section needs a name: "
+                                f"`[{sec.name} <name>]`", sec.span,
+                        "e.g. `[service home]`; on a YARP port the module serves, the name is the command's word"
+                        if sec.name == "service" else "e.g. `[action follow_joint_trajectory]`")
                 continue
-            if sec.label in services:
-                s.error("E205", f"[service {sec.label}] is defined twice", sec.span,
-                        f"first defined on line {services[sec.label].span.line}")
+            if sec.label in seen:
+                s.error("E205", f"[{sec.name} {sec.label}] is defined twice", sec.span,
+                        f"first defined on line {seen[sec.label].span.line}")
                 continue
-            services[sec.label] = sec
+            seen[sec.label] = sec
             continue
         if sec.name == "mux":
             if sec.label is None:
@@ -86,13 +93,16 @@ def run(ctx: Context) -> None:
                     f"first given on line {out[sec.name].span.line}")
             continue
         out[sec.name] = sec
+    services, actions = named["service"], named["action"]
     ctx.service_sections = services
-    if services:
+    ctx.action_sections = actions if not services else {}
+    if services or actions:
+        kind = "commands" if services else "actions"
         for sec in ctx.doc.sections:
-            if sec.name in STREAM_SECTIONS:
-                s.error("E354", f"[{sec.title}] in a config of commands", sec.span,
-                        "a config holds [service] sections or a stream ([output], [mux], [message]), not both: "
-                        "put each in its own config")
+            if sec.name in STREAM_SECTIONS or (services and sec.name == "action"):
+                s.error("E354", f"[{sec.title}] in a config of {kind}", sec.span,
+                        "a config holds one kind of bridge: [service] sections (commands), [action] sections "
+                        "or a stream ([output], [mux], [message]): put each in its own config")
         ctx.sections = {k: v for k, v in out.items() if k == "module"}
         module_sec = out.get("module")
         ctx.module_keys = check_keys(module_sec, SECTION_KEYS["module"], s) if module_sec else {}
