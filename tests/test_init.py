@@ -306,11 +306,8 @@ def test_yarps_fake_robot_becomes_configs_that_carry_its_values(version, tmp_pat
             assert "right_arm.ini" in written and "cam_right.ini" in written, r.stdout
             text = (out / "right_arm.ini").read_text()
             names = FAKE_ARM
-            if thrift:  # not asked there (ybg/init/survey.py): numbered, and said to confirm
-                names = [f"right_arm_joint_{k}" for k in range(len(FAKE_ARM))]
-                assert f"{arm_rpc} is YARP 4's controlboard server" in text and "To confirm" in text, text
-            else:
-                assert f"{arm_rpc} answered `get axes` (4) and `get name j` for each" in text, text
+            asked = "`getAxesRPC` (4) and `getAxisNameRPC j`" if thrift else "`get axes` (4) and `get name j`"
+            assert f"{arm_rpc} answered {asked} for each" in text, text
             assert ", ".join(f'"{n}"' for n in names) in " ".join(text.split()), text
             c = subprocess.run([str(YBGC), "check", out], env=env, capture_output=True, text=True, timeout=60)
             assert c.returncode == 0 and "warning" not in c.stderr and "error" not in c.stderr, c.stderr

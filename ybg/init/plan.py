@@ -144,7 +144,9 @@ def _joints(plan: Plan, port: str, s, answers, prefix: str, used: set) -> Bridge
     confirm = []
     if got is not None and got.names is not None and len(got.names) == n:
         names = got.names
-        how.append(f"the joint names: {rpc} answered `get axes` ({got.axes}) and `get name j` for each")
+        asked = "`getAxesRPC` ({}) and `getAxisNameRPC j`" if got.asked == "getAxesRPC" else \
+            "`get axes` ({}) and `get name j`"
+        how.append(f"the joint names: {rpc} answered {asked.format(got.axes)} for each")
     else:
         names = [f"{_ident(part)}_joint_{k}" for k in range(n)]
         if got is None:
@@ -152,8 +154,8 @@ def _joints(plan: Plan, port: str, s, answers, prefix: str, used: set) -> Bridge
         elif got.axes is not None and got.axes != n:
             why = f"{rpc} says {got.axes} axes, the state port sends {n} values"
         else:
-            why = (f"{rpc} is YARP 4's controlboard server, which gives them in its thrift service: not asked"
-                   if got.asked == "getAxesRPC" else f"{rpc} did not answer `get axes` and `get name j`")
+            why = f"{rpc} did not answer " + ("`getAxesRPC` and `getAxisNameRPC j` (asked through `yarp rpc`)"
+                                              if got.asked == "getAxesRPC" else "`get axes` and `get name j`")
         confirm.append(f"the joint names: numbered here ({why}); name them as the robot's URDF does")
     module = _unique(f"{plan.robot}_{_ident(part)}", used)
     text = _header([f"The joints of {part} on /joint_states (robot_state_publisher merges the parts),",

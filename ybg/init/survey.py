@@ -13,16 +13,19 @@ What it touches on the robot, and nothing else:
   ``<part>/state:o``) also `get axes` and `get name <j>` for each axis, the
   questions YARP's own remote controlboard asks (IAxisInfo). From YARP 4.0
   a controlboard server answers them on ``<part>/nws/rpc:i``, in its
-  thrift service (ControlBoardMsgs: `getAxesRPC`, `getAxisNameRPC j`),
-  which `yarp rpc` gets answers from but a Bottle written by the bindings
-  does not (no reply, tried in 4.0.0): that port is known as the
-  controlboard's and not asked; its joints are numbered, said to confirm.
+  thrift service (ControlBoardMsgs: `getAxesRPC`, `getAxisNameRPC j`). A
+  Bottle written to it through the bindings gets no reply (4.0.0), while
+  YARP's own `yarp rpc` gets one: those are asked through `yarp rpc` (the
+  `yarp` on PATH), and where it is missing or does not answer the joints
+  are numbered, said to confirm.
   These only read; nothing is written to any other port."""
 
 from __future__ import annotations
 
 import os
 import re
+import shutil
+import subprocess
 import sys
 import threading
 import time
@@ -72,7 +75,7 @@ class Answers:
     help: str | None = None
     axes: int | None = None
     names: list | None = None
-    #: how the axes are asked: "get axes" (YARP 3); "getAxesRPC": YARP 4's thrift service, not asked
+    #: how the axes were asked: "get axes" (YARP 3) or "getAxesRPC" (YARP 4's thrift service)
     asked: str = "get axes"
 
 
@@ -257,6 +260,50 @@ def _call(yarp, name: str, words: list, wait: float):
     return reply
 
 
+def _yarp_rpc(yarp, name: str, commands: list[str], wait: float) -> list | None:
+    """The replies (Bottles) of the RPC port ``name`` to ``commands`` typed
+    into YARP's `yarp rpc`, one a command; None without a `yarp` on PATH."""
+    tool = shutil.which("yarp")
+    if tool is None:
+        return None
+    try:
+        done = subprocess.run([tool, "rpc", name], input="".join(c + "\n" for c in commands), text=True,
+                              capture_output=True, timeout=wait * (1 + len(commands)))
+    except (OSError, subprocess.SubprocessError):
+        return None
+    out = []
+    for line in done.stdout.splitlines():
+        if line.startswith("Response: "):
+            out.append(yarp.Bottle(line[len("Response: "):]))
+    return out
+
+
+def _thrift_value(reply, kind: str):
+    """The value of a YARP 4 ControlBoardMsgs reply, ``([ok]) VALUE``, or None."""
+    if reply is None or reply.size() < 2 or not reply.get(0).isList():
+        return None
+    if reply.get(0).asList().get(0).toString().strip("[]") != "ok":
+        return None
+    v = reply.get(1)
+    if kind == "int":
+        return v.asInt32() if v.isInt32() else None
+    return v.asString() if v.isString() else None
+
+
+def _ask_thrift(yarp, name: str, got: Answers, wait: float) -> Answers:
+    """A YARP 4 controlboard's axes and names (`getAxesRPC`, `getAxisNameRPC j`)."""
+    got.asked = "getAxesRPC"
+    replies = _yarp_rpc(yarp, name, ["getAxesRPC"], wait) or [None]
+    got.axes = _thrift_value(replies[0], "int")
+    if got.axes is None or not 0 < got.axes <= 256:
+        return got
+    replies = _yarp_rpc(yarp, name, ["getAxisNameRPC %d" % j for j in range(got.axes)], wait) or []
+    names = [_thrift_value(r, "str") for r in replies]
+    if len(names) == got.axes and None not in names:
+        got.names = names
+    return got
+
+
 def _ask(yarp, name: str, controlboard: bool, wait: float) -> Answers:
     got = Answers()
     reply = _call(yarp, name, ["help"], wait)
@@ -267,8 +314,7 @@ def _ask(yarp, name: str, controlboard: bool, wait: float) -> Answers:
     if not controlboard:
         return got
     if name.endswith("/nws/rpc:i"):
-        got.asked = "getAxesRPC"  # YARP 4.0's thrift service: not asked (see the module's docstring)
-        return got
+        return _ask_thrift(yarp, name, got, wait)
     get = ("vocab", "get")
     reply = _call(yarp, name, [get, ("vocab", "axes")], wait)
     # YARP's controlboard answers [is] axes N [ok]
