@@ -8,10 +8,12 @@ Each of control_msgs' result codes comes from a scenario that causes it;
 the joints reach a goal within its tolerance, the joints a goal does not
 name stay where they were; a refused goal moves nothing; cancel holds the
 joints; a newer goal preempts the one under way; encoders gone quiet abort.
-One rig (name server, domain, arm, node, client) serves every scenario.
+One rig (name server, domain, arm, node, client) serves every scenario;
+one goal each on YARP 3.12.3 and 4.0.0.
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import subprocess
 import textwrap
@@ -60,11 +62,11 @@ class ActionClient(Peer):
     script = "action_client.py"
 
 
-@pytest.fixture(scope="module")
-def rig(tmp_path_factory):
-    install = yarp_install("3.5")
+@contextlib.contextmanager
+def running(install, tmp):
+    """The name server of ``install``, a ROS 2 domain, the simulated arm and
+    the generated node on that release's bindings, and the client: ready."""
     require_yarp(install)
-    tmp = tmp_path_factory.mktemp("actions")
     (tmp / "simarm.ini").write_text(textwrap.dedent(CONFIG))
     r = subprocess.run([str(YBGC), str(tmp / "simarm.ini"), "--backend", "ros2", "-o", str(tmp / "node")],
                        capture_output=True, text=True, timeout=120)
@@ -84,6 +86,12 @@ def rig(tmp_path_factory):
         finally:
             for p in (client, node, arm):
                 p.stop()
+
+
+@pytest.fixture(scope="module")
+def rig(tmp_path_factory):
+    with running(yarp_install("3.5"), tmp_path_factory.mktemp("actions")) as parts:
+        yield parts
 
 
 def state(arm) -> dict:
@@ -261,3 +269,18 @@ def test_encoders_gone_quiet_abort_the_goal(rig):
         assert (r["status"], r["error_code"]) == (STATUS["aborted"], -1) and "no encoder values" in r["error_string"]
     finally:
         arm.send(cmd="resume")
+
+
+@pytest.mark.parametrize("version", ["3.12.3", "4.0.0"])
+def test_one_goal_on_other_yarp_releases(version, tmp_path):
+    """The arm and the node on that release's bindings: a goal reached."""
+    with running(yarp_install(version), tmp_path) as (arm, node, client):
+        here, _ = settled(arm)
+        target = [here[0] - 15, here[1] + 10, here[2], here[3] + 5]
+        gid = send(client, JOINTS, [{"positions": rad(target), "time": 0.8}])
+        r = result(client, gid)
+        assert (r["status"], r["error_code"]) == (STATUS["succeeded"], 0), r
+        now, _ = where(arm)
+        assert rad(now) == pytest.approx(rad(target), abs=GOAL_TOL)
+        assert feedback(client, gid)
+
