@@ -214,6 +214,7 @@ sys.exit(not version("ros-rclpy").startswith("7."))' 2>/dev/null \
       ros-jazzy-rosidl-core-generators catkin-pkg distlib empy packaging
   fi
   env -u LD_LIBRARY_PATH -u _ROS_WHEELS_BOOTSTRAP_COMPLETE YBG_VENV="$jvenv" \
-    "$root/scripts/build_msgpkg.sh" "$root/msgpkgs/ybg_demo_msgs" "$root/msgpkgs/tf2_msgs"
+    "$root/scripts/build_msgpkg.sh" "$root/msgpkgs/ybg_demo_msgs" "$root/msgpkgs/tf2_msgs" \
+    "$root/msgpkgs/jazzy/control_msgs"
 fi
 log "setup done: $venv"

@@ -9,11 +9,12 @@ the joints reach a goal within its tolerance, the joints a goal does not
 name stay where they were; a refused goal moves nothing; cancel holds the
 joints; a newer goal preempts the one under way; encoders gone quiet abort.
 One rig (name server, domain, arm, node, client) serves every scenario;
-one goal each on YARP 3.12.3 and 4.0.0.
+one goal each on YARP 3.12.3 and 4.0.0, and on ROS 2 Jazzy.
 """
 from __future__ import annotations
 
 import contextlib
+import json
 import math
 import subprocess
 import textwrap
@@ -23,7 +24,8 @@ import pytest
 
 from harness.env import yarp_install
 from harness.generated import YBGC
-from harness.module import Node
+from harness.jazzy import JAZZY_PYTHON, NODE_YARP, jazzy_env, require_jazzy
+from harness.module import Module, Node
 from harness.procs import Peer
 from harness.ros2 import Ros2Domain, ros2_environment
 from harness.yarp import YarpServer, require_yarp
@@ -62,10 +64,15 @@ class ActionClient(Peer):
     script = "action_client.py"
 
 
+class JazzyActionClient(ActionClient):
+    python = str(JAZZY_PYTHON)
+
+
 @contextlib.contextmanager
-def running(install, tmp):
+def running(install, tmp, jazzy=False):
     """The name server of ``install``, a ROS 2 domain, the simulated arm and
-    the generated node on that release's bindings, and the client: ready."""
+    the generated node on that release's bindings, and the client: ready;
+    with ``jazzy``, the node and the client on ROS 2 Jazzy's Python."""
     require_yarp(install)
     (tmp / "simarm.ini").write_text(textwrap.dedent(CONFIG))
     r = subprocess.run([str(YBGC), str(tmp / "simarm.ini"), "--backend", "ros2", "-o", str(tmp / "node")],
@@ -75,8 +82,13 @@ def running(install, tmp):
         env = ros2_environment(server.env, domain)
         arm = SimArm(env, {"prefix": "/simarm", "joints": 4, "start": START, "speed": SPEED, "rate": 100,
                            "extra": 2})
-        node = Node(env, tmp / "node" / "simarm_trajectory_node.py")
-        client = ActionClient(env, {"action": "/simarm_controller/follow_joint_trajectory"})
+        path = tmp / "node" / "simarm_trajectory_node.py"
+        if jazzy:
+            node = Module([JAZZY_PYTHON, path], env=jazzy_env(env), name="simarm_trajectory_node")
+            client = JazzyActionClient(jazzy_env(env), {"action": "/simarm_controller/follow_joint_trajectory"})
+        else:
+            node = Node(env, path)
+            client = ActionClient(env, {"action": "/simarm_controller/follow_joint_trajectory"})
         try:
             arm.start()
             node.start()
@@ -283,4 +295,50 @@ def test_one_goal_on_other_yarp_releases(version, tmp_path):
         now, _ = where(arm)
         assert rad(now) == pytest.approx(rad(target), abs=GOAL_TOL)
         assert feedback(client, gid)
+
+
+def test_one_goal_on_jazzy(tmp_path):
+    """The node and the client on ROS 2 Jazzy's wheels (.venv-jazzy, with
+    control_msgs 5.8.0 built there: its feedback has no index), the arm and
+    the node on YARP 4.0.0's bindings."""
+    require_jazzy()
+    with running(NODE_YARP, tmp_path, jazzy=True) as (arm, node, client):
+        here, _ = settled(arm)
+        target = [here[0] + 12, here[1], here[2] - 8, here[3]]
+        gid = send(client, JOINTS, [{"positions": rad(target), "time": 0.8}])
+        r = result(client, gid)
+        assert (r["status"], r["error_code"]) == (STATUS["succeeded"], 0), r
+        now, _ = where(arm)
+        assert rad(now) == pytest.approx(rad(target), abs=GOAL_TOL)
+        assert feedback(client, gid)
+
+
+PROBED = """
+[module]
+name = simarm_trajectory_again
+
+[action follow]
+serve = /simarm_controller/follow_joint_trajectory (control_msgs/FollowJointTrajectory)
+joints = "j0", "j1", "j2", "j3"
+state = /simarm/state:o (float64 x5)
+convert = deg_to_rad
+command = /simarm/no_such_port:i
+"""
+
+
+def test_probe_checks_the_actions_ports_and_that_no_other_server_has_it(rig, tmp_path):
+    """`ybgc probe` of a second config of the rig's action: its state port
+    sends 6 values, not the 5 declared (E371); its set-point port is not
+    there (E370); the rig's node serves the action already (E376)."""
+    arm, node, client = rig
+    (tmp_path / "again.ini").write_text(textwrap.dedent(PROBED))
+    r = subprocess.run([str(YBGC), "probe", "again.ini", "--format", "json", "--wait", "2"], cwd=tmp_path,
+                       env=node.env, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 1, r.stdout + r.stderr
+    got = {(d["code"], d["line"]) for d in json.loads(r.stdout) if d["severity"] == "error"}
+    assert got == {("E371", 5), ("E370", 5), ("E376", 5)}, r.stdout
+    said = {d["code"]: d["message"] for d in json.loads(r.stdout)}
+    assert "/simarm/state:o sends 6 values" in said["E371"], said
+    assert "/simarm/no_such_port:i" in said["E370"], said
+    assert "the ROS 2 action /simarm_controller/follow_joint_trajectory has 1 server already" in said["E376"], said
 
