@@ -132,17 +132,22 @@ def _qos(use: TopicUse, ep, mine: Profile, sink: Sink) -> None:
 def service_findings(plan: Plan, ros2, sink: Sink) -> None:
     for use in plan.services:
         pkg, _, name = use.srv_type.partition("/")
-        want = f"{pkg}/srv/{name}"
+        # an action is served as services: its goal service tells its server and type
+        want = f"{pkg}/action/{name}_SendGoal" if use.action else f"{pkg}/srv/{name}"
+        what = f"the ROS 2 action {use.action}" if use.action else f"the ROS 2 service {use.name}"
         for other in [t for t in ros2.service_types.get(use.name, []) if t != want]:
-            sink.error("E373", f"the ROS 2 service {use.name} has the type {other} in the graph, the module's "
-                       f"{use.role} {want}", use.type_span,
-                       "the two never match: correct the service type in the config, or the service's name")
+            if use.action:
+                other = other.replace("/action/", "/", 1).removesuffix("_SendGoal")
+            sink.error("E373", f"{what} has the type {other} in the graph, the module's "
+                       f"{use.role} {use.srv_type if use.action else want}", use.type_span,
+                       f"the two never match: correct the {'action' if use.action else 'service'} type in the "
+                       f"config, or the {'action' if use.action else 'service'}'s name")
         servers = ros2.servers.get(use.name, 0)
         if use.role == "server" and servers:
-            sink.error("E376", f"the ROS 2 service {use.name} has {servers} server{'s' if servers > 1 else ''} "
-                       "already: a call would reach either", use.span,
-                       "stop the other server (ros2 service info shows it on Jazzy and later), or serve "
-                       "another name")
+            sink.error("E376", f"{what} has {servers} server{'s' if servers > 1 else ''} "
+                       f"already: a {'goal' if use.action else 'call'} would reach either", use.span,
+                       f"stop the other server (ros2 {'action' if use.action else 'service'} info shows it"
+                       f"{'' if use.action else ' on Jazzy and later'}), or serve another name")
         elif use.role == "client" and not servers:
             sink.warning("W572", f"the ROS 2 service {use.name} the module calls has no server now: its calls "
                          "fail until one comes", use.span, "start the server before the module")

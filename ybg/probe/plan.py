@@ -68,13 +68,17 @@ class TopicUse:
 @dataclass(frozen=True)
 class ServiceUse:
     """A ROS 2 service the module serves (``role`` ``"server"``) or calls
-    (``"client"``), of ``srv_type`` (``pkg/Name``)."""
+    (``"client"``), of ``srv_type`` (``pkg/Name``); with ``action``, the
+    goal service of the ROS 2 action of that name the module serves
+    (``<action>/_action/send_goal``, of ``pkg/action/Name_SendGoal``:
+    ``srv_type`` is the action's type)."""
 
     name: str
     srv_type: str
     role: str
     span: Span | None
     type_span: Span | None
+    action: str | None = None
 
 
 @dataclass(frozen=True)
@@ -89,7 +93,7 @@ class Plan:
         return bool(self.topics or self.services)
 
 
-def plan_of(program: ir.Program | ir.Commands, prefix: str | None = None) -> Plan:
+def plan_of(program: ir.Bridge, prefix: str | None = None) -> Plan:
     """What ``program`` would meet; ``prefix``: its ports' prefix (the
     module's ``--prefix``/``--name``; default ``/<module>``)."""
     return _PLANS[program.kind](program, prefix or "/" + program.module)
@@ -141,5 +145,18 @@ def _commands(program: ir.Commands, prefix: str) -> Plan:
     return Plan(tuple(reads), tuple(opens), (), tuple(services))
 
 
+def _actions(program: ir.Actions, prefix: str) -> Plan:
+    reads, services = [], []
+    opens = [PortOpen(f"{prefix}/rpc:i", "the module's RPC port", program.span)]
+    for a in program.actions:
+        reads.append(PortRead(a.state, f"the encoders of action `{a.name}`", a.span, a.layout))
+        reads.append(PortRead(a.command, f"the port action `{a.name}` writes set points to", a.span, call=True))
+        opens.append(PortOpen(f"{prefix}/{a.name}/state:i", f"the port of action `{a.name}`'s encoders", a.span))
+        opens.append(PortOpen(f"{prefix}/{a.name}/command:o", f"the port of action `{a.name}`'s set points", a.span))
+        services.append(ServiceUse(f"{a.action}/_action/send_goal", a.action_type, "server", a.span,
+                                   a.type_span or a.span, action=a.action))
+    return Plan(tuple(reads), tuple(opens), (), tuple(services))
+
+
 #: kind of bridge -> what a bridge of it would meet
-_PLANS = {"stream": _stream, "commands": _commands}
+_PLANS = {"stream": _stream, "commands": _commands, "actions": _actions}
