@@ -27,7 +27,7 @@ from harness.generated import YBGC
 from harness.jazzy import JAZZY_PYTHON, NODE_YARP, jazzy_env, require_jazzy
 from harness.module import Module, Node
 from harness.procs import Peer
-from harness.ros2 import Ros2Domain, ros2_environment
+from harness.ros2 import Ros2Domain, Ros2Subscriber, ros2_environment
 from harness.yarp import YarpServer, require_yarp
 
 JOINTS = ["j0", "j1", "j2", "j3"]
@@ -341,4 +341,64 @@ def test_probe_checks_the_actions_ports_and_that_no_other_server_has_it(rig, tmp
     assert "/simarm/state:o sends 6 values" in said["E371"], said
     assert "/simarm/no_such_port:i" in said["E370"], said
     assert "the ROS 2 action /simarm_controller/follow_joint_trajectory has 1 server already" in said["E376"], said
+
+
+JOINT_STATES = """
+[module]
+name = simarm_joint_states
+
+[output]
+topic = /joint_states
+type = sensor_msgs/JointState
+
+[mux arm]
+ports = /simarm/state:o (float64 x6)
+convert = deg_to_rad
+
+[message]
+name = "j0", "j1", "j2", "j3"
+position = arm[0:4]
+"""
+
+
+def test_a_composed_robot_serves_the_action_beside_its_streams(tmp_path):
+    """`ybgc compose` of the arm's action and its joint states: one process,
+    a goal reached while /joint_states says where the joints are."""
+    install = yarp_install("3.5")
+    require_yarp(install)
+    (tmp_path / "robot").mkdir()
+    (tmp_path / "robot" / "simarm.ini").write_text(textwrap.dedent(CONFIG))
+    (tmp_path / "robot" / "joint_states.ini").write_text(textwrap.dedent(JOINT_STATES))
+    # the folder is the robot: its config of actions among its configs (check and compose alike)
+    r = subprocess.run([str(YBGC), "check", "robot"], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert (r.returncode, r.stderr) == (0, ""), r.stderr
+    r = subprocess.run([str(YBGC), "compose", str(tmp_path / "robot"), "--backend", "ros2", "--name", "simbot",
+                        "-o", str(tmp_path / "simbot")], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and "of 2 bridges" in r.stderr, r.stdout + r.stderr
+    with YarpServer(install=install) as server, Ros2Domain() as domain:
+        env = ros2_environment(server.env, domain)
+        arm = SimArm(env, {"prefix": "/simarm", "joints": 4, "start": START, "speed": SPEED, "rate": 100,
+                           "extra": 2})
+        node = Node(env, tmp_path / "simbot" / "simbot_node.py")
+        client = ActionClient(env, {"action": "/simarm_controller/follow_joint_trajectory"})
+        joints = Ros2Subscriber(env, "/joint_states", "sensor_msgs/msg/JointState", node="simbot_joints", depth=1000)
+        try:
+            arm.start()
+            joints.start()
+            node.start()
+            node.wait_log("simbot: 2 bridges running", timeout=60)
+            node.wait_log("/simarm/state:o: encoder values coming, 4 joints", timeout=60)
+            client.start()
+            here, _ = settled(arm)
+            target = [here[0] + 10, here[1] - 10, here[2], here[3]]
+            gid = send(client, JOINTS, [{"positions": rad(target), "time": 0.8}])
+            r = result(client, gid)
+            assert (r["status"], r["error_code"]) == (STATUS["succeeded"], 0), r
+            # the joint states of the same process say where the action left the joints
+            def there(m):
+                return m.msg["name"] == JOINTS and m.msg["position"] == pytest.approx(rad(target), abs=GOAL_TOL)
+            joints.wait(lambda: any(there(m) for m in joints.messages), 30, "a JointState of the goal's positions")
+        finally:
+            for p in (client, node, joints, arm):
+                p.stop()
 

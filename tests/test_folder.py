@@ -200,7 +200,7 @@ def test_check_of_a_robot_folder_and_a_folder_with_a_file(tmp_path):
     r = ybgc_in(tmp_path, "check", "empty", "twin.ini")
     assert r.returncode == 2 and r.stderr == (
         "ybgc: error: no ybgc config in the folder empty (no .ini file there has a [message] section and an "
-        "[output] or [general] one, nor [service] sections)\n"
+        "[output] or [general] one, nor [service] or [action] sections)\n"
         "    hint: name the configs: ybgc check empty/config.ini\n"), r.stderr
 
 

@@ -196,14 +196,14 @@ def _options(args):
 
 _CONFIG_SECTIONS = re.compile(r"(?m)^[ \t]*\[[ \t]*(general|output)[ \t]*\]")
 _MESSAGE_SECTION = re.compile(r"(?m)^[ \t]*\[[ \t]*message[ \t]*\]")
-_SERVICE_SECTION = re.compile(r"(?m)^[ \t]*\[[ \t]*service[ \t]+[^\]\s]+[ \t]*\]")
+_SERVICE_SECTION = re.compile(r"(?m)^[ \t]*\[[ \t]*(?:service|action)[ \t]+[^\]\s]+[ \t]*\]")
 _IMAGE_KEY = re.compile(r"(?m)^[ \t]*image[ \t]*=")
 
 
 def is_config_file(path: str) -> bool:
     """Does ``path`` look like a ybgc config (a [message] section and an
     [output] or [general] one; an [output] of camera images, `image =`; or
-    [service <name>] sections)? Unreadable files count as configs, so that
+    [service <name>] or [action <name>] sections)? Unreadable files count as configs, so that
     their error is reported."""
     try:
         text = Path(path).read_text(encoding="utf-8", errors="replace")
@@ -235,7 +235,7 @@ def expand_folders(files, command: str) -> list[str]:
             found = folder_configs(Path(f))
             if not found:
                 _usage_error(f"no ybgc config in the folder {f} (no .ini file there has a [message] section and "
-                             "an [output] or [general] one, nor [service] sections)",
+                             "an [output] or [general] one, nor [service] or [action] sections)",
                              f"name the configs: ybgc {command} {f.rstrip('/')}/config.ini")
         else:
             found = [f]
@@ -278,10 +278,10 @@ def folder_config(command: str, named: str | None = None) -> str:
     where = named if named else Path.cwd()
     if not configs:
         _usage_error(f"{said} no ybgc config in {where} (no {FOLDER_CONFIG}, and no .ini file "
-                     "there has a [message] section and an [output] or [general] one, nor [service] sections)"
+                     "there has a [message] section and an [output] or [general] one, nor [service] or [action] sections)"
                      if not named else
                      f"{said} has no ybgc config (no {FOLDER_CONFIG}, and no .ini file there has a [message] "
-                     "section and an [output] or [general] one, nor [service] sections)",
+                     "section and an [output] or [general] one, nor [service] or [action] sections)",
                      f"name the config: ybgc {command} path/to/config.ini")
     several = f"{said} {len(configs)} ybgc configs in {where}" if not named else \
         f"{said} has {len(configs)} ybgc configs"

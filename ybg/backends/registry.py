@@ -76,8 +76,7 @@ REGISTRY: dict[str, BackendInfo] = {
                       "ros2": frozenset({"fixed_array", "message_array", "image"})},
             why={("ros2", "rows"): "a ROS 2 message is not filled from rows"},
             kinds=frozenset({"stream", "commands", "actions"}),
-            composes=frozenset({"stream", "commands"}),
-            why_not_composed={"actions": "a node of actions runs alone for now: generate it on its own"},
+            composes=frozenset({"stream", "commands", "actions"}),
         )),
 }
 
