@@ -47,11 +47,11 @@ TrajectorySpec = collections.namedtuple(
 ActionsSpec = collections.namedtuple("ActionsSpec", "module config node_name default_prefix description actions")
 
 #: the counts of one action, in this order in `stats` and the totals
-COUNT_KEYS = ("goals", "succeeded", "aborted", "canceled", "preempted", "refused")
-TOTALS_LINE = ("action {name}: goals {goals}, succeeded {succeeded}, aborted {aborted}, canceled {canceled}, "
+ACTION_COUNT_KEYS = ("goals", "succeeded", "aborted", "canceled", "preempted", "refused")
+ACTION_TOTALS_LINE = ("action {name}: goals {goals}, succeeded {succeeded}, aborted {aborted}, canceled {canceled}, "
                "preempted {preempted}, refused {refused}")
 #: the result's error_string of a goal a newer one replaced
-PREEMPTED = "preempted by a newer goal"
+PREEMPTED_TEXT = "preempted by a newer goal"
 
 
 def _seconds(duration):
@@ -139,7 +139,7 @@ class TrajectoryServer:
         self.out = yarp.BufferedPortBottle()
         self.lock = threading.Lock()
         self.active = None   # the goal handle being carried out
-        self.counts = dict.fromkeys(COUNT_KEYS, 0)
+        self.counts = dict.fromkeys(ACTION_COUNT_KEYS, 0)
         self.last = None     # how the last goal ended
         self.server = None
         self.has_index = hasattr(spec.action_class.Feedback(), "index")
@@ -166,7 +166,7 @@ class TrajectoryServer:
 
     # -- goals
     def accepted(self, handle):
-        """A new goal: the one under way is preempted (it ends with PREEMPTED
+        """A new goal: the one under way is preempted (it ends with PREEMPTED_TEXT
         at its next tick), and the new one carried out."""
         with self.lock:
             self.active = handle
@@ -250,7 +250,7 @@ class TrajectoryServer:
                 preempted = self.active is not handle
             if preempted or stop.is_set():
                 self._count("preempted" if preempted else "aborted")
-                return self._result(handle, INVALID_GOAL, PREEMPTED if preempted else
+                return self._result(handle, INVALID_GOAL, PREEMPTED_TEXT if preempted else
                                     "%s stopped" % self.bridge.name, "abort")
             actual, at = self.encoders.latest()
             if handle.is_cancel_requested:
@@ -306,7 +306,7 @@ class TrajectoryServer:
             level, text = DiagnosticStatus.WARN, "no encoder values from %s" % self.spec.state
         else:
             level, text = DiagnosticStatus.OK, "carrying out a goal" if busy else "ready"
-        values = [(k, str(counts[k])) for k in COUNT_KEYS] + [("last", self.last or "none")]
+        values = [(k, str(counts[k])) for k in ACTION_COUNT_KEYS] + [("last", self.last or "none")]
         return level, text, values
 
     def close(self):
@@ -381,7 +381,7 @@ class ActionsBridge(Part):
             item = reply.addList()
             item.addString("action")
             item.addString(s.spec.name)
-            for k in COUNT_KEYS:
+            for k in ACTION_COUNT_KEYS:
                 item.addString(k)
                 item.addInt64(counts[k])
 
@@ -389,7 +389,7 @@ class ActionsBridge(Part):
         out = ["totals:"]
         for s in self.servers:
             with s.lock:
-                out.append("  " + TOTALS_LINE.format(name=s.spec.name, **s.counts))
+                out.append("  " + ACTION_TOTALS_LINE.format(name=s.spec.name, **s.counts))
         return out
 
     def statuses(self, now):

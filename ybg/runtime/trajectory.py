@@ -101,7 +101,7 @@ class Point:
         self.accelerations = list(accelerations)
 
 
-def _finite(values):
+def _all_finite(values):
     return all(isinstance(v, (int, float)) and math.isfinite(v) for v in values)
 
 
@@ -141,7 +141,7 @@ def accept(joints, names, points, actual, now, stamp=0.0, path_tolerance=(), goa
                 return Refusal(INVALID_GOAL, "point %d has %d %s for %d joints" % (k, got, what, n))
         if p.accelerations and not p.velocities:
             return Refusal(INVALID_GOAL, "point %d has accelerations but no velocities" % k)
-        if not _finite([p.time] + p.positions + p.velocities + p.accelerations):
+        if not _all_finite([p.time] + p.positions + p.velocities + p.accelerations):
             return Refusal(INVALID_GOAL, "point %d has a value that is not a finite number" % k)
         if p.time <= last or p.time < 0:
             return Refusal(INVALID_GOAL, "point %d's time_from_start %.9g s is not after point %d's %.9g s" % (
@@ -151,7 +151,7 @@ def accept(joints, names, points, actual, now, stamp=0.0, path_tolerance=(), goa
         for name, *values in given:
             if name not in index:
                 return Refusal(INVALID_JOINTS, "%s names joint %r, not driven by this controller" % (what, name))
-            if not _finite(values) or any(v < 0 and v != -1 for v in values):
+            if not _all_finite(values) or any(v < 0 and v != -1 for v in values):
                 return Refusal(INVALID_GOAL, "%s of %r: %s (a tolerance is 0 for the default, -1 for none, "
                                              "or positive)" % (what, name, ", ".join("%g" % v for v in values)))
     if not math.isfinite(goal_time_tolerance) or goal_time_tolerance < 0:
