@@ -32,17 +32,17 @@ CPP_DIR = RUNTIME_DIR / "cpp"
 #: the name of the runtime package beside a Python module
 PY_PACKAGE = "ybgc_runtime"
 #: the Python runtime's modules, in the order they are inlined
-PY_MODULES = ("geometry", "base", "core", "connections", "yarp_inputs", "shell", "yarp_io", "images", "compose",
+PY_MODULES = ("geometry", "base", "core", "connections", "yarp_values", "yarp_inputs", "shell", "yarp_io", "images", "compose",
               "ros2_shell", "ros2_events", "ros2_io", "commands", "callers", "services", "trajectory", "actions")
 #: the modules a YARP module of a stream bridge (the py backend's) runs on,
 #: which --single-file inlines
-PY_STREAM_MODULES = ("geometry", "base", "core", "connections", "yarp_inputs", "shell", "yarp_io")
+PY_STREAM_MODULES = ("geometry", "base", "core", "connections", "yarp_values", "yarp_inputs", "shell", "yarp_io")
 #: ... an rclpy node of a stream bridge (the ros2 backend's)
 PY_NODE_MODULES = PY_STREAM_MODULES + ("images", "ros2_shell", "ros2_events", "ros2_io")
 #: ... an rclpy node of commands (the ros2 backend's)
 PY_COMMANDS_MODULES = ("base", "shell", "ros2_shell", "commands", "callers", "services")
 #: ... an rclpy node of actions (the ros2 backend's)
-PY_ACTIONS_MODULES = ("base", "connections", "shell", "ros2_shell", "trajectory", "actions")
+PY_ACTIONS_MODULES = ("base", "connections", "yarp_values", "shell", "ros2_shell", "trajectory", "actions")
 #: the C++ runtime's files: the header a module includes, the header its
 #: sources share (not for modules), and its sources, one concern a file, in
 #: the order they are built and inlined

@@ -28,6 +28,7 @@ from rclpy.executors import MultiThreadedExecutor
 from .trajectory import (CODE_NAMES, INVALID_GOAL, PATH_TOLERANCE_VIOLATED, SUCCESSFUL, Defaults, Point,  # ybgc:runtime-import
                          Refusal, Tolerance, accept)  # ybgc:runtime-import
 from .connections import Watcher  # ybgc:runtime-import
+from .yarp_values import _not_a, _number  # ybgc:runtime-import
 from .ros2_shell import NODE_KINDS, SpecKind, run_alone  # ybgc:runtime-import
 from .shell import Part  # ybgc:runtime-import
 
@@ -49,7 +50,7 @@ ActionsSpec = collections.namedtuple("ActionsSpec", "module config node_name def
 #: the counts of one action, in this order in `stats` and the totals
 ACTION_COUNT_KEYS = ("goals", "succeeded", "aborted", "canceled", "preempted", "refused")
 ACTION_TOTALS_LINE = ("action {name}: goals {goals}, succeeded {succeeded}, aborted {aborted}, canceled {canceled}, "
-               "preempted {preempted}, refused {refused}")
+                      "preempted {preempted}, refused {refused}")
 #: the result's error_string of a goal a newer one replaced
 PREEMPTED_TEXT = "preempted by a newer goal"
 
@@ -83,7 +84,6 @@ class Encoders:
         self.positions = None
         self.at = None
         self.count = 0
-        self.malformed = 0
         self.said = False
 
     def open(self):
@@ -100,10 +100,10 @@ class Encoders:
                                                     if self.spec.width is not None else "%d joints" % n))
             values = []
             for k in range(n):
-                v = bottle.get(k)
-                if not (v.isFloat64() or v.isInt32() or v.isInt64() or v.isFloat32() or v.isInt8() or v.isInt16()):
-                    raise ValueError("value %d is not a number: %s" % (k, v.toString()))
-                values.append(v.asFloat64() * self.spec.scales[k] + self.spec.offsets[k])
+                x = _number(bottle.get(k))
+                if x is None:
+                    raise ValueError(_not_a(k, bottle.get(k), "not a number"))
+                values.append(x * self.spec.scales[k] + self.spec.offsets[k])
             with self.lock:
                 self.positions = values
                 self.at = time.monotonic()
@@ -112,7 +112,6 @@ class Encoders:
             if first:
                 self.log("%s: encoder values coming, %d joints" % (self.spec.state, n))
         except Exception as e:  # never a traceback into YARP's thread
-            self.malformed += 1
             if not self.said:
                 self.said = True
                 self.log("%s: a Bottle that does not fit, ignored (said once): %s" % (self.spec.state, e))
@@ -190,11 +189,10 @@ class TrajectoryServer:
             if self.active is handle:
                 self.active = None
             self.last = "%s%s" % (CODE_NAMES.get(code, code), ": " + text if text else "")
-        log = self.bridge.log
         if self.bridge.verbose or how == "abort":
-            log("action %s: goal %s %s (%s)" % (self.spec.name, how == "succeed" and "succeeded" or
-                                                how == "cancel" and "canceled" or "aborted",
-                                                CODE_NAMES.get(code, code), text or "done"))
+            ended = {"succeed": "succeeded", "cancel": "canceled"}.get(how, "aborted")
+            self.bridge.log("action %s: goal %s %s (%s)" % (self.spec.name, ended, CODE_NAMES.get(code, code),
+                                                           text or "done"))
         return result
 
     def _write(self, positions):
@@ -364,11 +362,10 @@ class ActionsBridge(Part):
 
     def close(self):
         self.stop_event.set()
-        if self.watcher is not None:
-            self.watcher.done.set()
+        watcher_done = self.watcher.stop() if self.watcher is not None else True
         for s in self.servers:
             s.close()
-        return True, []
+        return watcher_done, []
 
     def help_lines(self, port):
         return ("help: this list", "stats: the counts of each action: (action NAME goals N succeeded N ...)",

@@ -17,6 +17,7 @@ from ybg.lower.package import PackageView, node_package
 from ybg.lower.python import py_literal
 from ybg.lower.rosnames import action_type_name, identifier, node_name, split_action
 from ybg.backends.ros2.services import SrvImport as ActionImport
+from ybg.backends.ros2.services import class_imports
 
 #: names the node's module takes (an action class must not)
 _TAKEN = frozenset({"os", "signal", "sys", "yarp", "RUNTIME", "SPEC", "ACTIONS", "ActionsSpec", "TrajectorySpec",
@@ -53,15 +54,7 @@ def _imports(actions: ir.Actions) -> tuple[dict[str, str], tuple[ActionImport, .
             types[a.action_type] = split_action(a.action_type)
         except LoweringError as e:
             raise e.at(a.type_span or a.span)
-    counts: dict[str, int] = {}
-    for pkg, name in set(types.values()):
-        counts[name] = counts.get(name, 0) + 1
-    names, imports = {}, {}
-    for action_type, (pkg, name) in types.items():
-        alias = name if counts[name] == 1 and name not in _TAKEN else f"{pkg}_{name}"
-        names[action_type] = alias
-        imports[(pkg, name)] = ActionImport(f"{pkg}.action", name, alias)
-    return names, tuple(imports[k] for k in sorted(imports))
+    return class_imports(types, "action", _TAKEN)
 
 
 def _action(a: ir.TrajectoryAction, cls: str) -> ActionView:

@@ -376,15 +376,23 @@ def _imports(commands: ir.Commands) -> tuple[dict[str, str], tuple[SrvImport, ..
             types[s.srv_type] = split_srv(s.srv_type)
         except LoweringError as e:
             raise e.at(s.type_span or s.span)
+    return class_imports(types, "srv", _TAKEN)
+
+
+def class_imports(types: dict[str, tuple[str, str]], submodule: str, taken
+                  ) -> tuple[dict[str, str], tuple[SrvImport, ...]]:
+    """The classes of the interface types ``types`` (type -> (pkg, Name)):
+    each type's name in the node, and ``from pkg.<submodule> import Name``,
+    aliased ``pkg_Name`` where two packages have the name or it is ``taken``."""
     counts: dict[str, int] = {}
     for pkg, name in set(types.values()):
         counts[name] = counts.get(name, 0) + 1
     names: dict[str, str] = {}
     imports = {}
-    for srv_type, (pkg, name) in types.items():
-        alias = name if counts[name] == 1 and name not in _TAKEN else f"{pkg}_{name}"
-        names[srv_type] = alias
-        imports[(pkg, name)] = SrvImport(f"{pkg}.srv", name, alias)
+    for type_name, (pkg, name) in types.items():
+        alias = name if counts[name] == 1 and name not in taken else f"{pkg}_{name}"
+        names[type_name] = alias
+        imports[(pkg, name)] = SrvImport(f"{pkg}.{submodule}", name, alias)
     return names, tuple(imports[k] for k in sorted(imports))
 
 
